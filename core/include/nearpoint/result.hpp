@@ -1,0 +1,101 @@
+// What a distance query returns, and the warm-start cache it reads and writes.
+#pragma once
+
+#include <cstdint>
+
+#include "nearpoint/options.hpp"
+#include "nearpoint/pose.hpp"
+
+namespace nearpoint {
+
+/// The verdict of a query.
+enum class Status : unsigned char {
+  /// The shapes are disjoint: `distance` > 0 (or, with a cutoff, proven beyond it).
+  separated,
+  /// The shapes share at least one point: `distance` is 0. Touching counts as intersecting.
+  intersecting,
+  /// The iteration cap was reached before eq. (35) held. `distance` is an upper bound on the
+  /// true distance and `error_bound` still bounds the error; the verdict is unknown.
+  iteration_limit,
+  /// The input was unusable (non-finite pose, empty polytope, negative radius …): see `message`.
+  invalid_input,
+};
+
+const char* to_string(Status status);
+
+/// Which routine produced the final simplex (paper Section VI, step 2: alg = DS or BP).
+enum class FinishedBy : unsigned char {
+  distance_subalgorithm,  ///< Johnson's subalgorithm succeeded (the normal case)
+  backup_procedure,       ///< the Backup Procedure, eq. (38), after a numerical failure
+};
+
+/// The warm-start cache of Section VIII: which vertex pairs (index on A, index on B) made up the
+/// final simplex. Indices, not points, so the cache stays meaningful when the poses change and can
+/// be stored per object pair. A zero-initialised cache (`count == 0`) is a cold start. Entries with
+/// an index of -1 (smooth shapes have no vertices) are skipped on reuse.
+struct SimplexCache {
+  std::uint8_t count = 0;
+  std::int32_t index_a[4] = {0, 0, 0, 0};
+  std::int32_t index_b[4] = {0, 0, 0, 0};
+};
+
+template <class Scalar>
+struct DistanceResult {
+  Status status = Status::invalid_input;
+  /// Euclidean distance between the two (rounded) shapes, ≥ 0; 0 when intersecting. With
+  /// `beyond_cutoff`, an upper bound (the true value lies within `error_bound` below it).
+  Scalar distance = 0;
+  /// Certified bound on |distance − true distance| (Theorem 1 and the support-plane bound:
+  /// min(√g, g/|ν|) plus a floating-point allowance).
+  Scalar error_bound = 0;
+  /// The duality gap g(ν) = |ν|² + h_K(−ν) of eq. (25) at exit (≥ 0; units: length²).
+  Scalar gap = 0;
+  /// The bound D(K) of eq. (37) used in the stopping rule (length).
+  Scalar diameter_bound = 0;
+  /// GJK iterations: support points added after the initial simplex.
+  int iterations = 0;
+  /// Eq. (35) held at exit. False when the run ended at the numerical limit (step 5) or the cap.
+  bool converged = false;
+  /// The query stopped early because the distance was proven larger than `distance_cutoff`.
+  bool beyond_cutoff = false;
+  /// The simplex came from the warm-start cache.
+  bool warm_started = false;
+  FinishedBy finished_by = FinishedBy::distance_subalgorithm;
+
+  /// Simplex of the final representation (eq. 22): `simplex_size` vertex pairs and weights λ
+  /// (positive, summing to 1). Index -1 marks a support point of a smooth shape.
+  int simplex_size = 0;
+  std::int32_t index_a[4] = {-1, -1, -1, -1};
+  std::int32_t index_b[4] = {-1, -1, -1, -1};
+  Scalar weights[4] = {0, 0, 0, 0};
+
+  /// With `options.near_points`: near points, world frame (eq. 23–24), on the rounded surfaces.
+  /// When separated, |point_b − point_a| = distance. When the cores intersect both are one common
+  /// point; when only the rounded shapes overlap they are each shape's deepest point along the
+  /// normal. `normal` is the unit vector from A towards B (zero when it is undefined: cores
+  /// intersecting).
+  bool has_near_points = false;
+  Vec3<Scalar> point_a = Vec3<Scalar>::Zero();
+  Vec3<Scalar> point_b = Vec3<Scalar>::Zero();
+  Vec3<Scalar> normal = Vec3<Scalar>::Zero();
+
+  /// With `options.penetration_bound`, when intersecting: d⁻, a lower bound on the penetration
+  /// depth (the translation needed to separate the shapes), eq. (32)–(33). 0 is always a valid
+  /// bound; it is positive when the final simplex is a tetrahedron around the origin, and includes
+  /// the radii of rounded shapes.
+  bool has_penetration_bound = false;
+  Scalar penetration_bound = 0;
+
+  /// With `options.gradient`, when separated: the gradient of `distance` with respect to each
+  /// body's pose as (∂/∂translation, ∂/∂rotation), world frame; rotation is a small rotation
+  /// vector applied on the left about the body's origin (`pose.translation`). When near points
+  /// are not unique (parallel faces) this is one element of the generalised gradient.
+  bool has_gradient = false;
+  Eigen::Matrix<Scalar, 6, 1> gradient_a = Eigen::Matrix<Scalar, 6, 1>::Zero();
+  Eigen::Matrix<Scalar, 6, 1> gradient_b = Eigen::Matrix<Scalar, 6, 1>::Zero();
+
+  /// With `Status::invalid_input`: why (a static string). Otherwise nullptr.
+  const char* message = nullptr;
+};
+
+}  // namespace nearpoint

@@ -1,0 +1,129 @@
+// The convex shapes the engine knows, each described by what GJK needs from it: a support function
+// (paper eq. 15–17), a centre (the z̄ of eq. 34) and an extent about that centre (a term of eq. 37).
+// Every shape may carry a spherical-extension radius r (eq. 5–8): a sphere is a point with a
+// radius, a capsule a segment with a radius, a rounded box a box with a radius.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+#include <span>
+#include <variant>
+#include <vector>
+
+#include "nearpoint/pose.hpp"
+
+namespace nearpoint {
+
+/// A single point at the local origin. With a radius it is a sphere.
+struct Point {};
+
+/// The segment from `a` to `b` (local frame). With a radius it is a capsule.
+template <class Scalar>
+struct Segment {
+  Vec3<Scalar> a = Vec3<Scalar>::Zero();
+  Vec3<Scalar> b = Vec3<Scalar>::Zero();
+};
+
+/// The axis-aligned box [-h, h] (local frame), h = `half_extents`. Its 8 corners are its vertices;
+/// vertex i has coordinate k positive when bit k of i is set.
+template <class Scalar>
+struct Box {
+  Vec3<Scalar> half_extents = Vec3<Scalar>::Ones();
+};
+
+/// The solid cylinder about the local z axis, radius `radius`, from z = -half_height to
+/// +half_height.
+template <class Scalar>
+struct Cylinder {
+  Scalar radius = 1;
+  Scalar half_height = 1;
+};
+
+/// The solid cone about the local z axis: base disc of radius `radius` at z = -half_height, apex at
+/// z = +half_height.
+template <class Scalar>
+struct Cone {
+  Scalar radius = 1;
+  Scalar half_height = 1;
+};
+
+/// The solid ellipsoid x²/rx² + y²/ry² + z²/rz² ≤ 1 (local frame), `radii` = (rx, ry, rz).
+template <class Scalar>
+struct Ellipsoid {
+  Vec3<Scalar> radii = Vec3<Scalar>::Ones();
+};
+
+/// The convex hull of a vertex list (the paper's co Z, eq. 19). Vertices need not be on the hull:
+/// interior points, duplicates and coplanar sets are fine and cost only their scan time.
+///
+/// Construction does the one-time work the queries rely on: the vertex centroid z̄ (eq. 34), the
+/// extent max |z − z̄| (eq. 37), and a copy of the vertices relative to z̄ so that coordinates far
+/// from the origin do not eat the precision of every support evaluation. It also validates the
+/// input: `invalid_reason()` is non-null for an empty list or a non-finite coordinate, and a query
+/// on such a polytope returns `Status::invalid_input` instead of computing anything.
+template <class Scalar>
+class Polytope {
+ public:
+  Polytope() = default;
+  explicit Polytope(std::span<const Vec3<Scalar>> vertices);
+  explicit Polytope(const std::vector<Vec3<Scalar>>& vertices)
+      : Polytope(std::span<const Vec3<Scalar>>(vertices.data(), vertices.size())) {}
+
+  /// Number of vertices as given (duplicates included).
+  std::size_t size() const { return centered_.size(); }
+  /// Vertex `index` in the local frame, as given.
+  Vec3<Scalar> vertex(std::size_t index) const { return centered_[index] + centroid_; }
+  /// Vertex `index` relative to the centroid.
+  const Vec3<Scalar>& centered_vertex(std::size_t index) const { return centered_[index]; }
+  /// The vertex mean z̄ of eq. (34), local frame.
+  const Vec3<Scalar>& centroid() const { return centroid_; }
+  /// max |z − z̄| over the vertices: the shape's term in the D(K) bound of eq. (37).
+  Scalar extent() const { return extent_; }
+  /// nullptr when the polytope is usable, else why it is not.
+  const char* invalid_reason() const { return invalid_reason_; }
+
+ private:
+  std::vector<Vec3<Scalar>> centered_;
+  Vec3<Scalar> centroid_ = Vec3<Scalar>::Zero();
+  Scalar extent_ = 0;
+  const char* invalid_reason_ = "polytope has no vertices";
+};
+
+/// Any of the shapes above, plus its spherical-extension radius (eq. 5–8). This is the type-erased
+/// form used at the edges (files, the wire, the geometry store); the engine dispatches once per
+/// query and then runs a loop specialised for the two concrete shape types.
+template <class Scalar>
+struct Shape {
+  using Geometry = std::variant<Point, Segment<Scalar>, Box<Scalar>, Polytope<Scalar>,
+                                Cylinder<Scalar>, Cone<Scalar>, Ellipsoid<Scalar>>;
+  Geometry geometry = Point{};
+  /// Spherical-extension radius r ≥ 0: the shape is the set of points within r of its core.
+  Scalar radius = 0;
+
+  Shape() = default;
+  template <class G>
+  Shape(G g, Scalar r = 0) : geometry(std::move(g)), radius(r) {}
+
+  static Shape sphere(Scalar r) { return Shape(Point{}, r); }
+  static Shape capsule(const Vec3<Scalar>& a, const Vec3<Scalar>& b, Scalar r) {
+    return Shape(Segment<Scalar>{a, b}, r);
+  }
+};
+
+/// Why a shape cannot be used (a non-finite or negative parameter, an empty polytope), or nullptr
+/// when it can. O(1): a polytope's vertices were checked when it was built.
+template <class Scalar>
+const char* invalid_reason(const Shape<Scalar>& shape);
+
+/// The centre z̄ (local frame) and the extent max |z − z̄| of a shape's core (radius excluded).
+template <class Scalar>
+Vec3<Scalar> core_center(const Shape<Scalar>& shape);
+template <class Scalar>
+Scalar core_extent(const Shape<Scalar>& shape);
+
+/// The support point s(η) of the shape's core in its local frame (eq. 16), with `index` set to the
+/// vertex index for shapes with vertices (polytope, box, segment, point) and -1 otherwise.
+template <class Scalar>
+Vec3<Scalar> support(const Shape<Scalar>& shape, const Vec3<Scalar>& direction, int& index);
+
+}  // namespace nearpoint

@@ -1,0 +1,131 @@
+#include "nearpoint/compound.hpp"
+
+#include <limits>
+
+namespace nearpoint {
+
+template <class S>
+Compound<S>::Compound(std::vector<Piece<S>> pieces) : pieces_(std::move(pieces)) {
+  if (pieces_.empty()) return;  // keeps "compound has no pieces"
+  centers_.reserve(pieces_.size());
+  radii_.reserve(pieces_.size());
+  for (const Piece<S>& piece : pieces_) {
+    if (const char* why = nearpoint::invalid_reason(piece.shape)) {
+      invalid_reason_ = why;
+      return;
+    }
+    if (!piece.offset.rotation.allFinite() || !piece.offset.translation.allFinite()) {
+      invalid_reason_ = "compound piece offset has a non-finite entry";
+      return;
+    }
+    // A sphere about the piece's centre z̄ with its extent and radius bounds the rounded piece.
+    centers_.push_back(piece.offset.apply(core_center(piece.shape)));
+    radii_.push_back(core_extent(piece.shape) + piece.shape.radius);
+  }
+  invalid_reason_ = nullptr;
+}
+
+template <class S>
+CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Compound<S>& b,
+                           const Pose<S>& pose_b, const DistanceOptions<S>& options,
+                           std::span<SimplexCache> caches) {
+  CompoundResult<S> out;
+  const char* why = a.invalid_reason() ? a.invalid_reason() : b.invalid_reason();
+  if (!why && !caches.empty() && caches.size() != a.size() * b.size())
+    why = "compound query: caches must be empty or hold one cache per piece pair";
+  if (why) {
+    out.nearest.status = Status::invalid_input;
+    out.nearest.message = why;
+    return out;
+  }
+
+  // Pieces are evaluated without the gradient (it refers to the whole objects, see below).
+  DistanceOptions<S> piece_options = options;
+  piece_options.gradient = false;
+  piece_options.near_points = options.near_points || options.gradient;
+
+  // Lower bound on a piece pair's distance from its bounding spheres (eq. 2–4 need every pair
+  // only in principle: a pair whose spheres are farther apart than the best distance cannot win).
+  auto sphere_gap = [&](std::size_t i, std::size_t j) {
+    const Vec3<S> ca = pose_a.apply(a.sphere_center(i));
+    const Vec3<S> cb = pose_b.apply(b.sphere_center(j));
+    return (cb - ca).norm() - a.sphere_radius(i) - b.sphere_radius(j);
+  };
+  auto evaluate = [&](std::size_t i, std::size_t j) {
+    SimplexCache* cache = caches.empty() ? nullptr : &caches[i * b.size() + j];
+    ++out.pairs_evaluated;
+    return distance(a.piece(i).shape, pose_a.compose(a.piece(i).offset), b.piece(j).shape,
+                    pose_b.compose(b.piece(j).offset), piece_options, cache);
+  };
+
+  // Start with the pair whose spheres are nearest: it usually holds the answer, so the bound
+  // that prunes the others is tight from the start (and no list needs sorting or allocating).
+  std::size_t first_i = 0, first_j = 0;
+  S first_gap = std::numeric_limits<S>::infinity();
+  for (std::size_t i = 0; i < a.size(); ++i)
+    for (std::size_t j = 0; j < b.size(); ++j)
+      if (const S gap = sphere_gap(i, j); gap < first_gap || (i == 0 && j == 0)) {
+        first_gap = gap;
+        first_i = i;
+        first_j = j;
+      }
+  out.nearest = evaluate(first_i, first_j);
+  out.piece_a = int(first_i);
+  out.piece_b = int(first_j);
+  if (out.nearest.status == Status::invalid_input) return out;
+
+  const bool want_penetration = options.penetration_bound;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    for (std::size_t j = 0; j < b.size(); ++j) {
+      if (i == first_i && j == first_j) continue;
+      const S gap = sphere_gap(i, j);
+      const S best = out.nearest.distance;
+      // With intersecting pieces, keep evaluating pairs that may also intersect: the object's
+      // penetration bound is the largest d⁻ among them (paper, Section VIII).
+      const bool may_matter = gap < best || (want_penetration && best == 0 && gap <= 0);
+      if (!may_matter || gap > options.distance_cutoff) {
+        ++out.pairs_pruned;
+        continue;
+      }
+      DistanceResult<S> r = evaluate(i, j);
+      if (r.status == Status::invalid_input) {
+        out.nearest = r;
+        return out;
+      }
+      const S previous_penetration =
+          out.nearest.has_penetration_bound ? out.nearest.penetration_bound : S(0);
+      if (r.distance < best || (r.distance == best && r.status == Status::intersecting &&
+                                out.nearest.status != Status::intersecting)) {
+        out.nearest = r;
+        out.piece_a = int(i);
+        out.piece_b = int(j);
+      }
+      if (want_penetration && out.nearest.status == Status::intersecting) {
+        const S candidate = r.has_penetration_bound ? r.penetration_bound : S(0);
+        out.nearest.has_penetration_bound = true;
+        out.nearest.penetration_bound =
+            std::max({previous_penetration, candidate, out.nearest.penetration_bound});
+      }
+    }
+  }
+
+  if (!options.near_points) out.nearest.has_near_points = false;
+  if (options.gradient && out.nearest.status == Status::separated && !out.nearest.beyond_cutoff) {
+    distance_gradient(out.nearest.point_a, out.nearest.point_b, out.nearest.normal,
+                      pose_a.translation, pose_b.translation, out.nearest.gradient_a,
+                      out.nearest.gradient_b);
+    out.nearest.has_gradient = true;
+  }
+  return out;
+}
+
+template class Compound<double>;
+template class Compound<float>;
+template CompoundResult<double> distance(const Compound<double>&, const Pose<double>&,
+                                         const Compound<double>&, const Pose<double>&,
+                                         const DistanceOptions<double>&, std::span<SimplexCache>);
+template CompoundResult<float> distance(const Compound<float>&, const Pose<float>&,
+                                        const Compound<float>&, const Pose<float>&,
+                                        const DistanceOptions<float>&, std::span<SimplexCache>);
+
+}  // namespace nearpoint

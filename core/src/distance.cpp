@@ -1,0 +1,207 @@
+// The distance query: validation, the relative frame, dispatch to the specialised loop, and the
+// result (near points, spherical extensions, error bound, penetration bound, gradient).
+#include "nearpoint/distance.hpp"
+
+#include <cmath>
+#include <limits>
+
+#include "gjk.hpp"
+
+namespace nearpoint {
+namespace {
+
+template <class S>
+const char* invalid_pose_reason(const Pose<S>& pose) {
+  if (!pose.rotation.allFinite()) return "pose rotation has a non-finite entry";
+  if (!pose.translation.allFinite()) return "pose translation has a non-finite component";
+  // Orthonormal to within what a rotation built from a float quaternion achieves.
+  const S tolerance = std::max(S(1e-6), S(1000) * std::numeric_limits<S>::epsilon());
+  const Mat3<S> error = pose.rotation.transpose() * pose.rotation - Mat3<S>::Identity();
+  if (!(error.cwiseAbs().maxCoeff() <= tolerance)) return "pose rotation is not orthonormal";
+  if (!(pose.rotation.determinant() > 0)) return "pose rotation is a reflection (determinant < 0)";
+  return nullptr;
+}
+
+template <class S>
+DistanceResult<S> invalid(const char* message) {
+  DistanceResult<S> result;
+  result.status = Status::invalid_input;
+  result.message = message;
+  return result;
+}
+
+template <class S, class GA, class GB>
+DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radius_b,
+                        const Pose<S>& pose_b, const DistanceOptions<S>& options,
+                        SimplexCache* cache) {
+  using SA = detail::Support<GA, S>;
+  using SB = detail::Support<GB, S>;
+  detail::MinkowskiDifference<S, SA, SB> k_set{SA{ga}, SB{gb}, {}, {}, {}, {}, true};
+
+  // B relative to A: t = R_Aᵀ(p_B − p_A). A common offset of both poses cancels in p_B − p_A.
+  const Mat3<S> rotation_a_t = pose_a.rotation.transpose();
+  k_set.rotation = rotation_a_t * pose_b.rotation;
+  const Vec3<S> translation = rotation_a_t * (pose_b.translation - pose_a.translation);
+  k_set.a_center = k_set.a.center();
+  k_set.b_center_rel = k_set.rotation * k_set.b.center() + translation;
+  k_set.offset = k_set.b_center_rel - k_set.a_center;  // δ, eq. (34)
+  k_set.origin_shift = options.origin_shift;
+
+  // D(K) ≤ D(A − z̄_A) + D(B − z̄_B) + |z̄_A − z̄_B|, eq. (37).
+  const S diameter = k_set.a.extent() + k_set.b.extent() + k_set.offset.norm();
+  const S eps = std::numeric_limits<S>::epsilon();
+  const S epsilon = options.epsilon > 0 ? options.epsilon : S(0);
+  const S radii = radius_a + radius_b;
+  const S cutoff = options.distance_cutoff + radii;  // the loop works on the cores
+
+  detail::LoopOutcome<S> loop;
+  detail::run_numerical_algorithm(k_set, epsilon * diameter * diameter,
+                                  std::max(0, options.max_iterations), cutoff, cache, loop);
+
+  DistanceResult<S> result;
+  const detail::Nearest<S>& nearest = loop.nearest;
+  const detail::Simplex<S>& simplex = loop.simplex;
+  using std::sqrt;
+  const S core_distance = sqrt(nearest.nu_norm2);
+  result.gap = loop.gap;
+  result.diameter_bound = diameter;
+  result.iterations = loop.iterations;
+  result.converged = loop.converged;
+  result.beyond_cutoff = loop.beyond_cutoff;
+  result.warm_started = loop.warm_started;
+  result.finished_by = loop.finished_by;
+
+  // The certified error: Theorem 1 gives |ν − ν(K)| ≤ √g; the support plane gives
+  // |ν| − g/|ν| ≤ d(K) ≤ |ν|. Both hold for the computed values up to roundoff in y, ν and g,
+  // which the allowances below cover (a few ulps of D(K), the largest magnitude in the loop).
+  const S roundoff = S(8) * eps * diameter;
+  if (core_distance > 0) {
+    const S gap_high = loop.gap + S(4) * eps * core_distance * (core_distance + diameter);
+    result.error_bound = std::min(sqrt(gap_high), gap_high / core_distance) + roundoff;
+  } else {
+    result.error_bound = roundoff;
+  }
+
+  result.simplex_size = 0;
+  SimplexCache written;
+  for (int i = 0; i < 4; ++i) {
+    if (!(nearest.subset & (1u << i))) continue;
+    const int n = result.simplex_size++;
+    result.index_a[n] = simplex.index_a[i];
+    result.index_b[n] = simplex.index_b[i];
+    result.weights[n] = nearest.lambda[i];
+    written.index_a[n] = simplex.index_a[i];
+    written.index_b[n] = simplex.index_b[i];
+  }
+  written.count = static_cast<std::uint8_t>(result.simplex_size);
+  if (cache) *cache = written;
+
+  const bool cores_intersect = !(nearest.nu_norm2 > 0);
+  const bool intersecting = cores_intersect || core_distance <= radii;
+  result.distance = intersecting ? S(0) : core_distance - radii;  // eq. (8): (d − r_A − r_B)⁺
+  if (loop.capped)
+    result.status = Status::iteration_limit;
+  else
+    result.status = intersecting ? Status::intersecting : Status::separated;
+
+  if (options.near_points || options.gradient) {
+    // eq. (23)–(24): near points from the simplex weights, in A's frame relative to z̄_A.
+    Vec3<S> on_a = Vec3<S>::Zero(), on_b = Vec3<S>::Zero();
+    for (int i = 0; i < 4; ++i) {
+      if (!(nearest.subset & (1u << i))) continue;
+      on_a += nearest.lambda[i] * simplex.a[i];
+      on_b += nearest.lambda[i] * simplex.b[i];
+    }
+    Vec3<S> point_a = k_set.a_center + on_a;
+    Vec3<S> point_b = k_set.a_center + k_set.offset + on_b;
+    Vec3<S> normal = Vec3<S>::Zero();  // A → B, A's frame: −ν/|ν|
+    if (!cores_intersect) {
+      normal = -nearest.nu / core_distance;
+      point_a += radius_a * normal;
+      point_b -= radius_b * normal;
+    } else {
+      point_b = point_a;  // one common point of the cores
+    }
+    result.has_near_points = true;
+    result.point_a = pose_a.apply(point_a);
+    result.point_b = pose_a.apply(point_b);
+    result.normal = pose_a.rotation * normal;
+  }
+
+  if (options.penetration_bound && result.status == Status::intersecting) {
+    // eq. (32)–(33) on the cores, plus the radii; for rounded shapes whose cores are apart the
+    // overlap r_A + r_B − d is the exact penetration depth.
+    result.has_penetration_bound = true;
+    result.penetration_bound =
+        cores_intersect ? detail::penetration_lower_bound(simplex, nearest.subset) + radii
+                        : radii - core_distance;
+  }
+
+  if (options.gradient && result.status == Status::separated && !result.beyond_cutoff) {
+    distance_gradient(result.point_a, result.point_b, result.normal, pose_a.translation,
+                      pose_b.translation, result.gradient_a, result.gradient_b);
+    result.has_gradient = true;
+  }
+  return result;
+}
+
+}  // namespace
+
+template <class S>
+void distance_gradient(const Vec3<S>& point_a, const Vec3<S>& point_b, const Vec3<S>& normal,
+                       const Vec3<S>& origin_a, const Vec3<S>& origin_b,
+                       Eigen::Matrix<S, 6, 1>& gradient_a, Eigen::Matrix<S, 6, 1>& gradient_b) {
+  // d = n·(x_B − x_A) to first order. Translating A by τ moves x_A by τ: ∂d/∂τ_A = −n. Rotating A
+  // by a small θ about its origin moves x_A by θ × (x_A − o_A): ∂d/∂θ_A = −(x_A − o_A) × n.
+  gradient_a.template head<3>() = -normal;
+  gradient_a.template tail<3>() = -(point_a - origin_a).cross(normal);
+  gradient_b.template head<3>() = normal;
+  gradient_b.template tail<3>() = (point_b - origin_b).cross(normal);
+}
+
+template <class S>
+DistanceResult<S> distance(const Shape<S>& a, const Pose<S>& pose_a, const Shape<S>& b,
+                           const Pose<S>& pose_b, const DistanceOptions<S>& options,
+                           SimplexCache* cache) {
+  if (const char* why = invalid_reason(a)) return invalid<S>(why);
+  if (const char* why = invalid_reason(b)) return invalid<S>(why);
+  if (const char* why = invalid_pose_reason(pose_a)) return invalid<S>(why);
+  if (const char* why = invalid_pose_reason(pose_b)) return invalid<S>(why);
+  if (!(options.epsilon >= 0)) return invalid<S>("options.epsilon must be >= 0");
+  if (std::isnan(options.distance_cutoff)) return invalid<S>("options.distance_cutoff is NaN");
+  // One dispatch per query; the loop below is specialised for the two concrete shapes.
+  return std::visit(
+      [&](const auto& ga, const auto& gb) {
+        return query<S>(ga, a.radius, pose_a, gb, b.radius, pose_b, options, cache);
+      },
+      a.geometry, b.geometry);
+}
+
+template DistanceResult<double> distance(const Shape<double>&, const Pose<double>&,
+                                         const Shape<double>&, const Pose<double>&,
+                                         const DistanceOptions<double>&, SimplexCache*);
+template DistanceResult<float> distance(const Shape<float>&, const Pose<float>&,
+                                        const Shape<float>&, const Pose<float>&,
+                                        const DistanceOptions<float>&, SimplexCache*);
+template void distance_gradient(const Vec3<double>&, const Vec3<double>&, const Vec3<double>&,
+                                const Vec3<double>&, const Vec3<double>&,
+                                Eigen::Matrix<double, 6, 1>&, Eigen::Matrix<double, 6, 1>&);
+template void distance_gradient(const Vec3<float>&, const Vec3<float>&, const Vec3<float>&,
+                                const Vec3<float>&, const Vec3<float>&, Eigen::Matrix<float, 6, 1>&,
+                                Eigen::Matrix<float, 6, 1>&);
+
+const char* to_string(Status status) {
+  switch (status) {
+    case Status::separated:
+      return "separated";
+    case Status::intersecting:
+      return "intersecting";
+    case Status::iteration_limit:
+      return "iteration_limit";
+    case Status::invalid_input:
+      return "invalid_input";
+  }
+  return "unknown";
+}
+
+}  // namespace nearpoint

@@ -1,0 +1,250 @@
+// Johnson's distance subalgorithm (paper Section V, eq. 29–31) and the Backup Procedure (eq. 38).
+//
+// The simplex V_k lives in four slots. Inner products y_i·y_j and the cofactors Δ_i(Y_s) of every
+// subset Y_s (a 4-bit mask over the slots) are kept between iterations: when a support point
+// replaces a slot, only the inner products of that slot and the Δ's of subsets containing it are
+// recomputed (Section VI: "only (ν + 1) new inner products need to be calculated").
+//
+// Notation of the paper (with the equations its copy lost, from DESIGN.md):
+//   Δ_i({y_i}) = 1
+//   Δ_j(Y_s ∪ {y_j}) = Σ_{i∈I_s} Δ_i(Y_s)·(y_i·y_k − y_i·y_j),  k = min I_s,  j ∉ I_s     (30)
+//   Δ(Y_s) = Σ_{i∈I_s} Δ_i(Y_s)
+//   ν(co Y) = Σ_{i∈I_s} λ_i y_i,  λ_i = Δ_i(Y_s)/Δ(Y_s)                                  (29),(31)
+// valid for the subset with Δ(Y_s) > 0, Δ_i(Y_s) > 0 (i ∈ I_s) and Δ_j(Y_s ∪ {y_j}) ≤ 0 (j ∉ I_s).
+#pragma once
+
+#include <bit>
+#include <cstdint>
+#include <limits>
+
+#include "nearpoint/pose.hpp"
+
+namespace nearpoint::detail {
+
+template <class S>
+struct Simplex {
+  /// Points of K = A − B (shifted frame), and the support points on A and on B they came from
+  /// (both relative to A's centroid, in A's frame: y = a − b − δ).
+  Vec3<S> y[4];
+  Vec3<S> a[4];
+  Vec3<S> b[4];
+  std::int32_t index_a[4];
+  std::int32_t index_b[4];
+  /// y_i·y_j for occupied slots.
+  S dot[4][4];
+  /// delta[s][i] = Δ_i(Y_s) for subset mask s and slot i ∈ s.
+  S delta[16][4];
+  /// V_k: occupied slots.
+  unsigned used = 0;
+  /// The slot added last (the newest support point), or -1 after initialisation.
+  int newest = -1;
+
+  int size() const { return std::popcount(used); }
+
+  /// Places a point in a free slot (there must be one: |used| ≤ 3) and updates the inner products
+  /// and the Δ's of every subset that contains it. Returns the slot.
+  int add(const Vec3<S>& point, const Vec3<S>& on_a, const Vec3<S>& on_b, std::int32_t ia,
+          std::int32_t ib) {
+    const int slot = std::countr_one(used);  // lowest free slot
+    const unsigned bit = 1u << slot;
+    y[slot] = point;
+    a[slot] = on_a;
+    b[slot] = on_b;
+    index_a[slot] = ia;
+    index_b[slot] = ib;
+    used |= bit;
+    for (int i = 0; i < 4; ++i)
+      if (used & (1u << i)) dot[slot][i] = dot[i][slot] = y[i].dot(point);
+    // Subsets containing the new slot, smallest first, so that Δ(Y_s \ {m}) is ready when Y_s
+    // needs it. Subsets without it keep their Δ's: their points have not changed.
+    for (int size = 1; size <= 4; ++size) {
+      for (unsigned s = 1; s < 16; ++s) {
+        if (!(s & bit) || (s & ~used) || std::popcount(s) != size) continue;
+        if (size == 1) {
+          delta[s][slot] = 1;
+          continue;
+        }
+        for (int m = 0; m < 4; ++m) {
+          if (!(s & (1u << m))) continue;
+          const unsigned rest = s & ~(1u << m);
+          const int k = std::countr_zero(rest);
+          S sum = 0;
+          for (int i = 0; i < 4; ++i)
+            if (rest & (1u << i)) sum += delta[rest][i] * (dot[i][k] - dot[i][m]);  // eq. (30)
+          delta[s][m] = sum;
+        }
+      }
+    }
+    newest = slot;
+    return slot;
+  }
+
+  /// Keeps only the slots in `mask` (V̂_k). Their inner products and Δ's stay valid.
+  void keep(unsigned mask) { used &= mask; }
+
+  S det(unsigned s) const {
+    S sum = 0;
+    for (int i = 0; i < 4; ++i)
+      if (s & (1u << i)) sum += delta[s][i];
+    return sum;
+  }
+
+  /// Step 2 of the Distance Subalgorithm for subset s of V_k: Δ_i(Y_s) > 0 for i ∈ I_s and
+  /// Δ_j(Y_s ∪ {y_j}) ≤ 0 for j ∈ I'_s. (Δ(Y_s) > 0 follows from the first.) Written so that a
+  /// NaN fails the test.
+  bool is_answer(unsigned s) const {
+    for (int i = 0; i < 4; ++i) {
+      const unsigned bit = 1u << i;
+      if (s & bit) {
+        if (!(delta[s][i] > 0)) return false;
+      } else if (used & bit) {
+        if (!(delta[s | bit][i] <= 0)) return false;
+      }
+    }
+    return true;
+  }
+
+  /// |ν(aff Y_s)|², eq. (33), for a subset with Δ(Y_s) > 0.
+  S aff_norm2(unsigned s) const {
+    const int k = std::countr_zero(s);
+    S sum = 0;
+    for (int i = 0; i < 4; ++i)
+      if (s & (1u << i)) sum += delta[s][i] * dot[i][k];
+    return sum / det(s);
+  }
+};
+
+/// The outcome of the subalgorithm: the subset Y_s (V̂_k), its weights and ν(co Y).
+template <class S>
+struct Nearest {
+  unsigned subset = 0;
+  S lambda[4] = {0, 0, 0, 0};
+  Vec3<S> nu = Vec3<S>::Zero();
+  S nu_norm2 = 0;
+};
+
+template <class S>
+void evaluate(const Simplex<S>& simplex, unsigned s, Nearest<S>& out) {
+  out.subset = s;
+  const S total = simplex.det(s);
+  out.nu.setZero();
+  for (int i = 0; i < 4; ++i) {
+    out.lambda[i] = 0;
+    if (!(s & (1u << i))) continue;
+    out.lambda[i] = simplex.delta[s][i] / total;  // eq. (31)
+    out.nu += out.lambda[i] * simplex.y[i];       // eq. (29)
+  }
+  // A full simplex in R³ that passes the test holds the origin in its interior: ν = 0 exactly
+  // (Section V), not the roundoff of Σλy.
+  if (std::popcount(s) == 4) out.nu.setZero();
+  if (std::popcount(s) == 1) out.nu = simplex.y[std::countr_zero(s)];
+  out.nu_norm2 = out.nu.squaredNorm();
+}
+
+/// The subsets of V_k in the order they are tried (Section VI, "ordering subsets"): those that
+/// contain the newest point first, led by the face most likely to hold ν(co V_k); then the rest,
+/// which the previous iteration already ruled out and are only a numerical safety net.
+template <class S>
+int subset_order(const Simplex<S>& simplex, const Vec3<S>& newest_point, unsigned order[15]) {
+  const unsigned used = simplex.used;
+  int n = 0;
+  auto push = [&](unsigned s) {
+    for (int i = 0; i < n; ++i)
+      if (order[i] == s) return;
+    order[n++] = s;
+  };
+  if (simplex.newest < 0) {
+    // Initial simplex (cold or warm start): no history, so the largest subsets first.
+    for (int size = std::popcount(used); size >= 1; --size)
+      for (unsigned s = 1; s < 16; ++s)
+        if (!(s & ~used) && std::popcount(s) == size) push(s);
+    return n;
+  }
+  const unsigned w = 1u << simplex.newest;
+  const unsigned old = used & ~w;
+  if (std::popcount(used) == 4) {
+    // The paper's rule: Y_1 = V_k \ {y}, y the old vertex maximising y·s_K(−ν_{k−1}).
+    int drop = -1;
+    S best = -std::numeric_limits<S>::infinity();
+    for (int i = 0; i < 4; ++i) {
+      if (!(old & (1u << i))) continue;
+      const S value = simplex.y[i].dot(newest_point);
+      if (drop < 0 || value > best) {
+        best = value;
+        drop = i;
+      }
+    }
+    push(used & ~(1u << drop));
+    for (int i = 0; i < 4; ++i)
+      if (old & (1u << i)) push(used & ~(1u << i));  // the other faces with w
+    push(used);                                      // the tetrahedron: origin enclosed
+  } else {
+    push(used);  // a new edge or triangle most often holds the nearest point
+  }
+  for (int size = std::popcount(used) - 1; size >= 2; --size)
+    for (unsigned s = 1; s < 16; ++s)
+      if ((s & w) && !(s & ~used) && std::popcount(s) == size) push(s);
+  push(w);
+  for (int size = std::popcount(old); size >= 1; --size)
+    for (unsigned s = 1; s < 16; ++s)
+      if (!(s & ~old) && std::popcount(s) == size) push(s);
+  return n;
+}
+
+/// The Distance Subalgorithm: the first subset in `order` that satisfies step 2. False on failure
+/// (step 4), which only roundoff can cause.
+template <class S>
+bool distance_subalgorithm(const Simplex<S>& simplex, const unsigned* order, int count,
+                           Nearest<S>& out) {
+  for (int i = 0; i < count; ++i) {
+    if (simplex.is_answer(order[i])) {
+      evaluate(simplex, order[i], out);
+      return true;
+    }
+  }
+  return false;
+}
+
+/// The Backup Procedure, eq. (38): among all subsets with Δ_i(Y_s) > 0 for i ∈ I_s, the one whose
+/// affine hull comes nearest the origin (|ν(aff Y_s)| by eq. 33). Always succeeds: singletons
+/// qualify.
+template <class S>
+void backup_procedure(const Simplex<S>& simplex, Nearest<S>& out) {
+  unsigned best = 0;
+  S best_norm2 = std::numeric_limits<S>::infinity();
+  for (unsigned s = 1; s < 16; ++s) {
+    if (s & ~simplex.used) continue;
+    bool positive = true;
+    for (int i = 0; i < 4; ++i)
+      if ((s & (1u << i)) && !(simplex.delta[s][i] > 0)) positive = false;
+    if (!positive) continue;
+    S norm2 = std::popcount(s) == 1 ? simplex.dot[std::countr_zero(s)][std::countr_zero(s)]
+                                    : simplex.aff_norm2(s);
+    if (!(norm2 >= 0)) norm2 = 0;  // roundoff (or NaN) in eq. (33): treat as touching the origin
+    if (best == 0 || norm2 < best_norm2) {
+      best = s;
+      best_norm2 = norm2;
+    }
+  }
+  if (best == 0) best = 1u << std::countr_zero(simplex.used);  // unreachable unless y is NaN
+  evaluate(simplex, best, out);
+}
+
+/// d⁻ of eq. (32): for a tetrahedron around the origin, the distance from the origin to the
+/// nearest face plane, |ν(aff Y_s)| by eq. (33). 0 when the simplex is not a full tetrahedron.
+template <class S>
+S penetration_lower_bound(const Simplex<S>& simplex, unsigned subset) {
+  if (std::popcount(subset) != 4) return 0;
+  S smallest = std::numeric_limits<S>::infinity();
+  for (int drop = 0; drop < 4; ++drop) {
+    const unsigned face = subset & ~(1u << drop);
+    if (!(simplex.det(face) > 0)) return 0;
+    S norm2 = simplex.aff_norm2(face);
+    if (!(norm2 > 0)) return 0;
+    if (norm2 < smallest) smallest = norm2;
+  }
+  using std::sqrt;
+  return sqrt(smallest);
+}
+
+}  // namespace nearpoint::detail

@@ -1,0 +1,182 @@
+// Support adaptors: each concrete shape seen through what GJK needs (paper eq. 15–17).
+//
+// Every adaptor works relative to the shape's centre z̄ (eq. 34): `support` returns s(η) − z̄, so
+// the engine never forms large coordinates. `vertex` returns a vertex by index for warm starts.
+// These are templates used inside the hot loop: no virtual calls, no allocation.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "nearpoint/shapes.hpp"
+
+namespace nearpoint::detail {
+
+/// Scales a direction so its largest component is ±1: support functions of smooth shapes square
+/// the direction, and a tiny ν (1e-170) would underflow. Returns false for a zero (or NaN) vector.
+template <class S>
+inline bool normalise_direction(const Vec3<S>& d, Vec3<S>& out) {
+  const S m = d.cwiseAbs().maxCoeff();
+  if (!(m > 0) || !std::isfinite(m)) return false;  // NaN-safe on purpose: !(m > 0) catches NaN
+  out = d / m;
+  return true;
+}
+
+template <class G, class S>
+struct Support;
+
+template <class S>
+struct Support<Point, S> {
+  const Point& shape;
+  Vec3<S> center() const { return Vec3<S>::Zero(); }
+  S extent() const { return 0; }
+  Vec3<S> support(const Vec3<S>&, std::int32_t& index) const {
+    index = 0;
+    return Vec3<S>::Zero();
+  }
+  bool vertex(std::int32_t index, Vec3<S>& out) const {
+    out.setZero();
+    return index == 0;
+  }
+};
+
+template <class S>
+struct Support<Segment<S>, S> {
+  const Segment<S>& shape;
+  Vec3<S> center() const { return S(0.5) * (shape.a + shape.b); }
+  S extent() const { return S(0.5) * (shape.b - shape.a).norm(); }
+  Vec3<S> support(const Vec3<S>& d, std::int32_t& index) const {
+    const Vec3<S> half = S(0.5) * (shape.b - shape.a);
+    // Ties and NaN choose a (index 0): any point of the segment is a valid support then.
+    if (half.dot(d) > 0) {
+      index = 1;
+      return half;
+    }
+    index = 0;
+    return -half;
+  }
+  bool vertex(std::int32_t index, Vec3<S>& out) const {
+    if (index != 0 && index != 1) return false;
+    const Vec3<S> half = S(0.5) * (shape.b - shape.a);
+    out = index == 1 ? half : Vec3<S>(-half);
+    return true;
+  }
+};
+
+template <class S>
+struct Support<Box<S>, S> {
+  const Box<S>& shape;
+  Vec3<S> center() const { return Vec3<S>::Zero(); }
+  S extent() const { return shape.half_extents.norm(); }
+  Vec3<S> support(const Vec3<S>& d, std::int32_t& index) const {
+    Vec3<S> p;
+    index = 0;
+    for (int k = 0; k < 3; ++k) {
+      const bool positive = d[k] > 0;  // NaN and 0 choose the negative side: still a support point
+      p[k] = positive ? shape.half_extents[k] : -shape.half_extents[k];
+      index |= std::int32_t(positive) << k;
+    }
+    return p;
+  }
+  bool vertex(std::int32_t index, Vec3<S>& out) const {
+    if (index < 0 || index > 7) return false;
+    for (int k = 0; k < 3; ++k)
+      out[k] = (index >> k) & 1 ? shape.half_extents[k] : -shape.half_extents[k];
+    return true;
+  }
+};
+
+template <class S>
+struct Support<Polytope<S>, S> {
+  const Polytope<S>& shape;
+  Vec3<S> center() const { return shape.centroid(); }
+  S extent() const { return shape.extent(); }
+  // eq. (17): a plain enumeration of inner products. Strict '>' keeps the first maximiser and
+  // never selects on a NaN product.
+  Vec3<S> support(const Vec3<S>& d, std::int32_t& index) const {
+    const std::size_t n = shape.size();
+    std::size_t best = 0;
+    S best_value = shape.centered_vertex(0).dot(d);
+    for (std::size_t i = 1; i < n; ++i) {
+      const S value = shape.centered_vertex(i).dot(d);
+      if (value > best_value) {
+        best_value = value;
+        best = i;
+      }
+    }
+    index = static_cast<std::int32_t>(best);
+    return shape.centered_vertex(best);
+  }
+  bool vertex(std::int32_t index, Vec3<S>& out) const {
+    if (index < 0 || std::size_t(index) >= shape.size()) return false;
+    out = shape.centered_vertex(std::size_t(index));
+    return true;
+  }
+};
+
+template <class S>
+struct Support<Cylinder<S>, S> {
+  const Cylinder<S>& shape;
+  Vec3<S> center() const { return Vec3<S>::Zero(); }
+  S extent() const { return std::hypot(shape.radius, shape.half_height); }
+  Vec3<S> support(const Vec3<S>& direction, std::int32_t& index) const {
+    index = -1;
+    Vec3<S> d;
+    if (!normalise_direction(direction, d)) return Vec3<S>(0, 0, -shape.half_height);
+    const S radial = std::hypot(d.x(), d.y());
+    Vec3<S> p(0, 0, d.z() > 0 ? shape.half_height : -shape.half_height);
+    if (radial > 0) {
+      p.x() = shape.radius * d.x() / radial;
+      p.y() = shape.radius * d.y() / radial;
+    }
+    return p;
+  }
+  bool vertex(std::int32_t, Vec3<S>&) const { return false; }
+};
+
+template <class S>
+struct Support<Cone<S>, S> {
+  const Cone<S>& shape;
+  Vec3<S> center() const { return Vec3<S>::Zero(); }
+  S extent() const { return std::hypot(shape.radius, shape.half_height); }
+  Vec3<S> support(const Vec3<S>& direction, std::int32_t& index) const {
+    index = -1;
+    const Vec3<S> apex(0, 0, shape.half_height);
+    Vec3<S> d;
+    if (!normalise_direction(direction, d)) return apex;
+    const S radial = std::hypot(d.x(), d.y());
+    Vec3<S> rim(0, 0, -shape.half_height);
+    if (radial > 0) {
+      rim.x() = shape.radius * d.x() / radial;
+      rim.y() = shape.radius * d.y() / radial;
+    }
+    return rim.dot(d) > apex.dot(d) ? rim : apex;
+  }
+  bool vertex(std::int32_t, Vec3<S>&) const { return false; }
+};
+
+template <class S>
+struct Support<Ellipsoid<S>, S> {
+  const Ellipsoid<S>& shape;
+  Vec3<S> center() const { return Vec3<S>::Zero(); }
+  S extent() const { return shape.radii.maxCoeff(); }
+  // s(η) = D²η / |Dη| with D = diag(radii): the point where the outward normal D⁻²x is along η.
+  Vec3<S> support(const Vec3<S>& direction, std::int32_t& index) const {
+    index = -1;
+    Vec3<S> d;
+    if (!normalise_direction(direction, d)) return Vec3<S>(shape.radii.x(), 0, 0);
+    const Vec3<S> scaled = shape.radii.cwiseProduct(d);
+    const S norm = scaled.norm();
+    if (!(norm > 0)) return Vec3<S>::Zero();  // all radii zero: the ellipsoid is a point
+    return shape.radii.cwiseProduct(scaled) / norm;
+  }
+  bool vertex(std::int32_t, Vec3<S>&) const { return false; }
+};
+
+template <class G, class S>
+Support<G, S> make_support(const G& g) {
+  return Support<G, S>{g};
+}
+
+}  // namespace nearpoint::detail

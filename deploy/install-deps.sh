@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Installs, from Debian 12 packages, whatever nearpoint needs that this machine lacks.
+# Idempotent: packages already present are left alone, and nothing is fetched when all are there.
+#
+#   deploy/install-deps.sh            # build + test dependencies
+#   deploy/install-deps.sh --bench    # also the benchmark peers (FCL, libccd, Bullet)
+set -euo pipefail
+
+packages=(
+  # toolchain
+  g++ cmake ninja-build pkg-config ccache python3
+  # core: Eigen only
+  libeigen3-dev
+  # command-line tool
+  nlohmann-json3-dev libcli11-dev
+  # tests: GoogleTest, and CGAL's exact arithmetic as the distance oracle
+  libgtest-dev libgmock-dev libcgal-dev libgmp-dev libmpfr-dev
+)
+for arg in "$@"; do
+  case "$arg" in
+    --bench) packages+=(libbenchmark-dev libfcl-dev libccd-dev libbullet-dev) ;;
+    -h|--help) sed -n '2,7p' "$0"; exit 0 ;;
+    *) echo "install-deps.sh: unknown option '$arg'" >&2; exit 2 ;;
+  esac
+done
+
+missing=()
+for p in "${packages[@]}"; do
+  if [ "$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null)" != "install ok installed" ]; then
+    missing+=("$p")
+  fi
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+sudo=""
+if [ "$(id -u)" -ne 0 ]; then
+  command -v sudo >/dev/null || { echo "install-deps: need root or sudo to install: ${missing[*]}" >&2; exit 1; }
+  sudo="sudo"
+fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+# Refresh the package lists when they are missing or older than a day; a fresh machine has none.
+lists=/var/lib/apt/lists
+if [ -z "$(find "$lists" -maxdepth 1 -name '*Packages*' -mmin -1440 2>/dev/null | head -n 1)" ]; then
+  $sudo apt-get update -q -o DPkg::Lock::Timeout=300
+fi
+$sudo apt-get install -y -q --no-install-recommends -o DPkg::Lock::Timeout=300 "${missing[@]}"

@@ -1,0 +1,193 @@
+// Unit tests of the support functions (eq. 15–17), centres and extents (eq. 34, 37), input
+// validation, and poses.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "nearpoint/distance.hpp"
+#include "support.hpp"
+
+namespace nearpoint {
+namespace {
+
+using V = Vec3<double>;
+
+// Dense samples of each shape's boundary, from its own definition (not from the support code).
+std::vector<V> boundary_samples(const Shape<double>& shape, int n) {
+  std::vector<V> out;
+  const double pi = std::acos(-1.0);
+  struct Sampler {
+    int n;
+    double pi;
+    std::vector<V>& out;
+    void operator()(const Point&) { out.push_back(V::Zero()); }
+    void operator()(const Segment<double>& s) {
+      out.push_back(s.a);
+      out.push_back(s.b);
+    }
+    void operator()(const Box<double>& b) {
+      for (int i = 0; i < 8; ++i)
+        out.emplace_back(i & 1 ? b.half_extents.x() : -b.half_extents.x(),
+                         i & 2 ? b.half_extents.y() : -b.half_extents.y(),
+                         i & 4 ? b.half_extents.z() : -b.half_extents.z());
+    }
+    void operator()(const Polytope<double>& p) {
+      for (std::size_t i = 0; i < p.size(); ++i) out.push_back(p.vertex(i));
+    }
+    void operator()(const Cylinder<double>& c) {
+      for (int i = 0; i < n; ++i) {
+        const double t = 2 * pi * i / n;
+        out.emplace_back(c.radius * std::cos(t), c.radius * std::sin(t), c.half_height);
+        out.emplace_back(c.radius * std::cos(t), c.radius * std::sin(t), -c.half_height);
+      }
+    }
+    void operator()(const Cone<double>& c) {
+      out.emplace_back(0, 0, c.half_height);
+      for (int i = 0; i < n; ++i) {
+        const double t = 2 * pi * i / n;
+        out.emplace_back(c.radius * std::cos(t), c.radius * std::sin(t), -c.half_height);
+      }
+    }
+    void operator()(const Ellipsoid<double>& e) {
+      for (int i = 0; i <= n / 4; ++i)
+        for (int j = 0; j < n; ++j) {
+          const double th = pi * i / (n / 4), ph = 2 * pi * j / n;
+          out.emplace_back(e.radii.x() * std::sin(th) * std::cos(ph),
+                           e.radii.y() * std::sin(th) * std::sin(ph), e.radii.z() * std::cos(th));
+        }
+    }
+  } sampler{n, pi, out};
+  std::visit(sampler, shape.geometry);
+  return out;
+}
+
+std::vector<Shape<double>> all_shapes() {
+  std::vector<V> verts = {V(0.3, 0.1, 2), V(-1, 0, 0.5), V(1, -1, 0.2), V(0, 2, -1),
+                          V(0.1, 0.1, 0.1)};
+  return {Shape<double>(Point{}),
+          Shape<double>(Segment<double>{V(-1, 2, 0), V(3, 0.5, 1)}),
+          Shape<double>(Box<double>{V(1, 2, 0.5)}),
+          Shape<double>(Polytope<double>(verts)),
+          Shape<double>(Cylinder<double>{0.7, 1.3}),
+          Shape<double>(Cone<double>{1.1, 0.9}),
+          Shape<double>(Ellipsoid<double>{V(0.5, 1.5, 2.5)})};
+}
+
+// Guards eq. (16): s(η)·η = h(η) ≥ x·η for every point x of the shape; and the returned point
+// lies in the shape (checked through the extent bound about the centre).
+TEST(Support, MaximisesOverTheShape) {
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (const Shape<double>& shape : all_shapes()) {
+    const std::vector<V> samples = boundary_samples(shape, 720);
+    const V center = core_center(shape);
+    const double extent = core_extent(shape);
+    for (const V& x : samples) EXPECT_LE((x - center).norm(), extent * (1 + 1e-12) + 1e-15);
+    for (int trial = 0; trial < 300; ++trial) {
+      const V d(normal(rng), normal(rng), normal(rng));
+      int index = -2;
+      const V s = support(shape, d, index);
+      double sampled_max = -1e300;
+      for (const V& x : samples) sampled_max = std::max(sampled_max, x.dot(d));
+      // Sampled boundaries of curved shapes fall short of the true maximum by O(1/n²).
+      EXPECT_GE(s.dot(d), sampled_max - 1e-4 * d.norm()) << "shape " << shape.geometry.index();
+      EXPECT_LE((s - center).norm(), extent * (1 + 1e-12) + 1e-15);
+      EXPECT_NE(index, -2);
+    }
+  }
+}
+
+// Vertex indices must name the returned vertex: the warm-start cache relies on it.
+TEST(Support, IndicesNameTheVertex) {
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const Box<double> box{V(1, 2, 3)};
+  const detail::Support<Box<double>, double> s{box};
+  for (int trial = 0; trial < 100; ++trial) {
+    const V d(normal(rng), normal(rng), normal(rng));
+    std::int32_t index = -1;
+    const V p = s.support(d, index);
+    V q;
+    ASSERT_TRUE(s.vertex(index, q));
+    EXPECT_EQ(p, q);
+  }
+}
+
+// Zero and tiny directions must still give a point of the shape (never NaN).
+TEST(Support, DegenerateDirectionsGiveFinitePoints) {
+  for (const Shape<double>& shape : all_shapes()) {
+    for (const V& d : {V(0, 0, 0), V(1e-300, 0, 0), V(0, 0, 1e-200), V(1e300, -1e300, 0)}) {
+      int index = 0;
+      const V p = support(shape, d, index);
+      EXPECT_TRUE(p.allFinite()) << shape.geometry.index();
+    }
+  }
+}
+
+TEST(Polytope, CentroidAndExtentFollowEq34And37) {
+  std::vector<V> verts = {V(1e6 + 1, 0, 0), V(1e6 - 1, 0, 0), V(1e6, 2, 0), V(1e6, -2, 0)};
+  const Polytope<double> p(verts);
+  ASSERT_EQ(p.invalid_reason(), nullptr);
+  EXPECT_EQ(p.centroid(), V(1e6, 0, 0));
+  EXPECT_DOUBLE_EQ(p.extent(), 2.0);
+  EXPECT_EQ(p.vertex(2), verts[2]);
+}
+
+// Bad input gets a reason, never a crash or a NaN result.
+TEST(Validation, BadShapesAndPosesAreRejectedWithAReason) {
+  const double nan = std::nan("");
+  const std::vector<V> empty;
+  const std::vector<Shape<double>> bad = {
+      Shape<double>(Polytope<double>(empty)),
+      Shape<double>(Polytope<double>(std::vector<V>{V(0, nan, 0)})),
+      Shape<double>(Box<double>{V(1, -1, 1)}),
+      Shape<double>(Point{}, -1.0),
+      Shape<double>(Point{}, nan),
+      Shape<double>(Ellipsoid<double>{V(1, INFINITY, 1)}),
+      Shape<double>(Segment<double>{V(0, 0, 0), V(nan, 0, 0)}),
+      Shape<double>(Cylinder<double>{-1, 1}),
+      Shape<double>(Cone<double>{1, nan}),
+  };
+  const Shape<double> good = Shape<double>::sphere(1);
+  for (const Shape<double>& s : bad) {
+    for (int side = 0; side < 2; ++side) {
+      const auto r = side ? distance(s, Pose<double>{}, good, Pose<double>{})
+                          : distance(good, Pose<double>{}, s, Pose<double>{});
+      EXPECT_EQ(r.status, Status::invalid_input);
+      ASSERT_NE(r.message, nullptr);
+      EXPECT_GT(std::string(r.message).size(), 10u);
+    }
+  }
+  Pose<double> nan_pose;
+  nan_pose.translation.x() = nan;
+  EXPECT_EQ(distance(good, nan_pose, good, Pose<double>{}).status, Status::invalid_input);
+  Pose<double> skew;
+  skew.rotation(0, 1) = 0.5;
+  EXPECT_EQ(distance(good, Pose<double>{}, good, skew).status, Status::invalid_input);
+  Pose<double> mirror;
+  mirror.rotation(2, 2) = -1;
+  EXPECT_EQ(distance(good, Pose<double>{}, good, mirror).status, Status::invalid_input);
+}
+
+TEST(Pose, QuaternionCheckAcceptsNearUnitAndRejectsTheRest) {
+  Pose<double> p;
+  EXPECT_EQ(pose_from_quaternion_checked(1.0, 0.0, 0.0, 0.0, V(1, 2, 3), p), nullptr);
+  EXPECT_EQ(p.translation, V(1, 2, 3));
+  const double h = std::sqrt(0.5);
+  EXPECT_EQ(pose_from_quaternion_checked(h * (1 + 5e-5), h, 0.0, 0.0, V::Zero(), p), nullptr);
+  EXPECT_NEAR((p.rotation.transpose() * p.rotation - Mat3<double>::Identity()).norm(), 0, 1e-15);
+  EXPECT_NE(pose_from_quaternion_checked(2.0, 0.0, 0.0, 0.0, V::Zero(), p), nullptr);
+  EXPECT_NE(pose_from_quaternion_checked(0.0, 0.0, 0.0, 0.0, V::Zero(), p), nullptr);
+  EXPECT_NE(pose_from_quaternion_checked(std::nan(""), 0.0, 0.0, 1.0, V::Zero(), p), nullptr);
+  EXPECT_NE(pose_from_quaternion_checked(1.0, 0.0, 0.0, 0.0, V(0, INFINITY, 0), p), nullptr);
+  // compose/inverse round trip
+  Pose<double> a =
+      Pose<double>::from_quaternion(Eigen::Quaterniond(0.9, 0.1, -0.3, 0.2), V(1, 2, 3));
+  const Pose<double> id = a.compose(a.inverse());
+  EXPECT_NEAR((id.rotation - Mat3<double>::Identity()).norm(), 0, 1e-15);
+  EXPECT_NEAR(id.translation.norm(), 0, 1e-15);
+}
+
+}  // namespace
+}  // namespace nearpoint

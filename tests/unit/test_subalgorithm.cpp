@@ -1,0 +1,192 @@
+// Unit tests of Johnson's distance subalgorithm and the Backup Procedure (paper Section V–VI),
+// checked against a brute-force nearest point of co Y computed independently.
+#include <gtest/gtest.h>
+
+#include <Eigen/QR>
+#include <random>
+
+#include "johnson.hpp"
+
+namespace nearpoint::detail {
+namespace {
+
+using V = Vec3<double>;
+
+// Nearest point of the convex hull of up to 4 points, by enumerating every face: project the
+// origin onto the face's affine hull with a QR least-squares solve (long double), keep projections
+// whose barycentric weights are all non-negative, and take the shortest. Independent of the Δ
+// recursion under test.
+V brute_force_nearest(const std::vector<V>& pts) {
+  using L = long double;
+  const int n = int(pts.size());
+  V best = pts[0];
+  for (unsigned s = 1; s < (1u << n); ++s) {
+    std::vector<int> idx;
+    for (int i = 0; i < n; ++i)
+      if (s & (1u << i)) idx.push_back(i);
+    const int r = int(idx.size());
+    Eigen::Matrix<L, 3, 1> x0 = pts[idx[0]].cast<L>();
+    Eigen::Matrix<L, 3, Eigen::Dynamic> q(3, r - 1);
+    for (int c = 1; c < r; ++c) q.col(c - 1) = pts[idx[c]].cast<L>() - x0;
+    Eigen::Matrix<L, Eigen::Dynamic, 1> mu(r - 1);
+    if (r > 1) {
+      Eigen::ColPivHouseholderQR<Eigen::Matrix<L, 3, Eigen::Dynamic>> qr(q);
+      if (qr.rank() < r - 1) continue;  // affinely dependent face: its hull is covered by others
+      mu = qr.solve(Eigen::Matrix<L, 3, 1>(-x0));
+    }
+    L first = 1;
+    bool inside = true;
+    for (int c = 0; c < r - 1; ++c) {
+      inside &= mu[c] >= 0;
+      first -= mu[c];
+    }
+    if (!inside || first < 0) continue;
+    Eigen::Matrix<L, 3, 1> p = x0;
+    for (int c = 0; c < r - 1; ++c) p += mu[c] * q.col(c);
+    if (p.squaredNorm() < best.cast<L>().squaredNorm()) best = p.cast<double>();
+  }
+  return best;
+}
+
+Simplex<double> make_simplex(const std::vector<V>& pts) {
+  Simplex<double> s;
+  for (const V& p : pts) s.add(p, p, V::Zero(), 0, 0);
+  s.newest = -1;
+  return s;
+}
+
+Nearest<double> solve(const Simplex<double>& s, bool* used_backup = nullptr) {
+  unsigned order[15];
+  const int n = subset_order(s, V(V::Zero()), order);
+  Nearest<double> out;
+  const bool ok = distance_subalgorithm(s, order, n, out);
+  if (!ok) backup_procedure(s, out);
+  if (used_backup) *used_backup = !ok;
+  return out;
+}
+
+// Guards the Δ recursion (eq. 30) and the subset test of step 2: the nearest point of random
+// simplices of every size agrees with an independent minimiser.
+TEST(Subalgorithm, RandomSimplicesMatchBruteForce) {
+  std::mt19937_64 rng(12345);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  int interior = 0, boundary = 0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    const int n = 1 + trial % 4;
+    std::vector<V> pts;
+    const V shift = 0.3 * V(normal(rng), normal(rng), normal(rng));
+    for (int i = 0; i < n; ++i) pts.emplace_back(V(normal(rng), normal(rng), normal(rng)) + shift);
+    const Nearest<double> got = solve(make_simplex(pts));
+    const V expected = brute_force_nearest(pts);
+    if (std::popcount(got.subset) == 4) {
+      ++interior;
+    } else {
+      ++boundary;
+    }
+    ASSERT_NEAR((got.nu - expected).norm(), 0.0, 1e-12) << "trial " << trial;
+    double sum = 0;
+    for (double l : got.lambda) {
+      EXPECT_GE(l, 0.0);
+      sum += l;
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-12);
+  }
+  // The sample must exercise both exits: origin enclosed and nearest point on a proper face.
+  EXPECT_GT(interior, 50);
+  EXPECT_GT(boundary, 2000);
+}
+
+// Guards the Δ cache: replacing one slot and recomputing only the subsets that contain it must
+// give the same Δ's as building the simplex from scratch.
+TEST(Subalgorithm, IncrementalDeltasEqualFreshOnes) {
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int trial = 0; trial < 500; ++trial) {
+    std::vector<V> pts;
+    for (int i = 0; i < 4; ++i) pts.emplace_back(normal(rng), normal(rng), normal(rng));
+    Simplex<double> inc = make_simplex({pts[0], pts[1], pts[2]});
+    inc.keep(0b011);  // drop slot 2, then add the fourth point into it
+    inc.add(pts[3], pts[3], V::Zero(), 0, 0);
+    const Simplex<double> fresh = make_simplex({pts[0], pts[1], pts[3]});
+    for (unsigned s = 1; s < 8; ++s)
+      for (int i = 0; i < 3; ++i) {
+        if (s & (1u << i)) {
+          EXPECT_NEAR(inc.delta[s][i], fresh.delta[s][i], 1e-12);
+        }
+      }
+  }
+}
+
+// The paper: "Δ(Y_s) > 0 if and only if Y_s is affinely independent" (Lemma 1). Duplicate and
+// collinear points must not produce a NaN or a wrong nearest point.
+TEST(Subalgorithm, AffinelyDependentSetsAreHandled) {
+  const std::vector<std::vector<V>> cases = {
+      {V(1, 1, 0), V(1, 1, 0)},                          // duplicate
+      {V(1, -1, 1), V(1, 0, 1), V(1, 1, 1)},             // collinear, nearest in the middle
+      {V(2, 0, 0), V(2, 1, 0), V(2, 0, 1), V(2, 1, 1)},  // coplanar quadrilateral
+      {V(1, 0, 0), V(1, 0, 0), V(1, 0, 0), V(1, 0, 0)},  // four copies
+      {V(-1, 0, 0), V(1, 0, 0), V(3, 0, 0)},             // collinear through the origin
+  };
+  for (const auto& pts : cases) {
+    const Nearest<double> got = solve(make_simplex(pts));
+    const V expected = brute_force_nearest(pts);
+    EXPECT_TRUE(got.nu.allFinite());
+    EXPECT_NEAR((got.nu - expected).norm(), 0.0, 1e-9);
+  }
+}
+
+// Guards eq. (38): the Backup Procedure alone (no Distance Subalgorithm) still finds the nearest
+// point whenever the nearest face is affinely independent.
+TEST(Subalgorithm, BackupProcedureFindsNearestPoint) {
+  std::mt19937_64 rng(99);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int trial = 0; trial < 1000; ++trial) {
+    std::vector<V> pts;
+    for (int i = 0; i < 1 + trial % 4; ++i) pts.emplace_back(normal(rng), normal(rng), normal(rng));
+    const Simplex<double> s = make_simplex(pts);
+    Nearest<double> got;
+    backup_procedure(s, got);
+    EXPECT_NEAR((got.nu - brute_force_nearest(pts)).norm(), 0.0, 1e-12) << trial;
+  }
+}
+
+// Guards eq. (32)–(33): d⁻ of a tetrahedron around the origin is its inradius about the origin,
+// the distance to the nearest face plane.
+TEST(Subalgorithm, PenetrationBoundIsNearestFacePlane) {
+  // Regular-ish tetrahedron with the origin inside; face planes computed directly.
+  const std::vector<V> pts = {V(1, 1, 1), V(-1, -1, 1), V(-1, 1, -1), V(1, -1, -1)};
+  const Simplex<double> s = make_simplex(pts);
+  Nearest<double> got = solve(s);
+  ASSERT_EQ(std::popcount(got.subset), 4);
+  EXPECT_EQ(got.nu_norm2, 0.0);
+  double nearest_plane = 1e300;
+  for (int drop = 0; drop < 4; ++drop) {
+    std::vector<V> f;
+    for (int i = 0; i < 4; ++i)
+      if (i != drop) f.push_back(pts[i]);
+    const V n = (f[1] - f[0]).cross(f[2] - f[0]).normalized();
+    nearest_plane = std::min(nearest_plane, std::abs(n.dot(f[0])));
+  }
+  EXPECT_NEAR(penetration_lower_bound(s, got.subset), nearest_plane, 1e-14);
+  EXPECT_NEAR(nearest_plane, 1.0 / std::sqrt(3.0), 1e-15);
+}
+
+// The paper's ordering rule puts the face V_k \ {y} first, y maximising y·w. When it holds the
+// answer, the subalgorithm must return it (and the order must list every subset once).
+TEST(Subalgorithm, OrderingListsEverySubsetOnce) {
+  Simplex<double> s = make_simplex({V(1, 0, 0), V(0, 1, 0), V(0, 0, 1)});
+  s.add(V(1, 1, 1), V(1, 1, 1), V::Zero(), 0, 0);  // newest in slot 3
+  unsigned order[15];
+  const int n = subset_order(s, V(1, 1, 1), order);
+  EXPECT_EQ(n, 15);
+  unsigned seen = 0;
+  for (int i = 0; i < n; ++i) {
+    EXPECT_EQ(seen & (1u << order[i]), 0u);
+    seen |= 1u << order[i];
+  }
+  EXPECT_TRUE(order[0] & (1u << 3)) << "the first candidate contains the newest point";
+  EXPECT_EQ(std::popcount(order[0]), 3);
+}
+
+}  // namespace
+}  // namespace nearpoint::detail
