@@ -110,7 +110,7 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   }
 
   if (!options.near_points) out.nearest.has_near_points = false;
-  if (options.gradient && out.nearest.status == Status::separated && !out.nearest.beyond_cutoff) {
+  if (options.gradient && out.nearest.status == Status::separated && !out.nearest.beyond_cutoff()) {
     distance_gradient(out.nearest.point_a, out.nearest.point_b, out.nearest.normal,
                       pose_a.translation, pose_b.translation, out.nearest.gradient_a,
                       out.nearest.gradient_b);

@@ -48,7 +48,15 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   k_set.origin_shift = options.origin_shift;
 
   // D(K) ≤ D(A − z̄_A) + D(B − z̄_B) + |z̄_A − z̄_B|, eq. (37).
-  const S diameter = k_set.a.extent() + k_set.b.extent() + k_set.offset.norm();
+  const S diameter = detail::diameter_bound(k_set);
+  // Squared lengths of D(K) must stay finite: beyond ~1e150 (double) or ~1e18 (float) the inner
+  // products overflow and no answer could be trusted.
+  using std::sqrt;
+  if (!(diameter <= sqrt(std::numeric_limits<S>::max()) / S(64)))
+    return invalid<S>(
+        "shapes and their separation are too large for this precision (inner "
+        "products would overflow: keep coordinates below ~1e150 in double, ~1e17 "
+        "in float)");
   const S eps = std::numeric_limits<S>::epsilon();
   const S epsilon = options.epsilon > 0 ? options.epsilon : S(0);
   const S radii = radius_a + radius_b;
@@ -56,28 +64,28 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
 
   detail::LoopOutcome<S> loop;
   detail::run_numerical_algorithm(k_set, epsilon * diameter * diameter,
-                                  std::max(0, options.max_iterations), cutoff, cache, loop);
+                                  std::max(0, options.max_iterations), cutoff, options.subalgorithm,
+                                  cache, loop);
 
   DistanceResult<S> result;
   const detail::Nearest<S>& nearest = loop.nearest;
   const detail::Simplex<S>& simplex = loop.simplex;
-  using std::sqrt;
   const S core_distance = sqrt(nearest.nu_norm2);
   result.gap = loop.gap;
   result.diameter_bound = diameter;
   result.iterations = loop.iterations;
-  result.converged = loop.converged;
-  result.beyond_cutoff = loop.beyond_cutoff;
+  result.termination = loop.termination;
   result.warm_started = loop.warm_started;
   result.finished_by = loop.finished_by;
 
-  // The certified error: Theorem 1 gives |ν − ν(K)| ≤ √g; the support plane gives
-  // |ν| − g/|ν| ≤ d(K) ≤ |ν|. Both hold for the computed values up to roundoff in y, ν and g,
-  // which the allowances below cover (a few ulps of D(K), the largest magnitude in the loop).
+  // The certified error. The distance lies in [L, |ν|], L the best support-plane lower bound
+  // found; and Theorem 1 gives |ν − ν(K)| ≤ √g. Both hold for the computed values up to roundoff
+  // in y, ν and the inner products, which the allowance covers (a few ulps of D(K), the largest
+  // magnitude in the loop).
   const S roundoff = S(8) * eps * diameter;
   if (core_distance > 0) {
-    const S gap_high = loop.gap + S(4) * eps * core_distance * (core_distance + diameter);
-    result.error_bound = std::min(sqrt(gap_high), gap_high / core_distance) + roundoff;
+    const S interval = std::max(S(0), core_distance - loop.lower_bound);
+    result.error_bound = std::min(sqrt(loop.gap), interval) + roundoff;
   } else {
     result.error_bound = roundoff;
   }
@@ -96,13 +104,18 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   written.count = static_cast<std::uint8_t>(result.simplex_size);
   if (cache) *cache = written;
 
+  // The verdict. "Separated" when the distance estimate exceeds the radii by more than the
+  // roundoff allowance, i.e. is distinguishable from touching in this precision (touching counts
+  // as intersecting). A numerical-limit exit deep inside an overlap can leave |ν| at 1e-17 rather
+  // than 0: that is touching-or-deeper, and reported as intersecting.
   const bool cores_intersect = !(nearest.nu_norm2 > 0);
-  const bool intersecting = cores_intersect || core_distance <= radii;
-  result.distance = intersecting ? S(0) : core_distance - radii;  // eq. (8): (d − r_A − r_B)⁺
-  if (loop.capped)
+  const bool separated = !cores_intersect && core_distance - radii > roundoff;
+  result.distance = separated ? core_distance - radii : S(0);  // eq. (8): (d − r_A − r_B)⁺
+  if (!separated) result.error_bound += std::max(S(0), core_distance - radii);
+  if (loop.termination == Termination::iteration_limit)
     result.status = Status::iteration_limit;
   else
-    result.status = intersecting ? Status::intersecting : Status::separated;
+    result.status = separated ? Status::separated : Status::intersecting;
 
   if (options.near_points || options.gradient) {
     // eq. (23)–(24): near points from the simplex weights, in A's frame relative to z̄_A.
@@ -134,10 +147,10 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
     result.has_penetration_bound = true;
     result.penetration_bound =
         cores_intersect ? detail::penetration_lower_bound(simplex, nearest.subset) + radii
-                        : radii - core_distance;
+                        : std::max(S(0), radii - core_distance);
   }
 
-  if (options.gradient && result.status == Status::separated && !result.beyond_cutoff) {
+  if (options.gradient && result.status == Status::separated && !result.beyond_cutoff()) {
     distance_gradient(result.point_a, result.point_b, result.normal, pose_a.translation,
                       pose_b.translation, result.gradient_a, result.gradient_b);
     result.has_gradient = true;
@@ -189,6 +202,26 @@ template void distance_gradient(const Vec3<double>&, const Vec3<double>&, const 
 template void distance_gradient(const Vec3<float>&, const Vec3<float>&, const Vec3<float>&,
                                 const Vec3<float>&, const Vec3<float>&, Eigen::Matrix<float, 6, 1>&,
                                 Eigen::Matrix<float, 6, 1>&);
+
+const char* to_string(Termination termination) {
+  switch (termination) {
+    case Termination::origin_enclosed:
+      return "origin_enclosed";
+    case Termination::tolerance:
+      return "tolerance";
+    case Termination::repeated_support:
+      return "repeated_support";
+    case Termination::roundoff_floor:
+      return "roundoff_floor";
+    case Termination::numerical_limit:
+      return "numerical_limit";
+    case Termination::beyond_cutoff:
+      return "beyond_cutoff";
+    case Termination::iteration_limit:
+      return "iteration_limit";
+  }
+  return "unknown";
+}
 
 const char* to_string(Status status) {
   switch (status) {

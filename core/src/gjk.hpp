@@ -2,11 +2,18 @@
 #pragma once
 
 #include <algorithm>
+#ifdef NEARPOINT_TRACE
+#include <cstdio>
+#define NEARPOINT_TRACE_PRINTF(...) std::fprintf(stderr, __VA_ARGS__)
+#else
+#define NEARPOINT_TRACE_PRINTF(...) ((void)0)
+#endif
 #include <cmath>
 #include <limits>
 
 #include "johnson.hpp"
 #include "nearpoint/distance.hpp"
+#include "signed_volumes.hpp"
 #include "support.hpp"
 
 namespace nearpoint::detail {
@@ -50,25 +57,56 @@ struct MinkowskiDifference {
   }
 };
 
+/// D(K) of eq. (37) for this K: the extents about the centroids plus the centroids' distance.
+template <class K>
+auto diameter_bound(const K& k_set) {
+  return k_set.a.extent() + k_set.b.extent() + k_set.offset.norm();
+}
+
+/// The size of the roundoff in a computed g = ν·ν − ν·w. ν = Σλy carries an absolute error of a
+/// few ulps of D(K) whatever its length, and that error meets w (|w| ≤ D) in the inner product:
+/// a few ulps of D·(|ν| + D).
+template <class S>
+S roundoff_gap(S nu_norm2, S diameter) {
+  using std::sqrt;
+  return S(16) * std::numeric_limits<S>::epsilon() * diameter * (sqrt(nu_norm2) + diameter);
+}
+
 /// What the loop hands back to the query: the final simplex and ν, and how the run ended.
 template <class S>
 struct LoopOutcome {
   Simplex<S> simplex;
   Nearest<S> nearest;
+  /// The duality gap at exit, sharpened by the best lower bound: min(g(ν), |ν|² − L²). Theorem 1's
+  /// |ν − ν(K)|² ≤ g holds for both terms (the second since z·ν(K) ≥ |ν(K)|² ≥ L² on K).
   S gap = 0;
-  S lower_bound = 0;  // ν·s_K(−ν)/|ν|: a certified lower bound on |ν(K)| (support plane)
+  /// L: the largest support-plane lower bound ν_k·s_K(−ν_k)/|ν_k| over all iterations. Each is a
+  /// certified lower bound on |ν(K)|, so the distance lies in [L, |ν|].
+  S lower_bound = 0;
   int iterations = 0;
-  bool converged = false;
-  bool capped = false;
-  bool beyond_cutoff = false;
+  Termination termination = Termination::tolerance;
   bool warm_started = false;
   FinishedBy finished_by = FinishedBy::distance_subalgorithm;
 };
 
 /// Runs steps 1–6. `d2_tolerance` is ε·D(K)² of eq. (35); `cutoff` is on the core distance.
+/// Step 2's "Distance Subalgorithm": Johnson's (which may fail on roundoff, step 4 of the
+/// subalgorithm) or signed volumes (which always answers).
+template <class S>
+bool nearest_of_simplex(Subalgorithm method, const Simplex<S>& simplex, const Vec3<S>& newest,
+                        Nearest<S>& nearest) {
+  if (method == Subalgorithm::signed_volumes) {
+    signed_volumes(simplex, nearest);
+    return true;
+  }
+  unsigned order[15];
+  const int n = subset_order(simplex, newest, order);
+  return distance_subalgorithm(simplex, order, n, nearest);
+}
+
 template <class S, class K>
 void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations, S cutoff,
-                             const SimplexCache* cache, LoopOutcome<S>& out) {
+                             Subalgorithm method, const SimplexCache* cache, LoopOutcome<S>& out) {
   Simplex<S>& simplex = out.simplex;
   Nearest<S>& nearest = out.nearest;
   Vec3<S> y, on_a, on_b;
@@ -96,65 +134,126 @@ void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations,
   }
   simplex.newest = -1;  // V_0 has no "newest" point: try its subsets largest first
 
-  unsigned order[15];
   Vec3<S> w = Vec3<S>::Zero();
   bool backup = false;
-  S previous_norm2 = std::numeric_limits<S>::infinity();
   int k = 0;
 
   // Step 2 for V_0.
-  {
-    const int n = subset_order(simplex, w, order);
-    if (!distance_subalgorithm(simplex, order, n, nearest)) {
-      backup_procedure(simplex, nearest);
-      backup = true;
-    }
+  if (!nearest_of_simplex(method, simplex, w, nearest)) {
+    backup_procedure(simplex, nearest);
+    backup = true;
   }
+  // The previous iterate ν_{k−1}: the best so far, since every accepted step descends. Its slots
+  // stay intact while step k runs (only the new support point's slot is written), so a failed
+  // step can fall back to it for the price of copying a few scalars.
+  Nearest<S> previous;
+  S previous_gap = 0;
+  S best_lower_bound = 0;
   for (;;) {
     // Step 3: the stopping rule (35), g(ν_k) ≤ ε·D(K)².
     S gap = 0;
+    bool repeated = false;
     if (nearest.nu_norm2 > 0) {
       k_set.support(-nearest.nu, w, on_a, on_b, ia, ib);
       const S nu_dot_w = nearest.nu.dot(w);
       gap = nearest.nu_norm2 - nu_dot_w;  // g = |ν|² + h_K(−ν), h_K(−ν) = −ν·w   (25)
       using std::sqrt;
-      out.lower_bound = std::max(S(0), nu_dot_w / sqrt(nearest.nu_norm2));
+      best_lower_bound = std::max(best_lower_bound, nu_dot_w / sqrt(nearest.nu_norm2));
+      for (int i = 0; i < 4; ++i)
+        repeated |= (nearest.subset & (1u << i)) && ia >= 0 && ib >= 0 &&
+                    simplex.index_a[i] == ia && simplex.index_b[i] == ib;
     } else {
-      out.lower_bound = 0;  // ν = 0: the origin is in K, g = 0
+      best_lower_bound = 0;
     }
-    out.gap = std::max(S(0), gap);
-    if (gap <= d2_tolerance) {
-      out.converged = true;  // eq. (35): "converged"
+    // On curved or flat-sided shapes the support point can jump between iterations (a cylinder's
+    // two rims), so g of the latest iterate may be far worse than what an earlier support plane
+    // proved: the stopping test uses the sharper of the two certificates.
+    // |ν| is an upper bound on d only if ν ∈ K. Should roundoff ever put it clearly below a proven
+    // lower bound, the iterate is inconsistent, and its own g (not the clamped difference) must
+    // decide whether to go on.
+    const S sharpened = nearest.nu_norm2 - best_lower_bound * best_lower_bound;
+    const bool consistent = sharpened >= -roundoff_gap(nearest.nu_norm2, diameter_bound(k_set));
+    out.gap = std::max(S(0), consistent ? std::min(gap, sharpened) : gap);
+    out.lower_bound = best_lower_bound;
+    NEARPOINT_TRACE_PRINTF("k=%d |V|=%d subset=%x |nu|^2=%.17g g=%.6g backup=%d rep=%d\n", k,
+                           simplex.size(), nearest.subset, double(nearest.nu_norm2), double(gap),
+                           int(backup), int(repeated));
+    if (!(nearest.nu_norm2 > 0)) {
+      out.termination = Termination::origin_enclosed;  // ν = 0: "intersecting", g = 0
+      break;
+    }
+    if (out.gap <= d2_tolerance) {
+      out.termination = Termination::tolerance;  // eq. (35)
+      break;
+    }
+    // The support point repeats a vertex of V̂_k: in exact arithmetic g = 0 (ν·(ν − y_i) = 0 on
+    // V̂_k, eq. 43). Accept when g is at its roundoff level; otherwise let the descent check and
+    // the Backup Procedure deal with the inconsistency.
+    if (repeated && gap <= roundoff_gap(nearest.nu_norm2, diameter_bound(k_set))) {
+      out.termination = Termination::repeated_support;
       break;
     }
     if (out.lower_bound > cutoff) {
-      out.beyond_cutoff = true;  // the support plane proves the distance exceeds the cutoff
+      out.termination = Termination::beyond_cutoff;  // the support plane proves d > cutoff
       break;
     }
     // Step 4: descend with V_{k+1} = V̂_k ∪ {s_K(−ν_k)} while |ν| strictly decreases (26).
-    if ((k == 0 || nearest.nu_norm2 < previous_norm2) && std::popcount(nearest.subset) <= 3) {
+    if ((k == 0 || nearest.nu_norm2 < previous.nu_norm2) && std::popcount(nearest.subset) <= 3) {
       if (k >= max_iterations) {
-        out.capped = true;  // the cap, not convergence: the status will say so
+        out.termination = Termination::iteration_limit;  // the cap, not convergence
         break;
       }
-      previous_norm2 = nearest.nu_norm2;
+      previous = nearest;
+      previous_gap = out.gap;
       simplex.keep(nearest.subset);
       simplex.add(w, on_a, on_b, ia, ib);
       ++k;
-      const int n = subset_order(simplex, w, order);
       backup = false;
-      if (!distance_subalgorithm(simplex, order, n, nearest)) {
+      if (!nearest_of_simplex(method, simplex, w, nearest)) {
         backup_procedure(simplex, nearest);
         backup = true;
       }
       continue;
     }
-    // Step 5: no descent although the Backup Procedure was used: the numerical limit is reached
-    // before the tolerance (35). Stop with the best representation found ("not converged").
-    if (backup) break;
+    // Step 5: no descent although the Backup Procedure was used: the numerical limit is reached.
+    // Return the best iterate, ν_{k−1} when step k made things worse.
+    if (backup) {
+      if (k > 0 && !(nearest.nu_norm2 < previous.nu_norm2)) {
+        nearest = previous;
+        out.gap = std::max(
+            S(0), std::min(previous_gap, previous.nu_norm2 - best_lower_bound * best_lower_bound));
+      }
+      out.termination = out.gap <= roundoff_gap(nearest.nu_norm2, diameter_bound(k_set))
+                            ? Termination::roundoff_floor
+                            : Termination::numerical_limit;
+      break;
+    }
     // Step 6: recompute ν_k on V_k with the Backup Procedure and test (35) again.
     backup_procedure(simplex, nearest);
     backup = true;
+  }
+  // A sharper certificate near contact. ν's direction carries an error of ~ulp(D)/|ν|, so when ν
+  // is short the support plane normal to ν proves little. When the answer lies on a triangle,
+  // that triangle's own normal (accurate whatever |ν| is) gives the plane of K's face or of the
+  // two shapes' edge–edge contact: one more support call proves d ≥ n̂·s_K(−n̂).
+  if (std::popcount(nearest.subset) == 3 && nearest.nu_norm2 > 0 &&
+      out.termination != Termination::beyond_cutoff) {
+    int idx[3], n = 0;
+    for (int i = 0; i < 4; ++i)
+      if (nearest.subset & (1u << i)) idx[n++] = i;
+    Vec3<S> normal =
+        (simplex.y[idx[1]] - simplex.y[idx[0]]).cross(simplex.y[idx[2]] - simplex.y[idx[0]]);
+    const S length = normal.norm();
+    if (length > 0) {
+      normal /= length;
+      if (normal.dot(nearest.nu) < 0) normal = -normal;
+      k_set.support(-normal, w, on_a, on_b, ia, ib);
+      const S plane_bound = normal.dot(w);
+      if (plane_bound > out.lower_bound) {
+        out.lower_bound = plane_bound;
+        out.gap = std::max(S(0), std::min(out.gap, nearest.nu_norm2 - plane_bound * plane_bound));
+      }
+    }
   }
   out.iterations = k;
   out.finished_by = backup ? FinishedBy::backup_procedure : FinishedBy::distance_subalgorithm;

@@ -22,6 +22,30 @@
 namespace nearpoint::detail {
 
 template <class S>
+inline bool same_sign(S a, S b) {
+  return (a > 0 && b > 0) || (a < 0 && b < 0);  // zero and NaN are never "the same sign"
+}
+
+template <class S>
+inline S det3(const Vec3<S>& a, const Vec3<S>& b, const Vec3<S>& c) {
+  return a.dot(b.cross(c));
+}
+
+/// Whether the origin lies strictly inside the tetrahedron (p0, p1, p2, p3), from the signs of
+/// signed volumes formed directly from coordinates: with one vertex moved to the origin, each
+/// volume must have the sign of the whole. Robust where the Δ's of a flat tetrahedron are not.
+template <class S>
+inline bool tetrahedron_encloses_origin(const Vec3<S>& p0, const Vec3<S>& p1, const Vec3<S>& p2,
+                                        const Vec3<S>& p3) {
+  const Vec3<S> zero = Vec3<S>::Zero();
+  const S whole = det3<S>(p1 - p0, p2 - p0, p3 - p0);
+  return same_sign(whole, det3<S>(p1 - zero, p2 - zero, p3 - zero)) &&
+         same_sign(whole, det3<S>(zero - p0, p2 - p0, p3 - p0)) &&
+         same_sign(whole, det3<S>(p1 - p0, zero - p0, p3 - p0)) &&
+         same_sign(whole, det3<S>(p1 - p0, p2 - p0, zero - p0));
+}
+
+template <class S>
 struct Simplex {
   /// Points of K = A − B (shifted frame), and the support points on A and on B they came from
   /// (both relative to A's centroid, in A's frame: y = a − b − δ).
@@ -101,7 +125,14 @@ struct Simplex {
         if (!(delta[s | bit][i] <= 0)) return false;
       }
     }
-    return true;
+    return std::popcount(s) < 4 || encloses_origin();
+  }
+
+  /// The claim "the origin is inside the full tetrahedron" decides the verdict "intersecting", so
+  /// it is checked by signed volumes: on a flat tetrahedron the Δ's are differences of nearly
+  /// equal products and can all come out positive when the origin is outside.
+  bool encloses_origin() const {
+    return used == 0xF && tetrahedron_encloses_origin(y[0], y[1], y[2], y[3]);
   }
 
   /// |ν(aff Y_s)|², eq. (33), for a subset with Δ(Y_s) > 0.
@@ -218,6 +249,7 @@ void backup_procedure(const Simplex<S>& simplex, Nearest<S>& out) {
     for (int i = 0; i < 4; ++i)
       if ((s & (1u << i)) && !(simplex.delta[s][i] > 0)) positive = false;
     if (!positive) continue;
+    if (std::popcount(s) == 4 && !simplex.encloses_origin()) continue;  // see encloses_origin
     S norm2 = std::popcount(s) == 1 ? simplex.dot[std::countr_zero(s)][std::countr_zero(s)]
                                     : simplex.aff_norm2(s);
     if (!(norm2 >= 0)) norm2 = 0;  // roundoff (or NaN) in eq. (33): treat as touching the origin
@@ -231,20 +263,23 @@ void backup_procedure(const Simplex<S>& simplex, Nearest<S>& out) {
 }
 
 /// d⁻ of eq. (32): for a tetrahedron around the origin, the distance from the origin to the
-/// nearest face plane, |ν(aff Y_s)| by eq. (33). 0 when the simplex is not a full tetrahedron.
+/// nearest face plane, min |ν(aff Y_s)| over its faces. Computed from the face normals rather than
+/// by eq. (33): the same quantity, but without the Δ's loss of precision on flat tetrahedra, where
+/// an overstated bound would claim more penetration than there is. 0 for fewer than 4 points.
 template <class S>
 S penetration_lower_bound(const Simplex<S>& simplex, unsigned subset) {
   if (std::popcount(subset) != 4) return 0;
+  using std::abs;
+  using std::sqrt;
   S smallest = std::numeric_limits<S>::infinity();
   for (int drop = 0; drop < 4; ++drop) {
-    const unsigned face = subset & ~(1u << drop);
-    if (!(simplex.det(face) > 0)) return 0;
-    S norm2 = simplex.aff_norm2(face);
-    if (!(norm2 > 0)) return 0;
-    if (norm2 < smallest) smallest = norm2;
+    const Vec3<S>& p = simplex.y[(drop + 1) % 4];
+    const Vec3<S> n = (simplex.y[(drop + 2) % 4] - p).cross(simplex.y[(drop + 3) % 4] - p);
+    const S length = n.norm();
+    if (!(length > 0)) return 0;
+    smallest = std::min(smallest, abs(n.dot(p)) / length);
   }
-  using std::sqrt;
-  return sqrt(smallest);
+  return smallest;
 }
 
 }  // namespace nearpoint::detail

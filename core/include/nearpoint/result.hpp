@@ -29,6 +29,30 @@ enum class FinishedBy : unsigned char {
   backup_procedure,       ///< the Backup Procedure, eq. (38), after a numerical failure
 };
 
+/// How the loop of Section VI ended. Every exit returns a point ν of K with its certified bound.
+enum class Termination : unsigned char {
+  /// ν = 0: the origin is in the simplex, so the cores intersect (g = 0).
+  origin_enclosed,
+  /// Eq. (35): g(ν) ≤ ε·D(K)².
+  tolerance,
+  /// The new support point is already a vertex of the simplex, so g = 0 in exact arithmetic: the
+  /// finite termination of polytopes (Section IV), taken when g is at its roundoff level.
+  repeated_support,
+  /// Step 5 with g zero to within its roundoff: no further descent is possible and the optimality
+  /// condition of Theorem 1 holds in floating point. The usual end for curved shapes (and for
+  /// polytopes whose support ties on a face) when ε is below what roundoff allows.
+  roundoff_floor,
+  /// Step 5 with g clearly above its roundoff: descent stalled (a near-degenerate simplex). The
+  /// best iterate is returned and the error bound says how good it is.
+  numerical_limit,
+  /// The support plane proved the distance larger than `options.distance_cutoff`.
+  beyond_cutoff,
+  /// `options.max_iterations` was reached first.
+  iteration_limit,
+};
+
+const char* to_string(Termination termination);
+
 /// The warm-start cache of Section VIII: which vertex pairs (index on A, index on B) made up the
 /// final simplex. Indices, not points, so the cache stays meaningful when the poses change and can
 /// be stored per object pair. A zero-initialised cache (`count == 0`) is a cold start. Entries with
@@ -43,7 +67,7 @@ template <class Scalar>
 struct DistanceResult {
   Status status = Status::invalid_input;
   /// Euclidean distance between the two (rounded) shapes, ≥ 0; 0 when intersecting. With
-  /// `beyond_cutoff`, an upper bound (the true value lies within `error_bound` below it).
+  /// `beyond_cutoff()`, an upper bound (the true value lies within `error_bound` below it).
   Scalar distance = 0;
   /// Certified bound on |distance − true distance| (Theorem 1 and the support-plane bound:
   /// min(√g, g/|ν|) plus a floating-point allowance).
@@ -54,10 +78,8 @@ struct DistanceResult {
   Scalar diameter_bound = 0;
   /// GJK iterations: support points added after the initial simplex.
   int iterations = 0;
-  /// Eq. (35) held at exit. False when the run ended at the numerical limit (step 5) or the cap.
-  bool converged = false;
-  /// The query stopped early because the distance was proven larger than `distance_cutoff`.
-  bool beyond_cutoff = false;
+  /// How the loop ended.
+  Termination termination = Termination::tolerance;
   /// The simplex came from the warm-start cache.
   bool warm_started = false;
   FinishedBy finished_by = FinishedBy::distance_subalgorithm;
@@ -96,6 +118,16 @@ struct DistanceResult {
 
   /// With `Status::invalid_input`: why (a static string). Otherwise nullptr.
   const char* message = nullptr;
+
+  /// The loop ended on one of its convergence tests (not at the numerical limit, the cutoff or
+  /// the cap).
+  bool converged() const {
+    return termination == Termination::origin_enclosed || termination == Termination::tolerance ||
+           termination == Termination::repeated_support ||
+           termination == Termination::roundoff_floor;
+  }
+  /// The query stopped early because the distance was proven larger than `distance_cutoff`.
+  bool beyond_cutoff() const { return termination == Termination::beyond_cutoff; }
 };
 
 }  // namespace nearpoint
