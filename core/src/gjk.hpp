@@ -108,6 +108,9 @@ template <class S, class K>
 void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations, S cutoff,
                              Subalgorithm method, const SimplexCache* cache, LoopOutcome<S>& out) {
   Simplex<S>& simplex = out.simplex;
+  // Johnson's method reads the inner products and Δ's every step; signed volumes never does, and
+  // the Backup Procedure rebuilds them on the rare occasions it runs.
+  const bool tables = method == Subalgorithm::johnson;
   Nearest<S>& nearest = out.nearest;
   Vec3<S> y, on_a, on_b;
   std::int32_t ia = 0, ib = 0;
@@ -122,7 +125,7 @@ void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations,
             cache->index_a[j] == cache->index_a[i] && cache->index_b[j] == cache->index_b[i];
       if (duplicate) continue;
       if (k_set.vertex_pair(cache->index_a[i], cache->index_b[i], y, on_a, on_b))
-        simplex.add(y, on_a, on_b, cache->index_a[i], cache->index_b[i]);
+        simplex.add(y, on_a, on_b, cache->index_a[i], cache->index_b[i], tables);
     }
     out.warm_started = simplex.used != 0;
   }
@@ -130,7 +133,7 @@ void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations,
     Vec3<S> direction = k_set.offset;
     if (!(direction.squaredNorm() > 0)) direction = Vec3<S>(1, 0, 0);  // concentric: any will do
     k_set.support(direction, y, on_a, on_b, ia, ib);
-    simplex.add(y, on_a, on_b, ia, ib);
+    simplex.add(y, on_a, on_b, ia, ib, tables);
   }
   simplex.newest = -1;  // V_0 has no "newest" point: try its subsets largest first
 
@@ -206,7 +209,7 @@ void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations,
       previous = nearest;
       previous_gap = out.gap;
       simplex.keep(nearest.subset);
-      simplex.add(w, on_a, on_b, ia, ib);
+      simplex.add(w, on_a, on_b, ia, ib, tables);
       ++k;
       backup = false;
       if (!nearest_of_simplex(method, simplex, w, nearest)) {
@@ -236,8 +239,11 @@ void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations,
   // is short the support plane normal to ν proves little. When the answer lies on a triangle,
   // that triangle's own normal (accurate whatever |ν| is) gives the plane of K's face or of the
   // two shapes' edge–edge contact: one more support call proves d ≥ n̂·s_K(−n̂).
+  using std::sqrt;
+  const S slack = S(8) * std::numeric_limits<S>::epsilon() * diameter_bound(k_set);
   if (std::popcount(nearest.subset) == 3 && nearest.nu_norm2 > 0 &&
-      out.termination != Termination::beyond_cutoff) {
+      out.termination != Termination::beyond_cutoff &&
+      sqrt(nearest.nu_norm2) - out.lower_bound > slack) {
     int idx[3], n = 0;
     for (int i = 0; i < 4; ++i)
       if (nearest.subset & (1u << i)) idx[n++] = i;

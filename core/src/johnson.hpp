@@ -62,13 +62,17 @@ struct Simplex {
   unsigned used = 0;
   /// The slot added last (the newest support point), or -1 after initialisation.
   int newest = -1;
+  /// `dot` and `delta` are up to date for every subset of `used`.
+  bool tables_valid = true;
 
   int size() const { return std::popcount(used); }
 
-  /// Places a point in a free slot (there must be one: |used| ≤ 3) and updates the inner products
-  /// and the Δ's of every subset that contains it. Returns the slot.
+  /// Places a point in a free slot (there must be one: |used| ≤ 3). With `update_tables`, also
+  /// updates the inner products and the Δ's of every subset that contains it (Johnson's method
+  /// needs them every step; signed volumes only if the Backup Procedure runs, see
+  /// rebuild_tables). Returns the slot.
   int add(const Vec3<S>& point, const Vec3<S>& on_a, const Vec3<S>& on_b, std::int32_t ia,
-          std::int32_t ib) {
+          std::int32_t ib, bool update_tables = true) {
     const int slot = std::countr_one(used);  // lowest free slot
     const unsigned bit = 1u << slot;
     y[slot] = point;
@@ -77,15 +81,35 @@ struct Simplex {
     index_a[slot] = ia;
     index_b[slot] = ib;
     used |= bit;
+    newest = slot;
+    tables_valid = update_tables && tables_valid;
+    if (update_tables) {
+      for (int i = 0; i < 4; ++i)
+        if (used & (1u << i)) dot[slot][i] = dot[i][slot] = y[i].dot(point);
+      // Subsets without the new slot keep their Δ's: their points have not changed.
+      update_deltas(bit);
+    }
+    return slot;
+  }
+
+  /// Recomputes every inner product and Δ of the occupied slots (after adds without tables).
+  void rebuild_tables() {
+    if (tables_valid) return;
     for (int i = 0; i < 4; ++i)
-      if (used & (1u << i)) dot[slot][i] = dot[i][slot] = y[i].dot(point);
-    // Subsets containing the new slot, smallest first, so that Δ(Y_s \ {m}) is ready when Y_s
-    // needs it. Subsets without it keep their Δ's: their points have not changed.
+      for (int j = 0; j <= i; ++j)
+        if ((used & (1u << i)) && (used & (1u << j))) dot[i][j] = dot[j][i] = y[i].dot(y[j]);
+    update_deltas(0);
+    tables_valid = true;
+  }
+
+  /// Δ's of the subsets of `used` that contain all bits of `required`, smallest first, so that
+  /// Δ(Y_s \ {m}) is ready when Y_s needs it (eq. 30).
+  void update_deltas(unsigned required) {
     for (int size = 1; size <= 4; ++size) {
       for (unsigned s = 1; s < 16; ++s) {
-        if (!(s & bit) || (s & ~used) || std::popcount(s) != size) continue;
+        if ((s & required) != required || (s & ~used) || std::popcount(s) != size) continue;
         if (size == 1) {
-          delta[s][slot] = 1;
+          delta[s][std::countr_zero(s)] = 1;
           continue;
         }
         for (int m = 0; m < 4; ++m) {
@@ -99,8 +123,6 @@ struct Simplex {
         }
       }
     }
-    newest = slot;
-    return slot;
   }
 
   /// Keeps only the slots in `mask` (V̂_k). Their inner products and Δ's stay valid.
@@ -240,7 +262,8 @@ bool distance_subalgorithm(const Simplex<S>& simplex, const unsigned* order, int
 /// affine hull comes nearest the origin (|ν(aff Y_s)| by eq. 33). Always succeeds: singletons
 /// qualify.
 template <class S>
-void backup_procedure(const Simplex<S>& simplex, Nearest<S>& out) {
+void backup_procedure(Simplex<S>& simplex, Nearest<S>& out) {
+  simplex.rebuild_tables();
   unsigned best = 0;
   S best_norm2 = std::numeric_limits<S>::infinity();
   for (unsigned s = 1; s < 16; ++s) {

@@ -1,6 +1,9 @@
 #include "nearpoint/shapes.hpp"
 
 #include <cmath>
+#include <cstring>
+#include <type_traits>
+#include <utility>
 
 #include "support.hpp"
 
@@ -24,11 +27,18 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices) {
   }
   const long double n = static_cast<long double>(vertices.size());
   centroid_ = Vec3<S>(S(sum[0] / n), S(sum[1] / n), S(sum[2] / n));
-  centered_.reserve(vertices.size());
+  size_ = vertices.size();
+  const std::size_t padded = (size_ + 15) / 16 * 16;  // two vectors of 8 floats or 4 doubles
+  xs_.resize(padded);
+  ys_.resize(padded);
+  zs_.resize(padded);
   S extent2 = 0;
-  for (const Vec3<S>& v : vertices) {
-    centered_.push_back(v - centroid_);
-    extent2 = std::max(extent2, centered_.back().squaredNorm());
+  for (std::size_t i = 0; i < padded; ++i) {
+    const Vec3<S> c = vertices[i < size_ ? i : 0] - centroid_;
+    xs_[i] = c.x();
+    ys_[i] = c.y();
+    zs_[i] = c.z();
+    extent2 = std::max(extent2, c.squaredNorm());
   }
   using std::sqrt;
   extent_ = sqrt(extent2);
@@ -40,6 +50,95 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices) {
 }
 
 namespace {
+
+// The support scan of eq. (17): argmax of x·dx + y·dy + z·dz over n vertices (n a multiple of 8),
+// first index on ties. Written with GCC vector types so that it is SIMD whatever the optimiser
+// decides: running maxima and their indices per lane, then a reduction that prefers the lowest
+// index among equal values. '>' is false for NaN, so a NaN product is never selected. Compiled
+// for AVX2 and for the baseline (where each vector becomes SSE2 pairs), chosen at load time.
+template <class V, class I, class S, int kLanes>
+__attribute__((always_inline)) inline std::size_t argmax_dot_simd(const S* xs, const S* ys,
+                                                                  const S* zs, std::size_t n, S dx,
+                                                                  S dy, S dz) {
+  using Index = std::remove_reference_t<decltype(std::declval<I>()[0])>;
+  const V vx = V{} + dx, vy = V{} + dy, vz = V{} + dz;
+  V best[2];
+  I where[2];
+  I lane_index;
+  for (int l = 0; l < kLanes; ++l) lane_index[l] = Index(l);
+  for (int h = 0; h < 2; ++h) {
+    V x, y, z;
+    std::memcpy(&x, xs + h * kLanes, sizeof x);
+    std::memcpy(&y, ys + h * kLanes, sizeof y);
+    std::memcpy(&z, zs + h * kLanes, sizeof z);
+    best[h] = x * vx + y * vy + z * vz;
+    where[h] = lane_index + Index(h * kLanes);
+  }
+  for (std::size_t i = 2 * kLanes; i < n; i += 2 * kLanes) {
+    for (int h = 0; h < 2; ++h) {
+      V x, y, z;
+      std::memcpy(&x, xs + i + h * kLanes, sizeof x);
+      std::memcpy(&y, ys + i + h * kLanes, sizeof y);
+      std::memcpy(&z, zs + i + h * kLanes, sizeof z);
+      const V value = x * vx + y * vy + z * vz;
+      const auto better = value > best[h];
+      best[h] = better ? value : best[h];
+      where[h] = better ? lane_index + Index(i + h * kLanes) : where[h];
+    }
+  }
+  S best_value = best[0][0];
+  std::size_t best_index = std::size_t(where[0][0]);
+  bool found = best_value == best_value;
+  for (int h = 0; h < 2; ++h) {
+    for (int l = 0; l < kLanes; ++l) {
+      const S value = best[h][l];
+      const std::size_t index = std::size_t(where[h][l]);
+      if (!(value == value)) continue;  // NaN-safe on purpose: a NaN lane never wins
+      if (!found || value > best_value || (value == best_value && index < best_index)) {
+        best_value = value;
+        best_index = index;
+        found = true;
+      }
+    }
+  }
+  return best_index;
+}
+
+using Double4 = double __attribute__((vector_size(32)));
+using Int64x4 = std::int64_t __attribute__((vector_size(32)));
+using Float8 = float __attribute__((vector_size(32)));
+using Int32x8 = std::int32_t __attribute__((vector_size(32)));
+
+template <class S>
+__attribute__((always_inline)) inline std::size_t argmax_dot(const S* xs, const S* ys, const S* zs,
+                                                             std::size_t n, S dx, S dy, S dz) {
+  if constexpr (std::is_same_v<S, double>)
+    return argmax_dot_simd<Double4, Int64x4, double, 4>(xs, ys, zs, n, dx, dy, dz);
+  else
+    return argmax_dot_simd<Float8, Int32x8, float, 8>(xs, ys, zs, n, dx, dy, dz);
+}
+
+__attribute__((target_clones("avx2", "default"))) std::size_t argmax_dot_double(
+    const double* xs, const double* ys, const double* zs, std::size_t n, double dx, double dy,
+    double dz) {
+  return argmax_dot(xs, ys, zs, n, dx, dy, dz);
+}
+
+__attribute__((target_clones("avx2", "default"))) std::size_t argmax_dot_float(
+    const float* xs, const float* ys, const float* zs, std::size_t n, float dx, float dy,
+    float dz) {
+  return argmax_dot(xs, ys, zs, n, dx, dy, dz);
+}
+
+std::size_t argmax_dot_dispatch(const double* xs, const double* ys, const double* zs, std::size_t n,
+                                double dx, double dy, double dz) {
+  return argmax_dot_double(xs, ys, zs, n, dx, dy, dz);
+}
+std::size_t argmax_dot_dispatch(const float* xs, const float* ys, const float* zs, std::size_t n,
+                                float dx, float dy, float dz) {
+  return argmax_dot_float(xs, ys, zs, n, dx, dy, dz);
+}
+
 template <class S>
 bool finite_nonnegative(S value) {
   return std::isfinite(value) && value >= 0;
@@ -74,6 +173,11 @@ struct ReasonVisitor {
   }
 };
 }  // namespace
+
+template <class S>
+std::size_t Polytope<S>::support_index(const Vec3<S>& d) const {
+  return argmax_dot_dispatch(xs_.data(), ys_.data(), zs_.data(), xs_.size(), d.x(), d.y(), d.z());
+}
 
 template <class S>
 const char* invalid_reason(const Shape<S>& shape) {

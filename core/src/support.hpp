@@ -92,19 +92,9 @@ struct Support<Polytope<S>, S> {
   const Polytope<S>& shape;
   Vec3<S> center() const { return shape.centroid(); }
   S extent() const { return shape.extent(); }
-  // eq. (17): a plain enumeration of inner products. Strict '>' keeps the first maximiser and
-  // never selects on a NaN product.
+  // eq. (17): an enumeration of inner products (vectorised, see Polytope::support_index).
   Vec3<S> support(const Vec3<S>& d, std::int32_t& index) const {
-    const std::size_t n = shape.size();
-    std::size_t best = 0;
-    S best_value = shape.centered_vertex(0).dot(d);
-    for (std::size_t i = 1; i < n; ++i) {
-      const S value = shape.centered_vertex(i).dot(d);
-      if (value > best_value) {
-        best_value = value;
-        best = i;
-      }
-    }
+    const std::size_t best = shape.support_index(d);
     index = static_cast<std::int32_t>(best);
     return shape.centered_vertex(best);
   }

@@ -56,7 +56,7 @@ Simplex<double> make_simplex(const std::vector<V>& pts) {
   return s;
 }
 
-Nearest<double> solve(const Simplex<double>& s, bool* used_backup = nullptr) {
+Nearest<double> solve(Simplex<double> s, bool* used_backup = nullptr) {
   unsigned order[15];
   const int n = subset_order(s, V(V::Zero()), order);
   Nearest<double> out;
@@ -144,7 +144,7 @@ TEST(Subalgorithm, BackupProcedureFindsNearestPoint) {
   for (int trial = 0; trial < 1000; ++trial) {
     std::vector<V> pts;
     for (int i = 0; i < 1 + trial % 4; ++i) pts.emplace_back(normal(rng), normal(rng), normal(rng));
-    const Simplex<double> s = make_simplex(pts);
+    Simplex<double> s = make_simplex(pts);
     Nearest<double> got;
     backup_procedure(s, got);
     EXPECT_NEAR((got.nu - brute_force_nearest(pts)).norm(), 0.0, 1e-12) << trial;

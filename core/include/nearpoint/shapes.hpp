@@ -70,11 +70,16 @@ class Polytope {
       : Polytope(std::span<const Vec3<Scalar>>(vertices.data(), vertices.size())) {}
 
   /// Number of vertices as given (duplicates included).
-  std::size_t size() const { return centered_.size(); }
+  std::size_t size() const { return size_; }
   /// Vertex `index` in the local frame, as given.
-  Vec3<Scalar> vertex(std::size_t index) const { return centered_[index] + centroid_; }
+  Vec3<Scalar> vertex(std::size_t index) const { return centered_vertex(index) + centroid_; }
   /// Vertex `index` relative to the centroid.
-  const Vec3<Scalar>& centered_vertex(std::size_t index) const { return centered_[index]; }
+  Vec3<Scalar> centered_vertex(std::size_t index) const {
+    return Vec3<Scalar>(xs_[index], ys_[index], zs_[index]);
+  }
+  /// The index of a vertex maximising v·direction (eq. 17), the first one on ties; never selects
+  /// on a NaN product. A vectorised scan over the structure-of-arrays storage.
+  std::size_t support_index(const Vec3<Scalar>& direction) const;
   /// The vertex mean z̄ of eq. (34), local frame.
   const Vec3<Scalar>& centroid() const { return centroid_; }
   /// max |z − z̄| over the vertices: the shape's term in the D(K) bound of eq. (37).
@@ -83,7 +88,11 @@ class Polytope {
   const char* invalid_reason() const { return invalid_reason_; }
 
  private:
-  std::vector<Vec3<Scalar>> centered_;
+  // Coordinates relative to z̄, one array per axis so the support scan runs four (or eight)
+  // vertices per instruction; padded to a multiple of 16 with copies of vertex 0, which can never
+  // win a tie against vertex 0 itself.
+  std::vector<Scalar> xs_, ys_, zs_;
+  std::size_t size_ = 0;
   Vec3<Scalar> centroid_ = Vec3<Scalar>::Zero();
   Scalar extent_ = 0;
   const char* invalid_reason_ = "polytope has no vertices";
