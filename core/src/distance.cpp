@@ -104,12 +104,14 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   written.count = static_cast<std::uint8_t>(result.simplex_size);
   if (cache) *cache = written;
 
-  // The verdict. "Separated" when the distance estimate exceeds the radii by more than the
-  // roundoff allowance, i.e. is distinguishable from touching in this precision (touching counts
-  // as intersecting). A numerical-limit exit deep inside an overlap can leave |ν| at 1e-17 rather
-  // than 0: that is touching-or-deeper, and reported as intersecting.
+  // The verdict needs a proof. The distance is within error_bound of |ν| − r_A − r_B, so
+  // "separated" is certain when that exceeds the bound; otherwise the shapes touch, overlap, or
+  // are too close to tell from touching at this precision or tolerance, and touching counts as
+  // intersecting. (This also keeps a numerical-limit exit deep inside an overlap, where |ν| can
+  // be 1e-17 rather than 0, "intersecting", and a loose ε from claiming a separation it cannot
+  // back.)
   const bool cores_intersect = !(nearest.nu_norm2 > 0);
-  const bool separated = !cores_intersect && core_distance - radii > roundoff;
+  const bool separated = !cores_intersect && core_distance - radii > result.error_bound;
   result.distance = separated ? core_distance - radii : S(0);  // eq. (8): (d − r_A − r_B)⁺
   if (!separated) result.error_bound += std::max(S(0), core_distance - radii);
   if (loop.termination == Termination::iteration_limit)

@@ -12,7 +12,9 @@ namespace nearpoint {
 enum class Status : unsigned char {
   /// The shapes are disjoint: `distance` > 0 (or, with a cutoff, proven beyond it).
   separated,
-  /// The shapes share at least one point: `distance` is 0. Touching counts as intersecting.
+  /// The shapes share at least one point, or are closer than `error_bound` can tell apart from
+  /// touching: `distance` is 0. Touching counts as intersecting. ("separated" is only reported
+  /// when the certified bound proves it.)
   intersecting,
   /// The iteration cap was reached before eq. (35) held. `distance` is an upper bound on the
   /// true distance and `error_bound` still bounds the error; the verdict is unknown.
@@ -94,8 +96,9 @@ struct DistanceResult {
   /// With `options.near_points`: near points, world frame (eq. 23–24), on the rounded surfaces.
   /// When separated, |point_b − point_a| = distance. When the cores intersect both are one common
   /// point; when only the rounded shapes overlap they are each shape's deepest point along the
-  /// normal. `normal` is the unit vector from A towards B (zero when it is undefined: cores
-  /// intersecting).
+  /// normal; when the pair is reported intersecting only because it is within its error bound of
+  /// touching, they are the near points found, at most `error_bound` apart. `normal` is the unit
+  /// vector from A towards B (zero when it is undefined: cores intersecting).
   bool has_near_points = false;
   Vec3<Scalar> point_a = Vec3<Scalar>::Zero();
   Vec3<Scalar> point_b = Vec3<Scalar>::Zero();
