@@ -1,5 +1,7 @@
 #include "nearpoint/compound.hpp"
 
+#include "distance_internal.hpp"
+
 #include <limits>
 
 namespace nearpoint {
@@ -14,8 +16,10 @@ Compound<S>::Compound(std::vector<Piece<S>> pieces) : pieces_(std::move(pieces))
       invalid_reason_ = why;
       return;
     }
-    if (!piece.offset.rotation.allFinite() || !piece.offset.translation.allFinite()) {
-      invalid_reason_ = "compound piece offset has a non-finite entry";
+    if (detail::invalid_pose_reason(piece.offset)) {
+      invalid_reason_ =
+          "compound piece offset is not a rigid transformation (non-finite, not "
+          "orthonormal, or a reflection)";
       return;
     }
     // A sphere about the piece's centre z̄ with its extent and radius bounds the rounded piece.
@@ -31,6 +35,8 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
                            std::span<SimplexCache> caches) {
   CompoundResult<S> out;
   const char* why = a.invalid_reason() ? a.invalid_reason() : b.invalid_reason();
+  if (!why) why = detail::invalid_pose_reason(pose_a);
+  if (!why) why = detail::invalid_pose_reason(pose_b);
   if (!why && !caches.empty() && caches.size() != a.size() * b.size())
     why = "compound query: caches must be empty or hold one cache per piece pair";
   if (why) {
@@ -54,8 +60,10 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   auto evaluate = [&](std::size_t i, std::size_t j) {
     SimplexCache* cache = caches.empty() ? nullptr : &caches[i * b.size() + j];
     ++out.pairs_evaluated;
-    return distance(a.piece(i).shape, pose_a.compose(a.piece(i).offset), b.piece(j).shape,
-                    pose_b.compose(b.piece(j).offset), piece_options, cache);
+    // Poses composed from validated ones are rigid to roundoff: no need to check them again.
+    return detail::distance_with_valid_poses(a.piece(i).shape, pose_a.compose(a.piece(i).offset),
+                                             b.piece(j).shape, pose_b.compose(b.piece(j).offset),
+                                             piece_options, cache);
   };
 
   // Start with the pair whose spheres are nearest: it usually holds the answer, so the bound

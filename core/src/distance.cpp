@@ -5,22 +5,33 @@
 #include <cmath>
 #include <limits>
 
+#include "distance_internal.hpp"
 #include "gjk.hpp"
 
 namespace nearpoint {
-namespace {
+namespace {}  // namespace
 
+// Orthonormal to within what a rotation built from a float quaternion achieves. Column norms
+// and mutual inner products (18 products) rather than the full RᵀR; NaN fails every comparison.
 template <class S>
-const char* invalid_pose_reason(const Pose<S>& pose) {
-  if (!pose.rotation.allFinite()) return "pose rotation has a non-finite entry";
+const char* detail::invalid_pose_reason(const Pose<S>& pose) {
   if (!pose.translation.allFinite()) return "pose translation has a non-finite component";
-  // Orthonormal to within what a rotation built from a float quaternion achieves.
   const S tolerance = std::max(S(1e-6), S(1000) * std::numeric_limits<S>::epsilon());
-  const Mat3<S> error = pose.rotation.transpose() * pose.rotation - Mat3<S>::Identity();
-  if (!(error.cwiseAbs().maxCoeff() <= tolerance)) return "pose rotation is not orthonormal";
-  if (!(pose.rotation.determinant() > 0)) return "pose rotation is a reflection (determinant < 0)";
+  const auto c0 = pose.rotation.col(0), c1 = pose.rotation.col(1), c2 = pose.rotation.col(2);
+  using std::abs;
+  const bool orthonormal = abs(c0.squaredNorm() - 1) <= tolerance &&
+                           abs(c1.squaredNorm() - 1) <= tolerance &&
+                           abs(c2.squaredNorm() - 1) <= tolerance && abs(c0.dot(c1)) <= tolerance &&
+                           abs(c0.dot(c2)) <= tolerance && abs(c1.dot(c2)) <= tolerance;
+  if (!orthonormal) {
+    return pose.rotation.allFinite() ? "pose rotation is not orthonormal"
+                                     : "pose rotation has a non-finite entry";
+  }
+  if (!(c0.dot(c1.cross(c2)) > 0)) return "pose rotation is a reflection (determinant < 0)";
   return nullptr;
 }
+
+namespace {
 
 template <class S>
 DistanceResult<S> invalid(const char* message) {
@@ -178,10 +189,18 @@ template <class S>
 DistanceResult<S> distance(const Shape<S>& a, const Pose<S>& pose_a, const Shape<S>& b,
                            const Pose<S>& pose_b, const DistanceOptions<S>& options,
                            SimplexCache* cache) {
+  if (const char* why = detail::invalid_pose_reason(pose_a)) return invalid<S>(why);
+  if (const char* why = detail::invalid_pose_reason(pose_b)) return invalid<S>(why);
+  return detail::distance_with_valid_poses(a, pose_a, b, pose_b, options, cache);
+}
+
+template <class S>
+DistanceResult<S> detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
+                                                    const Shape<S>& b, const Pose<S>& pose_b,
+                                                    const DistanceOptions<S>& options,
+                                                    SimplexCache* cache) {
   if (const char* why = invalid_reason(a)) return invalid<S>(why);
   if (const char* why = invalid_reason(b)) return invalid<S>(why);
-  if (const char* why = invalid_pose_reason(pose_a)) return invalid<S>(why);
-  if (const char* why = invalid_pose_reason(pose_b)) return invalid<S>(why);
   if (!(options.epsilon >= 0)) return invalid<S>("options.epsilon must be >= 0");
   if (std::isnan(options.distance_cutoff)) return invalid<S>("options.distance_cutoff is NaN");
   // One dispatch per query; the loop below is specialised for the two concrete shapes.
@@ -192,6 +211,14 @@ DistanceResult<S> distance(const Shape<S>& a, const Pose<S>& pose_a, const Shape
       a.geometry, b.geometry);
 }
 
+template const char* detail::invalid_pose_reason(const Pose<double>&);
+template const char* detail::invalid_pose_reason(const Pose<float>&);
+template DistanceResult<double> detail::distance_with_valid_poses(
+    const Shape<double>&, const Pose<double>&, const Shape<double>&, const Pose<double>&,
+    const DistanceOptions<double>&, SimplexCache*);
+template DistanceResult<float> detail::distance_with_valid_poses(
+    const Shape<float>&, const Pose<float>&, const Shape<float>&, const Pose<float>&,
+    const DistanceOptions<float>&, SimplexCache*);
 template DistanceResult<double> distance(const Shape<double>&, const Pose<double>&,
                                          const Shape<double>&, const Pose<double>&,
                                          const DistanceOptions<double>&, SimplexCache*);

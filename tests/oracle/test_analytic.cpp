@@ -266,8 +266,9 @@ struct Family {
       log.add("|d - d_true| > max(floor, error_bound)",
               format("%s d=%.17g true=%.17Lg error=%.3g bound=%.3g", where.c_str(), r.distance,
                      truth, error, r.error_bound));
-    // At convergence g ≤ ε·D(K)² (eq. 35) and the bound is min(√g, g/|ν|) + roundoff: for shapes
-    // at least 0.05 apart with D(K) ≲ 30, g/|ν| ≤ 2.2e-14·900/0.05 ≈ 4e-10.
+    // The bound is meaningful: even the paper's ε = 2.2e-14 in eq. (35) would certify shapes at
+    // least 0.05 apart with D(K) ≲ 30 to g/|ν| ≤ 2.2e-14·900/0.05 ≈ 4e-10; the default ε is
+    // smaller still.
     if (truth >= 0.05 && !(r.error_bound <= 1e-9))
       log.add("error bound looser than 1e-9 for separated shapes",
               format("%s bound=%.3g", where.c_str(), r.error_bound));
@@ -719,11 +720,12 @@ Real core_distance(const TestShape& t, const Pose<double>& pose, const Vec3<doub
 
 // Every pair of shape types, curved ones included, without a closed form for the pair: the
 // result certifies itself through independent truths. For any unit u the support planes give
-// d ≥ L(u) = −h_A(u) − h_B(−u) − r_A − r_B, and points p_a ∈ A, p_b ∈ B give d ≤ |p_b − p_a|.
-// With u the reported normal and the reported near points (checked to lie in their shapes), a
-// distance within its error bound must satisfy L − e ≤ d ≤ |p_b − p_a| + e. An intersecting
-// verdict is certified by its common point lying in both shapes (or, when only the rounded
-// shapes overlap, by core points within r_A + r_B of each other).
+// d ≥ L(u) = −h_A(u) − h_B(−u) − r_A − r_B (closed-form support functions, long double), and
+// points p_a ∈ A, p_b ∈ B give d ≤ |p_b − p_a|. With u the reported normal and the reported near
+// points (checked to lie in their shapes, and |p_b − p_a| = d as result.hpp promises), a distance
+// correct to its error bound e must satisfy d ≥ L − e; the upper side holds by the near points.
+// An intersecting verdict is certified by its common point lying in both shapes (or, when only
+// the rounded shapes overlap, by core points within r_A + r_B of each other). Both subalgorithms.
 TEST(Analytic, EveryShapePairCertifiedByPlanesAndPoints) {
   std::mt19937_64 rng(1111);
   const auto polytopes = nearpoint::testkit::paper_polytopes();
@@ -789,10 +791,6 @@ TEST(Analytic, EveryShapePairCertifiedByPlanesAndPoints) {
         if (!(std::abs(upper - r.distance) <= tol))
           log.add("|point_b - point_a| != distance",
                   format("%s d=%.17g |pb-pa|=%.17Lg", where.c_str(), r.distance, upper));
-        if (!(r.distance <= upper + r.error_bound + tol))
-          log.add("distance above |point_b - point_a| by more than its error bound",
-                  format("%s d=%.17g |pb-pa|=%.17Lg bound=%.3g", where.c_str(), r.distance, upper,
-                         r.error_bound));
       } else {
         ++intersecting[v];
         const bool common = r.normal.squaredNorm() == 0;  // cores intersect: one common point

@@ -48,10 +48,10 @@ Pose<float> to_float(const Pose<double>& p) {
 }
 
 // The accuracy asked of float: 1e-4 of the pair's size (the sum of the bounding radii, 2.5–7.5
-// here). Float carries 24 bits (6e-8); the coordinates reach ~15, so rounding alone moves support
-// values by ~1e-6, and the stopping rule ε·D(K)² = 1.2e-5·D² lets a run stop with a duality gap of
-// a few 1e-3 (its √g would be ~0.05): polytopes end far below that because their iteration stops
-// exactly, which is what this bound holds the float engine to.
+// here), i.e. about 13 of float's 24 bits. Rounding alone moves support values by ~1e-6 at
+// coordinates up to ~15 (1 ulp), so separated pairs should be good to a few 1e-6; near contact
+// the distance is only determined to about √(g at its roundoff level), a few 1e-5 here. The
+// bound leaves a factor of a few above that; it is the requirement, not an observation.
 constexpr double kRelativeAccuracy = 1e-4;
 
 TEST(Float, PaperExperimentSubset) {

@@ -74,7 +74,9 @@ struct DistanceResult {
   /// Certified bound on |distance − true distance| (Theorem 1 and the support-plane bound:
   /// min(√g, g/|ν|) plus a floating-point allowance).
   Scalar error_bound = 0;
-  /// The duality gap g(ν) = |ν|² + h_K(−ν) of eq. (25) at exit (≥ 0; units: length²).
+  /// The certified gap at exit (≥ 0; units: length²): min(g(ν), |ν|² − L²), where g(ν) =
+  /// |ν|² + h_K(−ν) is the duality gap of eq. (25) and L the best support-plane lower bound found.
+  /// Theorem 1's |ν − ν(K)|² ≤ gap holds for both terms.
   Scalar gap = 0;
   /// The bound D(K) of eq. (37) used in the stopping rule (length).
   Scalar diameter_bound = 0;
