@@ -18,7 +18,9 @@ packages=(
 )
 for arg in "$@"; do
   case "$arg" in
-    --bench) packages+=(libbenchmark-dev libfcl-dev libccd-dev libbullet-dev) ;;
+    # peers for bench/ (FCL, libccd, Bullet; CGAL above gives the hulls fcl::Convex needs) and
+    # matplotlib for bench/run.sh's plots (Debian's /usr/bin/python3)
+    --bench) packages+=(libbenchmark-dev libfcl-dev libccd-dev libbullet-dev python3-matplotlib) ;;
     -h|--help) sed -n '2,7p' "$0"; exit 0 ;;
     *) echo "install-deps.sh: unknown option '$arg'" >&2; exit 2 ;;
   esac

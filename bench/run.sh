@@ -1,0 +1,95 @@
+#!/usr/bin/env bash
+# The whole benchmark suite in one command: configures a Release build in build-bench (with the
+# peers FCL, libccd and Bullet), builds it, runs the five experiments one after another (never two
+# at once: they would disturb each other's timings), then writes the tables, the plots and
+# bench/RESULTS.md from what the run measured.
+#
+#   bench/run.sh            full run (a few minutes; RESULTS.md states how long it took) into
+#                           bench/results/ and bench/RESULTS.md
+#   bench/run.sh --quick    smoke test: small samples, few rounds, into build-bench/quick-results/
+#                           (bench/results/ and bench/RESULTS.md are left alone)
+#
+# Environment: BUILD_DIR (default build-bench), JOBS (build parallelism, default 1: the machine is
+# shared), PYTHON (default /usr/bin/python3, which needs python3-matplotlib: deploy/install-deps.sh
+# --bench installs it).
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$root"
+
+quick=0
+for arg in "$@"; do
+  case "$arg" in
+    --quick) quick=1 ;;
+    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
+    *) echo "bench/run.sh: unknown option '$arg'" >&2; exit 2 ;;
+  esac
+done
+
+build="${BUILD_DIR:-build-bench}"
+jobs="${JOBS:-1}"
+python="${PYTHON:-/usr/bin/python3}"
+if ! "$python" -c 'import matplotlib' 2>/dev/null; then
+  echo "bench/run.sh: $python cannot import matplotlib (deploy/install-deps.sh --bench)" >&2
+  exit 1
+fi
+
+start=$(date +%s)
+options=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DNEARPOINT_BUILD_BENCH=ON -DNEARPOINT_BENCH_PEERS=ON
+         -DNEARPOINT_BUILD_CLIENT=OFF -DNEARPOINT_WITH_GRPC=OFF)
+# The bench links the tests' kit (tests/CMakeLists.txt). Should the test tree not configure (it
+# needs GoogleTest, and is work in progress at times), the bench builds the kit from the same
+# sources instead.
+mkdir -p "$build"
+log="$build/configure.log"
+if ! cmake -S . -B "$build" "${options[@]}" -DNEARPOINT_BUILD_TESTS=ON >"$log" 2>&1; then
+  echo "bench/run.sh: the test tree does not configure (see $log); building the bench without it" >&2
+  cmake -S . -B "$build" "${options[@]}" -DNEARPOINT_BUILD_TESTS=OFF >>"$log" 2>&1 ||
+    { cat "$log" >&2; exit 1; }
+fi
+cmake --build "$build" -j "$jobs" --target nearpoint-bench
+built=$(date +%s)
+
+# One run at a time on this machine.
+exec 9>"$build/.bench-lock"
+if ! flock -n 9; then
+  echo "bench/run.sh: another benchmark run holds $build/.bench-lock" >&2
+  exit 1
+fi
+
+if [ "$quick" = 1 ]; then
+  out="$build/quick-results"
+  results_md="$out/RESULTS.md"
+  flags=(--quick)
+else
+  out="bench/results"
+  results_md="bench/RESULTS.md"
+  flags=()
+fi
+rm -rf "$out"
+mkdir -p "$out"
+
+# The machine, as the report states it.
+{
+  echo "key,value"
+  echo "cpu,\"$(lscpu | sed -n 's/^Model name: *//p' | head -n 1)\""
+  echo "cores,$(nproc)"
+  echo "kernel,$(uname -r)"
+  echo "compiler,\"$(c++ --version | head -n 1)\""
+  echo "date,$(date -u +%Y-%m-%dT%H:%MZ)"
+  echo "commit,$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
+  echo "working_tree,$(git status --porcelain 2>/dev/null | grep -q . && echo modified || echo clean)"
+  echo "load_before,\"$(cut -d' ' -f1-3 /proc/loadavg)\""
+  echo "command,bench/run.sh${flags[*]:+ ${flags[*]}}"
+  echo "build_seconds,$((built - start))"
+} >"$out/machine.csv"
+
+for experiment in paper table1 error-time large stability; do
+  t0=$(date +%s)
+  "$build/bench/nearpoint-bench" "$experiment" --out "$out" "${flags[@]}"
+  echo "seconds_$experiment,$(($(date +%s) - t0))" >>"$out/machine.csv"
+done
+echo "load_after,\"$(cut -d' ' -f1-3 /proc/loadavg)\"" >>"$out/machine.csv"
+echo "total_seconds,$(($(date +%s) - start))" >>"$out/machine.csv"
+
+"$python" bench/tools/report.py --results "$out" --summary "$results_md"
+echo "bench/run.sh: results in $out, summary in $results_md ($(($(date +%s) - start)) s)"

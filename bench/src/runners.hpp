@@ -1,0 +1,64 @@
+// The implementations under test, each behind `Runner`: nearpoint (any options, cold or warm) and
+// the peers built from Debian packages (FCL 0.7 with its libccd-based and its own GJK, Bullet 3.24
+// in double precision, libccd 2.1's yes/no query).
+#pragma once
+
+#include <memory>
+#include <span>
+#include <string>
+
+#include "harness.hpp"
+
+namespace nearpoint::bench {
+
+/// nearpoint on `inputs`. With `warm`, one SimplexCache is carried from each query to the next
+/// (Section VIII: consecutive inputs are consecutive steps of a path); `reset()` empties it.
+std::unique_ptr<Runner> make_nearpoint_runner(std::span<const PairInput> inputs,
+                                              const DistanceOptions<double>& options, bool warm);
+
+/// How a nearpoint result ended (DS / BP / numerical limit / cap …), from its `termination` and
+/// `finished_by`.
+template <class S>
+Exit exit_of(const DistanceResult<S>& r) {
+  // Through converged() rather than a list of Termination values, so that a new convergence test
+  // in the engine is classified correctly without touching this file.
+  if (r.status == Status::invalid_input) return Exit::invalid_input;
+  if (r.termination == Termination::iteration_limit) return Exit::iteration_cap;
+  if (r.termination == Termination::beyond_cutoff) return Exit::beyond_cutoff;
+  if (!r.converged()) return Exit::numerical_limit;
+  return r.finished_by == FinishedBy::backup_procedure ? Exit::backup_procedure
+                                                       : Exit::distance_subalgorithm;
+}
+
+enum class Peer : unsigned char {
+  fcl_libccd,     ///< fcl::distance, GST_LIBCCD, fcl::Convex from the hull
+  fcl_indep,      ///< fcl::distance, GST_INDEP (FCL's own GJK)
+  bullet,         ///< btGjkPairDetector + btVoronoiSimplexSolver on btConvexHullShape, double
+  ccd_intersect,  ///< libccd's ccdGJKIntersect: the yes/no query only
+};
+const char* to_string(Peer peer);
+
+/// The knob each peer offers for accuracy against speed. NaN keeps the peer's default.
+///   FCL (both solvers): DistanceRequest::distance_tolerance (default 1e-6);
+///   Bullet: btVoronoiSimplexSolver::setEqualVertexThreshold (default 1e-12 in double; its GJK's
+///           relative stopping tolerance REL_ERROR2 = 1e-6 is compiled in and cannot be changed);
+///   libccd: ccd_t::max_iterations is its only knob (set to 1000 here, see peers.cpp).
+struct PeerSettings {
+  double tolerance = kNaN;
+};
+
+/// True when the benchmark was built with NEARPOINT_BENCH_PEERS.
+bool peers_available();
+
+/// A runner for `peer` on `inputs`, or nullptr with `*why` saying why the peer cannot take them
+/// (e.g. a rounded shape for fcl::Convex, which has no radius). Shapes are prepared here (hulls
+/// for FCL, btConvexHullShape for Bullet), poses converted to the peer's native types.
+std::unique_ptr<Runner> make_peer_runner(Peer peer, std::span<const PairInput> inputs,
+                                         const PeerSettings& settings, std::string* why);
+
+/// Checks, by computing with it, that the Bullet library linked uses the same btScalar as the
+/// headers we were compiled with (BT_USE_DOUBLE_PRECISION on both sides). Returns "" when
+/// consistent, else a description. Called once at start-up.
+std::string check_peer_builds();
+
+}  // namespace nearpoint::bench
