@@ -141,17 +141,8 @@ bool all_finite(const DistanceResult<double>& r) {
 }  // namespace
 
 const char* status_name(Status status) {
-  switch (status) {
-    case Status::separated:
-      return "separated";
-    case Status::intersecting:
-      return "intersecting";
-    case Status::iteration_limit:
-      return "iteration_limit";
-    case Status::invalid_input:
-      return "error";
-  }
-  return "error";
+  // The contract's names are the engine's, except that unusable input is an "error" line.
+  return status == Status::invalid_input ? "error" : to_string(status);
 }
 
 Json DistanceSession::answer_json(std::string_view text, long line_number) {
