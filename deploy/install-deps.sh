@@ -15,6 +15,8 @@ packages=(
   nlohmann-json3-dev libcli11-dev
   # tests: GoogleTest, and CGAL's exact arithmetic as the distance oracle
   libgtest-dev libgmock-dev libcgal-dev libgmp-dev libmpfr-dev
+  # server: gRPC (nearpointd, its protos, reflection and health checking)
+  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
 )
 for arg in "$@"; do
   case "$arg" in

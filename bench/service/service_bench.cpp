@@ -1,0 +1,412 @@
+// nearpoint_service_bench: end-to-end latency and throughput of pose streams against nearpointd.
+//
+// Starts the server in-process on 127.0.0.1:0 (the same GrpcServer that nearpointd runs), registers
+// a scene of 10 paper-family polytopes (12–100 vertices, 45 pairs) and, for 1, 4 and 16
+// concurrent streams, sends poses along a smooth trajectory in lock step (write an update, wait
+// for its report), measuring each round trip on the client. Three kinds of stream, measured in
+// the same run:
+//   echo  — nearpoint.v1.Diagnostics/Echo with an empty message: the transport floor;
+//   warm  — StreamPoses with warm-start caches (paper, Section VIII);
+//   cold  — StreamPoses with options.warm_start = false (every pair starts from one point).
+// Bounded: --updates round trips per stream and --max-seconds per configuration.
+//
+//   nearpoint_service_bench [--updates 2000] [--max-seconds 20] [--workers 0] [--streams 1,4,16]
+#include <grpcpp/grpcpp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <numbers>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "nearpoint/server/log.hpp"
+#include "nearpoint/server/server.hpp"
+#include "nearpoint_diagnostics.grpc.pb.h"
+#include "nearpoint_distance.grpc.pb.h"
+
+namespace {
+
+namespace v1 = ::nearpoint::v1;
+using Clock = std::chrono::steady_clock;
+using Vec3 = Eigen::Vector3d;
+
+// ---- the scene: polytopes shaped like the paper's Section VII family ----
+
+std::vector<Vec3> polygon_prism(int sides, double bottom_radius, double top_radius, double half) {
+  std::vector<Vec3> out;
+  for (int k = 0; k < sides; ++k) {
+    const double angle = 2 * std::numbers::pi * k / sides;
+    out.emplace_back(bottom_radius * std::cos(angle), bottom_radius * std::sin(angle), -half);
+    out.emplace_back(top_radius * std::cos(angle), top_radius * std::sin(angle), half);
+  }
+  return out;
+}
+
+// M/2 vertices at random angles on each of two circles in the planes z = ±h (the paper's 7–12).
+std::vector<Vec3> irregular(std::mt19937_64& rng, int m, double radius) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  const double h = (0.2 + 0.4 * unit(rng)) * radius;
+  const double top = std::sqrt(radius * radius - h * h);
+  const double bottom = top * (0.5 + 0.5 * unit(rng));
+  std::vector<Vec3> out;
+  for (int k = 0; k < m / 2; ++k) {
+    const double a = 2 * std::numbers::pi * unit(rng);
+    out.emplace_back(top * std::cos(a), top * std::sin(a), h);
+  }
+  for (int k = 0; k < m / 2; ++k) {
+    const double a = 2 * std::numbers::pi * unit(rng);
+    out.emplace_back(bottom * std::cos(a), bottom * std::sin(a), -h);
+  }
+  return out;
+}
+
+std::vector<std::vector<Vec3>> paper_like_polytopes() {
+  std::mt19937_64 rng(1988);
+  std::vector<std::vector<Vec3>> out;
+  out.push_back(polygon_prism(6, 1.0, 0.6, 0.8));   // 12: truncated cone, hexagonal ends
+  out.push_back(polygon_prism(8, 1.0, 1.0, 1.0));   // 16: octagonal cylinder
+  out.push_back(polygon_prism(10, 0.9, 0.9, 1.2));  // 20: decagonal cylinder
+  for (const int m : {20, 30, 40, 50, 60, 100, 100})
+    out.push_back(irregular(rng, m, 1.0 + m / 100.0));
+  return out;
+}
+
+void set_vec(const Vec3& v, v1::Vector3& out) {
+  out.set_x(v.x());
+  out.set_y(v.y());
+  out.set_z(v.z());
+}
+
+/// Poses of the 10 objects at `step`: on a circle of radius 3.2 (neighbours ~2 m apart, about
+/// their size, so pairs pass in and out of contact), each drifting and turning slowly — a smooth
+/// trajectory with a period of ~1000 steps, like the paper's T = 1000.
+v1::PoseUpdate make_update(const std::string& scene, std::uint64_t sequence, int step, double phase,
+                           bool warm) {
+  v1::PoseUpdate update;
+  update.set_scene_id(scene);
+  update.set_sequence(sequence);
+  update.mutable_options()->set_warm_start(warm);
+  const double t = 2 * std::numbers::pi * step / 1000.0 + phase;
+  for (int i = 0; i < 10; ++i) {
+    const double theta = 2 * std::numbers::pi * i / 10;
+    const Vec3 position =
+        3.2 * Vec3(std::cos(theta), std::sin(theta), 0) +
+        Vec3(0.6 * std::sin(t + i), 0.6 * std::cos(1.3 * t + 2 * i), 0.3 * std::sin(0.7 * t + i));
+    const Eigen::Quaterniond q(
+        Eigen::AngleAxisd(t * (1 + 0.1 * i) + i, Vec3(1 + i % 3, 1 - i % 2, 0.5 + i).normalized()));
+    v1::ObjectPose& pose = *update.add_poses();
+    pose.set_object_id("object-" + std::to_string(i));
+    pose.mutable_pose()->mutable_rotation()->set_w(q.w());
+    pose.mutable_pose()->mutable_rotation()->set_x(q.x());
+    pose.mutable_pose()->mutable_rotation()->set_y(q.y());
+    pose.mutable_pose()->mutable_rotation()->set_z(q.z());
+    set_vec(position, *pose.mutable_pose()->mutable_translation());
+  }
+  return update;
+}
+
+// ---- measurement ----
+
+enum class Kind { echo, warm, cold };
+const char* name(Kind kind) {
+  return kind == Kind::echo ? "echo (floor)" : kind == Kind::warm ? "warm" : "cold";
+}
+
+struct StreamResult {
+  std::vector<double> latency_us;
+  double geometry_us = 0;    // sum over reports of server geometry time
+  double evaluation_us = 0;  // sum over reports of server wall time on the pool
+  double server_us = 0;      // sum over reports of server time (arrival → report ready)
+  long iterations = 0;
+  long pairs = 0;
+  long warm_pairs = 0;
+  long intersecting = 0;
+  bool failed = false;
+  std::string error;
+};
+
+struct Row {
+  Kind kind = Kind::echo;
+  int streams = 1;
+  std::size_t updates = 0;
+  double seconds = 0;
+  double p50 = 0, p99 = 0;
+  double geometry_us = 0, evaluation_us = 0, server_us = 0;
+  double iterations_per_pair = 0, warm_fraction = 0, intersecting_fraction = 0;
+  std::string error;
+};
+
+double percentile(std::vector<double>& values, double q) {
+  if (values.empty()) return 0;
+  const std::size_t index = std::min(values.size() - 1, std::size_t(q * double(values.size())));
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(index), values.end());
+  return values[index];
+}
+
+StreamResult run_stream(const std::shared_ptr<grpc::Channel>& channel, const std::string& scene,
+                        Kind kind, int stream_index, int updates, Clock::time_point stop_at) {
+  StreamResult result;
+  result.latency_us.reserve(std::size_t(updates));
+  grpc::ClientContext context;
+  context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(120));
+  const double phase = 0.37 * stream_index;
+  if (kind == Kind::echo) {
+    auto stub = v1::Diagnostics::NewStub(channel);
+    auto stream = stub->Echo(&context);
+    v1::EchoMessage message, echoed;
+    for (int step = 0; step < updates && Clock::now() < stop_at; ++step) {
+      message.set_sequence(std::uint64_t(step));
+      const auto begin = Clock::now();
+      if (!stream->Write(message) || !stream->Read(&echoed)) {
+        result.failed = true;
+        break;
+      }
+      result.latency_us.push_back(
+          std::chrono::duration<double, std::micro>(Clock::now() - begin).count());
+    }
+    stream->WritesDone();
+    const grpc::Status status = stream->Finish();
+    if (!status.ok()) result.error = status.error_message();
+    return result;
+  }
+  auto stub = v1::DistanceService::NewStub(channel);
+  auto stream = stub->StreamPoses(&context);
+  // Build the messages first, so the timed loop holds only the round trip.
+  std::vector<v1::PoseUpdate> messages;
+  messages.reserve(std::size_t(updates));
+  for (int step = 0; step < updates; ++step)
+    messages.push_back(
+        make_update(scene, std::uint64_t(step) + 1, step, phase, kind == Kind::warm));
+  v1::DistanceReport report;
+  for (int step = 0; step < updates && Clock::now() < stop_at; ++step) {
+    const auto begin = Clock::now();
+    if (!stream->Write(messages[std::size_t(step)]) || !stream->Read(&report)) {
+      result.failed = true;
+      break;
+    }
+    result.latency_us.push_back(
+        std::chrono::duration<double, std::micro>(Clock::now() - begin).count());
+    if (report.has_error()) {
+      result.error = report.error().field() + ": " + report.error().message();
+      break;
+    }
+    result.geometry_us += report.timing().geometry_us();
+    result.evaluation_us += report.timing().evaluation_us();
+    result.server_us += report.timing().server_us();
+    for (const v1::PairDistance& pair : report.pairs()) {
+      result.iterations += pair.iterations();
+      ++result.pairs;
+      result.warm_pairs += pair.warm_started();
+      result.intersecting += pair.status() == v1::PAIR_STATUS_INTERSECTING;
+    }
+  }
+  stream->WritesDone();
+  while (stream->Read(&report)) {
+  }
+  const grpc::Status status = stream->Finish();
+  if (!status.ok() && result.error.empty()) result.error = status.error_message();
+  return result;
+}
+
+Row run_configuration(const std::shared_ptr<grpc::Channel>& channel, const std::string& scene,
+                      Kind kind, int streams, int updates, double max_seconds) {
+  std::vector<StreamResult> results(static_cast<std::size_t>(streams));
+  const auto begin = Clock::now();
+  const auto stop_at = begin + std::chrono::duration_cast<Clock::duration>(
+                                   std::chrono::duration<double>(max_seconds));
+  std::vector<std::thread> threads;
+  for (int s = 0; s < streams; ++s)
+    threads.emplace_back([&, s] {
+      results[std::size_t(s)] = run_stream(channel, scene, kind, s, updates, stop_at);
+    });
+  for (std::thread& t : threads) t.join();
+  Row row;
+  row.kind = kind;
+  row.streams = streams;
+  row.seconds = std::chrono::duration<double>(Clock::now() - begin).count();
+  std::vector<double> all;
+  long pairs = 0, iterations = 0, warm = 0, intersecting = 0;
+  double geometry = 0, evaluation = 0, server = 0;
+  for (StreamResult& r : results) {
+    all.insert(all.end(), r.latency_us.begin(), r.latency_us.end());
+    pairs += r.pairs;
+    iterations += r.iterations;
+    warm += r.warm_pairs;
+    intersecting += r.intersecting;
+    geometry += r.geometry_us;
+    evaluation += r.evaluation_us;
+    server += r.server_us;
+    if (!r.error.empty()) row.error = r.error;
+    if (r.failed && row.error.empty()) row.error = "stream failed";
+  }
+  row.updates = all.size();
+  const double n = std::max<double>(1, double(all.size()));
+  row.geometry_us = geometry / n;
+  row.evaluation_us = evaluation / n;
+  row.server_us = server / n;
+  row.iterations_per_pair = pairs ? double(iterations) / double(pairs) : 0;
+  row.warm_fraction = pairs ? double(warm) / double(pairs) : 0;
+  row.intersecting_fraction = pairs ? double(intersecting) / double(pairs) : 0;
+  row.p50 = percentile(all, 0.50);
+  row.p99 = percentile(all, 0.99);
+  return row;
+}
+
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
+  return "unknown";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int updates = 2000;
+  double max_seconds = 20;
+  std::size_t workers = 0;
+  std::vector<int> stream_counts = {1, 4, 16};
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "missing value after %s\n", arg.c_str());
+        std::exit(2);
+      }
+      return argv[++i];
+    };
+    if (arg == "--updates") {
+      updates = std::max(1, std::atoi(value().c_str()));
+    } else if (arg == "--max-seconds") {
+      max_seconds = std::max(0.1, std::atof(value().c_str()));
+    } else if (arg == "--workers") {
+      workers = std::size_t(std::max(0, std::atoi(value().c_str())));
+    } else if (arg == "--streams") {
+      stream_counts.clear();
+      std::stringstream list(value());
+      for (std::string item; std::getline(list, item, ',');)
+        stream_counts.push_back(std::clamp(std::atoi(item.c_str()), 1, 256));
+    } else {
+      std::fprintf(stderr,
+                   "usage: nearpoint_service_bench [--updates N] [--max-seconds S] [--workers W] "
+                   "[--streams 1,4,16]\n");
+      return arg == "--help" || arg == "-h" ? 0 : 2;
+    }
+  }
+
+  nearpoint::server::set_log_level(nearpoint::server::LogLevel::warn);
+  nearpoint::server::ServerConfig config;
+  config.listen = "127.0.0.1:0";
+  config.workers = workers;
+  config.limits.max_streams = 1024;
+  auto started = nearpoint::server::GrpcServer::start(config);
+  if (!started) {
+    std::fprintf(stderr, "server: %s\n", started.error().describe().c_str());
+    return 1;
+  }
+  auto& server = *started.value();
+  auto channel = grpc::CreateChannel("127.0.0.1:" + std::to_string(server.port()),
+                                     grpc::InsecureChannelCredentials());
+  auto stub = v1::DistanceService::NewStub(channel);
+
+  v1::CreateSceneRequest create;
+  create.set_name("service-bench");
+  const std::vector<std::vector<Vec3>> polytopes = paper_like_polytopes();
+  std::size_t vertex_total = 0;
+  for (std::size_t i = 0; i < polytopes.size(); ++i) {
+    v1::RegisterGeometryRequest request;
+    request.mutable_geometry()->set_name("polytope-" + std::to_string(polytopes[i].size()));
+    v1::Piece& piece = *request.mutable_geometry()->add_pieces();
+    for (const Vec3& v : polytopes[i]) set_vec(v, *piece.mutable_polytope()->add_vertices());
+    vertex_total += polytopes[i].size();
+    v1::RegisterGeometryResponse response;
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    if (const grpc::Status status = stub->RegisterGeometry(&context, request, &response);
+        !status.ok()) {
+      std::fprintf(stderr, "register: %s\n", status.error_message().c_str());
+      return 1;
+    }
+    v1::SceneObject& object = *create.add_objects();
+    object.set_id("object-" + std::to_string(i));
+    object.set_geometry_id(response.geometry().geometry_id());
+  }
+  v1::CreateSceneResponse scene;
+  {
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
+    if (const grpc::Status status = stub->CreateScene(&context, create, &scene); !status.ok()) {
+      std::fprintf(stderr, "scene: %s\n", status.error_message().c_str());
+      return 1;
+    }
+  }
+
+  const std::time_t now = std::time(nullptr);
+  char date[32];
+  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
+  std::printf("nearpoint_service_bench, %s\n", date);
+  std::printf(
+      "machine: %s, %u hardware threads; server workers: %zu; client and server share the "
+      "machine\n",
+      cpu_model().c_str(), std::thread::hardware_concurrency(), server.scenes().worker_count());
+  std::printf(
+      "scene: 10 polytopes, %zu vertices in all (12-100 each), %u pairs; lock-step round "
+      "trips, up to %d per stream, at most %.0f s per row\n\n",
+      vertex_total, scene.pair_count(), updates, max_seconds);
+  std::printf(
+      "| streams | kind | round trips | p50 µs | p99 µs | updates/s | server µs/update | "
+      "evaluation µs/update | geometry µs/update | GJK iterations/pair | warm-started pairs | "
+      "intersecting pairs |\n");
+  std::printf("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+  std::vector<Row> rows;
+  for (const int streams : stream_counts) {
+    for (const Kind kind : {Kind::echo, Kind::warm, Kind::cold}) {
+      // A short unmeasured warm-up on a fresh connection state (threads, allocations).
+      run_configuration(channel, scene.scene_id(), kind, 1, std::min(updates, 50), max_seconds);
+      Row row = run_configuration(channel, scene.scene_id(), kind, streams, updates, max_seconds);
+      if (kind == Kind::echo) {
+        std::printf("| %d | %s | %zu | %.0f | %.0f | %.0f | – | – | – | – | – | – |\n", row.streams,
+                    name(kind), row.updates, row.p50, row.p99, double(row.updates) / row.seconds);
+      } else {
+        std::printf(
+            "| %d | %s | %zu | %.0f | %.0f | %.0f | %.0f | %.0f | %.1f | %.2f | %.0f%% | %.0f%% "
+            "|\n",
+            row.streams, name(kind), row.updates, row.p50, row.p99,
+            double(row.updates) / row.seconds, row.server_us, row.evaluation_us, row.geometry_us,
+            row.iterations_per_pair, 100 * row.warm_fraction, 100 * row.intersecting_fraction);
+      }
+      if (!row.error.empty()) std::printf("  error: %s\n", row.error.c_str());
+      std::fflush(stdout);
+      rows.push_back(row);
+    }
+  }
+
+  // The targets, from the rows of each stream count.
+  std::printf("\n");
+  for (const int streams : stream_counts) {
+    const Row* echo = nullptr;
+    const Row* warm = nullptr;
+    const Row* cold = nullptr;
+    for (const Row& row : rows)
+      if (row.streams == streams)
+        (row.kind == Kind::echo ? echo : row.kind == Kind::warm ? warm : cold) = &row;
+    if (!echo || !warm || !cold) continue;
+    std::printf(
+        "%d stream(s): warm p50 %.0f µs vs floor p50 + geometry = %.0f + %.1f µs "
+        "(ratio %.2f; target <= 2); geometry time cold/warm = %.2f (target >= 3)\n",
+        streams, warm->p50, echo->p50, warm->geometry_us,
+        warm->p50 / (echo->p50 + warm->geometry_us), cold->geometry_us / warm->geometry_us);
+  }
+  server.shutdown();
+  return 0;
+}

@@ -1,0 +1,88 @@
+// Errors of the scene API: a code, the offending field and a message. Transports turn them into
+// their own form in one place each (gRPC: `to_grpc_status` in the service adapter).
+#pragma once
+
+#include <sstream>
+#include <string>
+#include <utility>
+#include <variant>
+
+namespace nearpoint::server {
+
+/// What kind of failure. Each maps to exactly one gRPC status code.
+enum class ErrorCode : unsigned char {
+  invalid_argument,     ///< the request is malformed (names the field)
+  not_found,            ///< an id (geometry, scene, object) is unknown
+  resource_exhausted,   ///< a configured limit was reached
+  failed_precondition,  ///< valid, but not in the current state (e.g. a stream bound elsewhere)
+  unavailable,          ///< the server is shutting down
+  internal,             ///< a bug: should never be seen
+};
+
+const char* to_string(ErrorCode code);
+
+struct Error {
+  ErrorCode code = ErrorCode::internal;
+  /// The offending field as a path into the request ("geometry.pieces[2].radius"); empty when no
+  /// single field is to blame.
+  std::string field;
+  /// What is wrong, for people.
+  std::string message;
+
+  /// "field: message", or the message alone.
+  std::string describe() const { return field.empty() ? message : field + ": " + message; }
+};
+
+/// Builds a message from streamable parts: text("got ", 3.5, " m").
+template <class... Parts>
+std::string text(const Parts&... parts) {
+  std::ostringstream out;
+  out.precision(12);  // enough to tell values apart in a message, short enough to read
+  (out << ... << parts);
+  return out.str();
+}
+
+inline Error invalid_argument(std::string field, std::string message) {
+  return {ErrorCode::invalid_argument, std::move(field), std::move(message)};
+}
+inline Error not_found(std::string field, std::string message) {
+  return {ErrorCode::not_found, std::move(field), std::move(message)};
+}
+inline Error resource_exhausted(std::string field, std::string message) {
+  return {ErrorCode::resource_exhausted, std::move(field), std::move(message)};
+}
+
+/// A value or the Error that prevented it (std::expected arrives with C++23).
+template <class T>
+class [[nodiscard]] Expected {
+ public:
+  Expected(T value) : state_(std::move(value)) {}
+  Expected(Error error) : state_(std::move(error)) {}
+
+  bool ok() const { return state_.index() == 0; }
+  explicit operator bool() const { return ok(); }
+  T& value() { return std::get<0>(state_); }
+  const T& value() const { return std::get<0>(state_); }
+  T& operator*() { return value(); }
+  T* operator->() { return &value(); }
+  const Error& error() const { return std::get<1>(state_); }
+
+ private:
+  std::variant<T, Error> state_;
+};
+
+/// Success or the Error that prevented it.
+class [[nodiscard]] Outcome {
+ public:
+  Outcome() = default;
+  Outcome(Error error) : error_(std::move(error)), failed_(true) {}
+  bool ok() const { return !failed_; }
+  explicit operator bool() const { return ok(); }
+  const Error& error() const { return error_; }
+
+ private:
+  Error error_;
+  bool failed_ = false;
+};
+
+}  // namespace nearpoint::server

@@ -1,0 +1,34 @@
+// The server's limits, each with its default and why. One home: flags and tests override these.
+#pragma once
+
+#include <cstddef>
+
+namespace nearpoint::server {
+
+struct ServiceLimits {
+  /// Stored geometries. Each costs its vertices (24 B each) plus a few hundred bytes.
+  std::size_t max_geometries = 10'000;
+  /// Convex pieces of one geometry. A piece pair costs a 36-byte warm-start cache per stream.
+  std::size_t max_pieces_per_geometry = 256;
+  /// Polytope vertices of one geometry, over its pieces. A support call scans a piece's vertices,
+  /// so this also bounds the cost of one GJK iteration (100k vertices ≈ 50 µs).
+  std::size_t max_vertices_per_geometry = 100'000;
+  /// Live scenes.
+  std::size_t max_scenes = 1'000;
+  /// Objects of one scene.
+  std::size_t max_objects_per_scene = 1'000;
+  /// Selected object pairs of one scene: one PairDistance each per report (≈100 B on the wire).
+  std::size_t max_pairs_per_scene = 100'000;
+  /// Piece pairs over a scene's selected pairs: each stream holds one 36-byte cache per piece
+  /// pair, so this bounds a stream's memory (262 144 → 9.4 MB).
+  std::size_t max_piece_pairs_per_scene = 262'144;
+  /// Concurrent pose streams, all clients together.
+  std::size_t max_streams = 256;
+  /// Updates a stream may have read but not yet answered (queued, being evaluated, or reports
+  /// waiting to be written). The bound on what one slow client can make the server hold.
+  std::size_t max_in_flight_per_stream = 8;
+  /// Unary queries evaluated or queued at once, all clients together.
+  std::size_t max_concurrent_queries = 256;
+};
+
+}  // namespace nearpoint::server

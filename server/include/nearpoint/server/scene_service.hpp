@@ -1,0 +1,214 @@
+// The scene API: geometry store, scenes, unary queries and pose streams, independent of any
+// transport. The gRPC service is a thin adapter over it, and so will be the DDS bridge.
+//
+// Threading: every method may be called from any thread. Geometry runs on the service's worker
+// pool; callbacks (`ReportCallback`) run on a pool thread.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <shared_mutex>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "nearpoint/compound.hpp"
+#include "nearpoint/options.hpp"
+#include "nearpoint/server/errors.hpp"
+#include "nearpoint/server/limits.hpp"
+#include "nearpoint/server/scene_types.hpp"
+#include "nearpoint/server/worker_pool.hpp"
+
+namespace nearpoint::server {
+
+/// A validated, immutable geometry: the engine's compound plus what the broad phase needs.
+/// Shared (shared_ptr<const>) by the store and every scene object that uses it.
+struct StoredGeometry {
+  GeometryInfo info;
+  Compound<double> compound;
+};
+
+/// Options after inheritance and validation: what the engine is run with.
+struct ResolvedOptions {
+  DistanceOptions<double> engine;
+  bool warm_start = true;
+};
+
+struct SceneObject {
+  std::string id;
+  std::shared_ptr<const StoredGeometry> geometry;
+  /// Geometry frame → world frame.
+  Pose<double> initial_pose;
+  std::uint32_t group = 1;
+  std::uint32_t mask = 0xFFFFFFFFu;
+};
+
+struct ScenePair {
+  std::uint32_t object_a = 0;
+  std::uint32_t object_b = 0;
+  /// This pair's warm-start caches: `cache_count` (= pieces of A × pieces of B) entries from
+  /// `cache_offset` in a per-stream (or per-scene query) cache array.
+  std::size_t cache_offset = 0;
+  std::size_t cache_count = 0;
+};
+
+/// A scene's immutable part: objects, selected pairs, default options.
+class SceneDefinition {
+ public:
+  std::string id;
+  std::string name;
+  std::vector<SceneObject> objects;
+  std::vector<ScenePair> pairs;
+  ResolvedOptions default_options;
+  /// Sum of cache_count over the pairs: the size of one warm-start cache array.
+  std::size_t piece_pair_count = 0;
+  /// How many pool tasks one evaluation is split into (1 … workers), from the scene's estimated
+  /// GJK cost: splitting only pays when each task outweighs the cost of waking a worker.
+  std::size_t tasks_per_evaluation = 1;
+
+  /// Index of an object by id, or -1.
+  std::int64_t find_object(const std::string& object_id) const;
+  std::unordered_map<std::string, std::uint32_t> index_by_id;
+};
+
+/// A live scene: its definition plus the mutable state that unary queries share.
+class Scene {
+ public:
+  explicit Scene(std::shared_ptr<const SceneDefinition> definition);
+  const std::shared_ptr<const SceneDefinition>& definition() const { return definition_; }
+
+  /// The warm-start caches unary queries share. Queries copy them out under the lock, evaluate
+  /// without it, and copy their caches back: concurrent queries never hold the lock during
+  /// geometry, and a lost write-back only costs a colder start (any cache content is valid).
+  void copy_query_cache(std::vector<SimplexCache>& out);
+  void store_query_cache(const std::vector<SimplexCache>& caches);
+
+  /// Set by DeleteScene; streams bound to the scene reject their next updates.
+  bool deleted() const { return deleted_.load(std::memory_order_acquire); }
+  void mark_deleted() { deleted_.store(true, std::memory_order_release); }
+
+ private:
+  std::shared_ptr<const SceneDefinition> definition_;
+  std::mutex query_cache_mutex_;
+  std::vector<SimplexCache> query_cache_;
+  std::atomic<bool> deleted_{false};
+};
+
+/// An update that passed validation: everything its evaluation needs, by value.
+struct PreparedUpdate {
+  std::uint64_t sequence = 0;
+  /// Every object's pose (world frame) after this update, in scene object order.
+  std::vector<Pose<double>> poses;
+  ResolvedOptions options;
+  /// When the transport read it (for ReportTiming).
+  Clock::time_point received;
+  std::uint32_t coalesced_updates = 0;
+  std::uint64_t coalesced_from_sequence = 0;
+};
+
+using ReportCallback = std::function<void(Report)>;
+
+class SceneService;
+
+/// One client's pose stream: it owns the per-pair, per-piece-pair warm-start caches, so streams
+/// never share mutable state. Not thread-safe: its owner serialises calls (the gRPC reactor does
+/// so under its lock), and runs at most one evaluation at a time, because each evaluation reads
+/// and writes the caches.
+class PoseStream {
+ public:
+  ~PoseStream();
+  PoseStream(const PoseStream&) = delete;
+  PoseStream& operator=(const PoseStream&) = delete;
+
+  /// Validates `update` against the stream's state (scene binding, sequence order, poses,
+  /// options) and, if it is accepted, records its poses as the stream's current ones. Cheap: no
+  /// geometry. `field` paths are relative to the update ("poses[1].pose.rotation").
+  Expected<PreparedUpdate> prepare(const PoseUpdateInput& update, Clock::time_point received);
+
+  /// Folds `older` (accepted earlier, not yet evaluated) into `newer`: since a prepared update
+  /// carries every object's pose, the newer one already holds the older one's poses.
+  static void coalesce(PreparedUpdate& newer, const PreparedUpdate& older);
+
+  /// Evaluates every selected pair on the worker pool; `done` gets the report on a pool thread.
+  /// Call again only after `done` has run (the caches are this stream's single mutable state).
+  void evaluate(PreparedUpdate update, ReportCallback done);
+
+  /// The flow-control policy chosen by the first update (block until then).
+  FlowControl flow_control() const { return flow_control_; }
+  bool bound() const { return scene_ != nullptr; }
+
+ private:
+  friend class SceneService;
+  explicit PoseStream(SceneService& service);
+
+  SceneService& service_;
+  std::shared_ptr<Scene> scene_;
+  std::vector<Pose<double>> current_poses_;
+  std::vector<SimplexCache> caches_;
+  bool has_sequence_ = false;
+  std::uint64_t last_sequence_ = 0;
+  FlowControl flow_control_ = FlowControl::block;
+  bool evaluating_ = false;
+};
+
+class SceneService {
+ public:
+  /// `workers` = 0: one per hardware thread.
+  SceneService(const ServiceLimits& limits, std::size_t workers);
+  ~SceneService();
+  SceneService(const SceneService&) = delete;
+  SceneService& operator=(const SceneService&) = delete;
+
+  /// Validates (finite, non-empty, within limits, radii >= 0, unit quaternions) and stores.
+  /// Error fields start with "geometry.".
+  Expected<GeometryInfo> register_geometry(const GeometryInput& geometry);
+  Outcome remove_geometry(const std::string& geometry_id);
+  std::vector<GeometryInfo> list_geometries() const;
+
+  Expected<SceneInfo> create_scene(const SceneInput& scene);
+  Outcome delete_scene(const std::string& scene_id);
+  /// The live scene, or nullptr.
+  std::shared_ptr<Scene> find_scene(const std::string& scene_id) const;
+
+  /// Validates the query now (the error, if any, is returned and `done` is never called) and
+  /// evaluates it on the pool; `done` runs exactly once, on a pool thread.
+  Outcome query(const QueryInput& query, Clock::time_point received, ReportCallback done);
+
+  /// A new stream, or RESOURCE_EXHAUSTED when `max_streams` are open.
+  Expected<std::unique_ptr<PoseStream>> open_stream();
+
+  const ServiceLimits& limits() const { return limits_; }
+  std::size_t worker_count() const { return pool_.size(); }
+  std::size_t open_streams() const { return open_streams_.load(); }
+
+ private:
+  friend class PoseStream;
+  struct Job;
+  /// Runs `job`'s pairs on the pool, in parallel, and calls its completion on the last one.
+  void run(std::shared_ptr<Job> job);
+  Expected<std::vector<Pose<double>>> apply_poses(const SceneDefinition& scene,
+                                                  std::vector<Pose<double>> poses,
+                                                  const std::vector<ObjectPoseInput>& updates,
+                                                  const char* field) const;
+
+  ServiceLimits limits_;
+
+  mutable std::shared_mutex geometries_mutex_;
+  std::unordered_map<std::string, std::shared_ptr<const StoredGeometry>> geometries_;
+  std::uint64_t next_geometry_number_ = 1;
+
+  mutable std::shared_mutex scenes_mutex_;
+  std::unordered_map<std::string, std::shared_ptr<Scene>> scenes_;
+  std::uint64_t next_scene_number_ = 1;
+
+  std::atomic<std::size_t> open_streams_{0};
+  std::atomic<std::size_t> running_queries_{0};
+
+  // Last member: destroyed first, so queued work finishes while everything above still exists.
+  WorkerPool pool_;
+};
+
+}  // namespace nearpoint::server

@@ -1,0 +1,54 @@
+// nearpointd's gRPC server: the DistanceService and Diagnostics services over one SceneService,
+// plus health checking and reflection. Used by main() and, in-process, by the tests and the
+// service benchmark.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <memory>
+#include <string>
+
+#include "nearpoint/server/errors.hpp"
+#include "nearpoint/server/limits.hpp"
+#include "nearpoint/server/scene_service.hpp"
+
+namespace nearpoint::server {
+
+struct ServerConfig {
+  /// host:port to listen on. Port 0 picks a free port (see GrpcServer::port()).
+  std::string listen = "127.0.0.1:50051";
+  /// Geometry worker threads; 0 = one per hardware thread.
+  std::size_t workers = 0;
+  ServiceLimits limits;
+  /// Largest message received or sent, bytes. Larger requests fail with RESOURCE_EXHAUSTED.
+  std::size_t max_message_bytes = 16u << 20;
+  /// At shutdown, how long streams get to answer the updates already read before they are
+  /// cancelled.
+  std::chrono::milliseconds drain_timeout{5000};
+  /// Serve nearpoint.v1.Diagnostics (the echo stream that measures the transport floor).
+  bool diagnostics = true;
+};
+
+class GrpcServer {
+ public:
+  /// Binds and starts serving, or says why it could not (the address is in use, malformed …).
+  static Expected<std::unique_ptr<GrpcServer>> start(const ServerConfig& config);
+  /// Shuts down (see shutdown()) if still running.
+  ~GrpcServer();
+
+  /// The bound port (the chosen one when the configuration asked for port 0).
+  int port() const;
+  /// Graceful shutdown: health goes NOT_SERVING, new calls are refused, every open stream stops
+  /// reading, answers the updates it has read and ends with UNAVAILABLE; streams still busy
+  /// after `drain_timeout` are cancelled. Returns when every call has ended. Idempotent and
+  /// thread-safe.
+  void shutdown();
+  SceneService& scenes();
+
+ private:
+  GrpcServer();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace nearpoint::server

@@ -1,0 +1,16 @@
+// One object pair of one update: broad phase by bounding spheres, then the engine.
+#pragma once
+
+#include <span>
+
+#include "nearpoint/server/scene_service.hpp"
+
+namespace nearpoint::server {
+
+/// Evaluates `pair` of `scene` at `poses` (world frame, scene object order) into `out`.
+/// `caches` is the pair's warm-start slice (read and updated), or empty for a cold start.
+void evaluate_pair(const SceneDefinition& scene, const ScenePair& pair,
+                   const std::vector<Pose<double>>& poses, const ResolvedOptions& options,
+                   std::span<SimplexCache> caches, PairReport& out);
+
+}  // namespace nearpoint::server

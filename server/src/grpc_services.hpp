@@ -1,0 +1,94 @@
+// The gRPC adapters: DistanceService and Diagnostics as callback services (one reactor class per
+// streaming RPC, state in members, OnDone cleans up — as in gRPC's route_guide example).
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <unordered_set>
+
+#include "nearpoint/server/scene_service.hpp"
+#include "nearpoint_diagnostics.grpc.pb.h"
+#include "nearpoint_distance.grpc.pb.h"
+
+namespace nearpoint::server {
+
+/// A streaming call that can be asked to wind down at shutdown.
+class DrainableStream {
+ public:
+  virtual void Drain() = 0;
+
+ protected:
+  ~DrainableStream() = default;
+};
+
+/// The open calls of a service, so that shutdown can drain them and know when they are over.
+/// Once draining, it refuses new calls (the service answers them UNAVAILABLE).
+class CallRegistry {
+ public:
+  /// False when draining: the caller must end the stream at once.
+  bool add(DrainableStream* stream);
+  void remove(DrainableStream* stream);
+  /// A unary call begins (false when draining: refuse it) or has been finished.
+  bool begin_unary();
+  void end_unary();
+  /// Refuses new calls and asks every open stream to drain.
+  void drain_all();
+  /// Waits until no stream and no unary call is open, or until `deadline`; true when idle.
+  bool wait_idle(std::chrono::steady_clock::time_point deadline);
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable idle_;
+  std::unordered_set<DrainableStream*> streams_;
+  std::size_t unary_calls_ = 0;
+  bool draining_ = false;
+};
+
+class DistanceServiceImpl final : public v1::DistanceService::CallbackService {
+ public:
+  explicit DistanceServiceImpl(SceneService& scenes) : scenes_(scenes) {}
+
+  grpc::ServerUnaryReactor* RegisterGeometry(grpc::CallbackServerContext* context,
+                                             const v1::RegisterGeometryRequest* request,
+                                             v1::RegisterGeometryResponse* response) override;
+  grpc::ServerUnaryReactor* RemoveGeometry(grpc::CallbackServerContext* context,
+                                           const v1::RemoveGeometryRequest* request,
+                                           v1::RemoveGeometryResponse* response) override;
+  grpc::ServerUnaryReactor* ListGeometries(grpc::CallbackServerContext* context,
+                                           const v1::ListGeometriesRequest* request,
+                                           v1::ListGeometriesResponse* response) override;
+  grpc::ServerUnaryReactor* CreateScene(grpc::CallbackServerContext* context,
+                                        const v1::CreateSceneRequest* request,
+                                        v1::CreateSceneResponse* response) override;
+  grpc::ServerUnaryReactor* DeleteScene(grpc::CallbackServerContext* context,
+                                        const v1::DeleteSceneRequest* request,
+                                        v1::DeleteSceneResponse* response) override;
+  grpc::ServerUnaryReactor* Query(grpc::CallbackServerContext* context,
+                                  const v1::QueryRequest* request,
+                                  v1::DistanceReport* response) override;
+  grpc::ServerBidiReactor<v1::PoseUpdate, v1::DistanceReport>* StreamPoses(
+      grpc::CallbackServerContext* context) override;
+
+  SceneService& scenes() { return scenes_; }
+  CallRegistry& calls() { return calls_; }
+
+ private:
+  SceneService& scenes_;
+  CallRegistry calls_;
+  std::atomic<std::uint64_t> next_stream_number_{1};
+};
+
+class DiagnosticsServiceImpl final : public v1::Diagnostics::CallbackService {
+ public:
+  grpc::ServerBidiReactor<v1::EchoMessage, v1::EchoMessage>* Echo(
+      grpc::CallbackServerContext* context) override;
+  CallRegistry& calls() { return calls_; }
+
+ private:
+  CallRegistry calls_;
+};
+
+}  // namespace nearpoint::server

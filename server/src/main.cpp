@@ -1,0 +1,143 @@
+// nearpointd: the nearpoint distance server.
+//
+//   nearpointd [--listen 127.0.0.1:50051] [--workers N] [--port-file PATH] [limits…]
+//   nearpointd --config nearpointd.toml
+//
+// Logs one key=value line per event to stderr. SIGTERM or SIGINT: graceful shutdown (stop
+// accepting, drain streams), exit status 0. Exit status 1: could not start; 2: bad flags.
+#include <signal.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "nearpoint/server/log.hpp"
+#include "nearpoint/server/server.hpp"
+
+namespace {
+
+using nearpoint::server::GrpcServer;
+using nearpoint::server::LogLevel;
+using nearpoint::server::ServerConfig;
+
+/// Writes the port atomically (temporary file, then rename), so a reader never sees a partial
+/// number.
+bool write_port_file(const std::string& path, int port) {
+  const std::string temporary = path + ".tmp";
+  {
+    std::ofstream out(temporary, std::ios::trunc);
+    if (!(out << port << '\n')) return false;
+  }
+  std::error_code error;
+  std::filesystem::rename(temporary, path, error);
+  return !error;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ServerConfig config;
+  std::string port_file;
+  std::string log_level = "info";
+  long long drain_timeout_ms = config.drain_timeout.count();
+  bool no_diagnostics = false;
+  auto& limits = config.limits;
+
+  CLI::App app{"nearpointd: distances between registered geometries, over gRPC"};
+  app.set_config("--config", "", "Read these options from a TOML or INI file");
+  app.add_option("--listen", config.listen, "host:port to listen on (port 0: any free port)")
+      ->capture_default_str();
+  app.add_option("--workers", config.workers, "Geometry worker threads (0: one per core)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1024));
+  app.add_option("--port-file", port_file, "Write the bound port to this file once listening");
+  app.add_option("--max-message-bytes", config.max_message_bytes,
+                 "Largest gRPC message received or sent")
+      ->capture_default_str()
+      ->check(CLI::Range(std::size_t(1024), std::size_t(INT32_MAX)));
+  app.add_option("--max-geometries", limits.max_geometries, "Stored geometries")
+      ->capture_default_str();
+  app.add_option("--max-pieces-per-geometry", limits.max_pieces_per_geometry,
+                 "Convex pieces of one geometry")
+      ->capture_default_str();
+  app.add_option("--max-vertices-per-geometry", limits.max_vertices_per_geometry,
+                 "Polytope vertices of one geometry, over its pieces")
+      ->capture_default_str();
+  app.add_option("--max-scenes", limits.max_scenes, "Live scenes")->capture_default_str();
+  app.add_option("--max-objects-per-scene", limits.max_objects_per_scene, "Objects of one scene")
+      ->capture_default_str();
+  app.add_option("--max-pairs-per-scene", limits.max_pairs_per_scene,
+                 "Selected object pairs of one scene")
+      ->capture_default_str();
+  app.add_option("--max-piece-pairs-per-scene", limits.max_piece_pairs_per_scene,
+                 "Piece pairs of one scene (36 bytes of cache each, per stream)")
+      ->capture_default_str();
+  app.add_option("--max-streams", limits.max_streams, "Concurrent pose streams")
+      ->capture_default_str();
+  app.add_option("--max-in-flight", limits.max_in_flight_per_stream,
+                 "Updates a stream may have read but not yet answered")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  app.add_option("--max-concurrent-queries", limits.max_concurrent_queries,
+                 "Unary queries evaluated at once")
+      ->capture_default_str();
+  app.add_option("--drain-timeout-ms", drain_timeout_ms,
+                 "At shutdown, time streams get to answer what they have read")
+      ->capture_default_str()
+      ->check(CLI::Range(0LL, 600'000LL));
+  app.add_flag("--no-diagnostics", no_diagnostics, "Do not serve nearpoint.v1.Diagnostics (Echo)");
+  app.add_option("--log-level", log_level, "debug, info, warn or error")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"debug", "info", "warn", "error"}));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& error) {
+    const int code = app.exit(error);
+    return code == 0 ? 0 : 2;
+  }
+  LogLevel level = LogLevel::info;
+  nearpoint::server::parse_log_level(log_level, level);
+  nearpoint::server::set_log_level(level);
+  config.drain_timeout = std::chrono::milliseconds(drain_timeout_ms);
+  config.diagnostics = !no_diagnostics;
+
+  // Block the shutdown signals in every thread (gRPC's and the pool's inherit this mask); this
+  // thread then waits for them synchronously, outside any signal handler.
+  sigset_t shutdown_signals;
+  sigemptyset(&shutdown_signals);
+  sigaddset(&shutdown_signals, SIGTERM);
+  sigaddset(&shutdown_signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &shutdown_signals, nullptr);
+
+  auto started = GrpcServer::start(config);
+  if (!started) {
+    nearpoint::server::log_error("start_failed")
+        .kv("listen", config.listen)
+        .kv("message", started.error().message);
+    return 1;
+  }
+  GrpcServer& server = *started.value();
+  if (!port_file.empty() && !write_port_file(port_file, server.port())) {
+    nearpoint::server::log_error("start_failed")
+        .kv("port_file", port_file)
+        .kv("message", "cannot write the port file");
+    server.shutdown();
+    return 1;
+  }
+  nearpoint::server::log_info("listening")
+      .kv("listen", config.listen)
+      .kv("port", server.port())
+      .kv("workers", server.scenes().worker_count())
+      .kv("max_streams", limits.max_streams)
+      .kv("max_in_flight", limits.max_in_flight_per_stream)
+      .kv("max_message_bytes", config.max_message_bytes);
+
+  int signal_number = 0;
+  sigwait(&shutdown_signals, &signal_number);
+  nearpoint::server::log_info("signal").kv("signal",
+                                           signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
+  server.shutdown();
+  return 0;
+}

@@ -1,0 +1,281 @@
+#include "proto_convert.hpp"
+
+#include "nearpoint/server/scene_service.hpp"
+
+namespace nearpoint::server {
+namespace {
+
+Vec3d to_vec(const v1::Vector3& v) {
+  return Vec3d(v.x(), v.y(), v.z());
+}
+
+void set_vec(const Vec3d& v, v1::Vector3& out) {
+  out.set_x(v.x());
+  out.set_y(v.y());
+  out.set_z(v.z());
+}
+
+v1::PairStatus to_proto(PairStatus status) {
+  switch (status) {
+    case PairStatus::separated:
+      return v1::PAIR_STATUS_SEPARATED;
+    case PairStatus::intersecting:
+      return v1::PAIR_STATUS_INTERSECTING;
+    case PairStatus::beyond_cutoff:
+      return v1::PAIR_STATUS_BEYOND_CUTOFF;
+    case PairStatus::iteration_limit:
+      return v1::PAIR_STATUS_ITERATION_LIMIT;
+    case PairStatus::engine_error:
+      return v1::PAIR_STATUS_ENGINE_ERROR;
+  }
+  return v1::PAIR_STATUS_ENGINE_ERROR;
+}
+
+void set_gradient(const Eigen::Matrix<double, 6, 1>& gradient, v1::PoseGradient& out) {
+  set_vec(gradient.head<3>(), *out.mutable_translation());
+  set_vec(gradient.tail<3>(), *out.mutable_rotation());
+}
+
+std::vector<ObjectPoseInput> to_pose_inputs(
+    const google::protobuf::RepeatedPtrField<v1::ObjectPose>& poses) {
+  std::vector<ObjectPoseInput> out;
+  out.reserve(std::size_t(poses.size()));
+  for (const v1::ObjectPose& pose : poses) out.push_back({pose.object_id(), to_input(pose.pose())});
+  return out;
+}
+
+}  // namespace
+
+grpc::Status to_grpc_status(const Error& error) {
+  grpc::StatusCode code = grpc::StatusCode::INTERNAL;
+  switch (error.code) {
+    case ErrorCode::invalid_argument:
+      code = grpc::StatusCode::INVALID_ARGUMENT;
+      break;
+    case ErrorCode::not_found:
+      code = grpc::StatusCode::NOT_FOUND;
+      break;
+    case ErrorCode::resource_exhausted:
+      code = grpc::StatusCode::RESOURCE_EXHAUSTED;
+      break;
+    case ErrorCode::failed_precondition:
+      code = grpc::StatusCode::FAILED_PRECONDITION;
+      break;
+    case ErrorCode::unavailable:
+      code = grpc::StatusCode::UNAVAILABLE;
+      break;
+    case ErrorCode::internal:
+      code = grpc::StatusCode::INTERNAL;
+      break;
+  }
+  return grpc::Status(code, error.describe());
+}
+
+PoseInput to_input(const v1::Pose& pose) {
+  PoseInput out;  // the identity unless given
+  if (pose.has_rotation()) {
+    const v1::Quaternion& q = pose.rotation();
+    out.rotation_wxyz = {q.w(), q.x(), q.y(), q.z()};
+  }
+  if (pose.has_translation()) out.translation = to_vec(pose.translation());
+  return out;
+}
+
+GeometryInput to_input(const v1::Geometry& geometry) {
+  GeometryInput out;
+  out.name = geometry.name();
+  out.pieces.reserve(std::size_t(geometry.pieces_size()));
+  for (const v1::Piece& piece : geometry.pieces()) {
+    PieceInput& in = out.pieces.emplace_back();
+    in.radius = piece.radius();
+    in.offset = to_input(piece.offset());
+    switch (piece.shape_case()) {
+      case v1::Piece::kPolytope: {
+        PolytopeInput polytope;
+        polytope.vertices.reserve(std::size_t(piece.polytope().vertices_size()));
+        for (const v1::Vector3& v : piece.polytope().vertices())
+          polytope.vertices.push_back(to_vec(v));
+        in.shape = std::move(polytope);
+        break;
+      }
+      case v1::Piece::kPoint:
+        in.shape = Point{};
+        break;
+      case v1::Piece::kSegment:
+        in.shape = Segment<double>{to_vec(piece.segment().a()), to_vec(piece.segment().b())};
+        break;
+      case v1::Piece::kBox:
+        in.shape = Box<double>{to_vec(piece.box().half_extents())};
+        break;
+      case v1::Piece::kCylinder:
+        in.shape = Cylinder<double>{piece.cylinder().radius(), piece.cylinder().half_height()};
+        break;
+      case v1::Piece::kCone:
+        in.shape = Cone<double>{piece.cone().radius(), piece.cone().half_height()};
+        break;
+      case v1::Piece::kEllipsoid:
+        in.shape = Ellipsoid<double>{to_vec(piece.ellipsoid().radii())};
+        break;
+      case v1::Piece::SHAPE_NOT_SET:
+        break;  // monostate: validation names the missing shape
+    }
+  }
+  return out;
+}
+
+QueryOptionsInput to_input(const v1::QueryOptions& options) {
+  QueryOptionsInput out;
+  if (options.has_epsilon()) out.epsilon = options.epsilon();
+  if (options.has_near_points()) out.near_points = options.near_points();
+  switch (options.penetration()) {
+    case v1::PENETRATION_MODE_UNSPECIFIED:
+      out.penetration = PenetrationMode::unspecified;
+      break;
+    case v1::PENETRATION_MODE_NONE:
+      out.penetration = PenetrationMode::none;
+      break;
+    case v1::PENETRATION_MODE_BOUND:
+      out.penetration = PenetrationMode::bound;
+      break;
+    case v1::PENETRATION_MODE_DEPTH:
+      out.penetration = PenetrationMode::depth;
+      break;
+    default:
+      out.penetration = PenetrationMode::unknown;
+      break;
+  }
+  if (options.has_gradient()) out.gradient = options.gradient();
+  if (options.has_distance_cutoff()) out.distance_cutoff = options.distance_cutoff();
+  if (options.has_warm_start()) out.warm_start = options.warm_start();
+  if (options.has_max_iterations()) out.max_iterations = options.max_iterations();
+  return out;
+}
+
+SceneInput to_input(const v1::CreateSceneRequest& request) {
+  SceneInput out;
+  out.name = request.name();
+  out.objects.reserve(std::size_t(request.objects_size()));
+  for (const v1::SceneObject& object : request.objects()) {
+    ObjectInput& in = out.objects.emplace_back();
+    in.id = object.id();
+    in.geometry_id = object.geometry_id();
+    in.pose = to_input(object.pose());
+    if (object.has_group()) in.group = object.group();
+    if (object.has_mask()) in.mask = object.mask();
+  }
+  const v1::PairSelection& selection = request.pair_selection();
+  const v1::PairList* list = nullptr;
+  switch (selection.selection_case()) {
+    case v1::PairSelection::kListedPairs:
+      out.pair_selection.mode = PairSelectionInput::Mode::listed_pairs;
+      list = &selection.listed_pairs();
+      break;
+    case v1::PairSelection::kExcludedPairs:
+      out.pair_selection.mode = PairSelectionInput::Mode::excluded_pairs;
+      list = &selection.excluded_pairs();
+      break;
+    case v1::PairSelection::kAllPairs:
+    case v1::PairSelection::SELECTION_NOT_SET:
+      out.pair_selection.mode = PairSelectionInput::Mode::all_pairs;
+      break;
+  }
+  if (list)
+    for (const v1::ObjectPair& pair : list->pairs())
+      out.pair_selection.pairs.emplace_back(pair.object_a(), pair.object_b());
+  out.default_options = to_input(request.default_options());
+  return out;
+}
+
+PoseUpdateInput to_input(const v1::PoseUpdate& update) {
+  PoseUpdateInput out;
+  out.scene_id = update.scene_id();
+  out.sequence = update.sequence();
+  out.poses = to_pose_inputs(update.poses());
+  out.options = to_input(update.options());
+  switch (update.flow_control()) {
+    case v1::FLOW_CONTROL_UNSPECIFIED:
+    case v1::FLOW_CONTROL_BLOCK:
+      out.flow_control = FlowControl::block;
+      break;
+    case v1::FLOW_CONTROL_COALESCE:
+      out.flow_control = FlowControl::coalesce;
+      break;
+    default:
+      out.flow_control = FlowControl::unknown;
+      break;
+  }
+  return out;
+}
+
+QueryInput to_input(const v1::QueryRequest& request) {
+  QueryInput out;
+  out.scene_id = request.scene_id();
+  out.poses = to_pose_inputs(request.poses());
+  out.options = to_input(request.options());
+  out.sequence = request.sequence();
+  return out;
+}
+
+void to_proto(const GeometryInfo& info, v1::GeometryInfo& out) {
+  out.set_geometry_id(info.geometry_id);
+  out.set_name(info.name);
+  out.set_piece_count(std::uint32_t(info.piece_count));
+  out.set_vertex_count(info.vertex_count);
+  set_vec(info.bounding_center, *out.mutable_bounding_center());
+  out.set_bounding_radius(info.bounding_radius);
+}
+
+void to_proto(const Report& report, v1::DistanceReport& out) {
+  out.Clear();
+  out.set_sequence(report.sequence);
+  out.mutable_pairs()->Reserve(int(report.pairs.size()));
+  for (const PairReport& pair : report.pairs) {
+    v1::PairDistance& p = *out.add_pairs();
+    p.set_object_a(report.scene->objects[pair.object_a].id);
+    p.set_object_b(report.scene->objects[pair.object_b].id);
+    p.set_status(to_proto(pair.status));
+    p.set_distance(pair.distance);
+    p.set_distance_lower_bound(pair.distance_lower_bound);
+    p.set_error_bound(pair.error_bound);
+    p.set_iterations(pair.iterations);
+    p.set_piece_pairs_evaluated(pair.piece_pairs_evaluated);
+    p.set_piece_a(pair.piece_a);
+    p.set_piece_b(pair.piece_b);
+    p.set_warm_started(pair.warm_started);
+    if (pair.has_near_points) {
+      p.set_has_near_points(true);
+      set_vec(pair.point_a, *p.mutable_point_a());
+      set_vec(pair.point_b, *p.mutable_point_b());
+      set_vec(pair.normal, *p.mutable_normal());
+    }
+    if (pair.has_penetration_bound) {
+      p.set_has_penetration_bound(true);
+      p.set_penetration_bound(pair.penetration_bound);
+    }
+    if (pair.has_gradient) {
+      p.set_has_gradient(true);
+      set_gradient(pair.gradient_a, *p.mutable_gradient_a());
+      set_gradient(pair.gradient_b, *p.mutable_gradient_b());
+    }
+    if (pair.engine_message) p.set_message(pair.engine_message);
+  }
+  v1::ReportTiming& timing = *out.mutable_timing();
+  timing.set_server_us(report.timing.server_us);
+  timing.set_queue_us(report.timing.queue_us);
+  timing.set_evaluation_us(report.timing.evaluation_us);
+  timing.set_geometry_us(report.timing.geometry_us);
+  out.set_coalesced_updates(report.coalesced_updates);
+  out.set_coalesced_from_sequence(report.coalesced_from_sequence);
+}
+
+void to_proto(const Error& error, std::uint64_t sequence, v1::DistanceReport& out) {
+  out.Clear();
+  out.set_sequence(sequence);
+  v1::UpdateError& e = *out.mutable_error();
+  // The same code a unary call would fail with: derived from the one mapping above.
+  e.set_code(static_cast<v1::ErrorCode>(to_grpc_status(error).error_code()));
+  e.set_field(error.field);
+  e.set_message(error.message);
+}
+
+}  // namespace nearpoint::server

@@ -1,0 +1,33 @@
+// Conversions between the nearpoint.v1 protobuf messages and the scene API's plain structs, and
+// the one mapping from scene API errors to gRPC status codes. Mechanical: no validation here
+// (the scene API validates, so every transport rejects the same inputs with the same messages).
+#pragma once
+
+#include <grpcpp/support/status.h>
+
+#include "nearpoint/server/errors.hpp"
+#include "nearpoint/server/scene_types.hpp"
+#include "nearpoint_diagnostics.pb.h"
+#include "nearpoint_distance.pb.h"
+#include "nearpoint_geometry.pb.h"
+#include "nearpoint_scene.pb.h"
+
+namespace nearpoint::server {
+
+/// THE mapping of scene API errors to gRPC: INVALID_ARGUMENT and NOT_FOUND name the field in the
+/// message ("field: what is wrong"), limits are RESOURCE_EXHAUSTED.
+grpc::Status to_grpc_status(const Error& error);
+
+PoseInput to_input(const v1::Pose& pose);
+GeometryInput to_input(const v1::Geometry& geometry);
+QueryOptionsInput to_input(const v1::QueryOptions& options);
+SceneInput to_input(const v1::CreateSceneRequest& request);
+PoseUpdateInput to_input(const v1::PoseUpdate& update);
+QueryInput to_input(const v1::QueryRequest& request);
+
+void to_proto(const GeometryInfo& info, v1::GeometryInfo& out);
+void to_proto(const Report& report, v1::DistanceReport& out);
+/// The report of a rejected update: its sequence number and why.
+void to_proto(const Error& error, std::uint64_t sequence, v1::DistanceReport& out);
+
+}  // namespace nearpoint::server

@@ -1,0 +1,473 @@
+#include "nearpoint/server/scene_service.hpp"
+
+#include <algorithm>
+#include <unordered_set>
+
+#include "evaluation.hpp"
+#include "validation.hpp"
+
+namespace nearpoint::server {
+namespace {
+
+constexpr std::size_t kMaxNameBytes = 256;
+constexpr std::size_t kMaxObjectIdBytes = 128;
+
+/// The work one pool task should carry before an evaluation is split further, in "vertex
+/// visits" (a support call on a polytope visits each of its vertices once; a primitive counts as
+/// 8). A pair costs roughly (M_A + M_B) per support call and a few calls per update, so 4096
+/// visits are ~10–20 µs of GJK on this class of machine: about what waking a worker costs. Below
+/// that, one worker per update is faster than two.
+constexpr std::size_t kVisitsPerTask = 4096;
+constexpr std::size_t kVisitsPerPrimitive = 8;
+
+/// The vertex visits of one support call on each piece pair of (a, b), summed.
+std::size_t pair_cost(const GeometryInfo& a, const GeometryInfo& b) {
+  auto effective = [](const GeometryInfo& g) {
+    return g.vertex_count + kVisitsPerPrimitive * g.piece_count;
+  };
+  return b.piece_count * effective(a) + a.piece_count * effective(b);
+}
+
+double microseconds(Clock::duration d) {
+  return std::chrono::duration<double, std::micro>(d).count();
+}
+
+}  // namespace
+
+const char* to_string(ErrorCode code) {
+  switch (code) {
+    case ErrorCode::invalid_argument:
+      return "invalid_argument";
+    case ErrorCode::not_found:
+      return "not_found";
+    case ErrorCode::resource_exhausted:
+      return "resource_exhausted";
+    case ErrorCode::failed_precondition:
+      return "failed_precondition";
+    case ErrorCode::unavailable:
+      return "unavailable";
+    case ErrorCode::internal:
+      return "internal";
+  }
+  return "internal";
+}
+
+// ---- scenes ----
+
+std::int64_t SceneDefinition::find_object(const std::string& object_id) const {
+  const auto found = index_by_id.find(object_id);
+  return found == index_by_id.end() ? -1 : std::int64_t(found->second);
+}
+
+Scene::Scene(std::shared_ptr<const SceneDefinition> definition)
+    : definition_(std::move(definition)), query_cache_(definition_->piece_pair_count) {}
+
+void Scene::copy_query_cache(std::vector<SimplexCache>& out) {
+  std::lock_guard lock(query_cache_mutex_);
+  out = query_cache_;
+}
+
+void Scene::store_query_cache(const std::vector<SimplexCache>& caches) {
+  std::lock_guard lock(query_cache_mutex_);
+  if (caches.size() == query_cache_.size()) query_cache_ = caches;
+}
+
+// ---- one evaluation: the pairs of one update or query, in parallel on the pool ----
+
+struct SceneService::Job {
+  std::shared_ptr<const SceneDefinition> scene;
+  std::vector<Pose<double>> poses;
+  ResolvedOptions options;
+  /// The warm-start caches read and written (a stream's, or `own_caches`); empty: cold.
+  std::span<SimplexCache> caches;
+  std::vector<SimplexCache> own_caches;
+  Report report;
+  Clock::time_point received;
+  Clock::time_point started;
+  std::atomic<bool> started_flag{false};
+  std::atomic<std::size_t> next_pair{0};
+  std::atomic<std::size_t> tasks_left{0};
+  std::atomic<std::int64_t> geometry_ns{0};
+  /// Runs once, on the pool thread that finishes the last pair.
+  std::function<void(Job&)> complete;
+};
+
+void SceneService::run(std::shared_ptr<Job> job) {
+  const std::size_t pair_count = job->scene->pairs.size();
+  job->report.scene = job->scene;
+  job->report.pairs.resize(pair_count);
+  // Each task takes pairs one at a time from a shared counter, so uneven pairs (a 100-vertex
+  // hull next to a sphere) balance across the workers without any partitioning.
+  const std::size_t tasks =
+      std::max<std::size_t>(1, std::min(pair_count, job->scene->tasks_per_evaluation));
+  job->tasks_left.store(tasks, std::memory_order_relaxed);
+  for (std::size_t t = 0; t < tasks; ++t) {
+    pool_.post([job, pair_count] {
+      // The evaluation starts when a worker first picks it up (time before that is queueing).
+      if (!job->started_flag.exchange(true, std::memory_order_relaxed)) job->started = Clock::now();
+      std::int64_t nanoseconds = 0;
+      for (;;) {
+        const std::size_t i = job->next_pair.fetch_add(1, std::memory_order_relaxed);
+        if (i >= pair_count) break;
+        const ScenePair& pair = job->scene->pairs[i];
+        const std::span<SimplexCache> caches =
+            job->caches.empty() ? std::span<SimplexCache>{}
+                                : job->caches.subspan(pair.cache_offset, pair.cache_count);
+        const Clock::time_point begin = Clock::now();
+        evaluate_pair(*job->scene, pair, job->poses, job->options, caches, job->report.pairs[i]);
+        nanoseconds += std::chrono::nanoseconds(Clock::now() - begin).count();
+      }
+      job->geometry_ns.fetch_add(nanoseconds, std::memory_order_relaxed);
+      // acq_rel: the last task sees every other task's pair results.
+      if (job->tasks_left.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
+      const Clock::time_point end = Clock::now();
+      ReportTiming& timing = job->report.timing;
+      timing.server_us = microseconds(end - job->received);
+      timing.queue_us = microseconds(job->started - job->received);
+      timing.evaluation_us = microseconds(end - job->started);
+      timing.geometry_us = double(job->geometry_ns.load(std::memory_order_relaxed)) / 1000.0;
+      job->complete(*job);
+    });
+  }
+}
+
+// ---- geometry store ----
+
+SceneService::SceneService(const ServiceLimits& limits, std::size_t workers)
+    : limits_(limits), pool_(workers) {}
+
+SceneService::~SceneService() = default;
+
+Expected<GeometryInfo> SceneService::register_geometry(const GeometryInput& geometry) {
+  Expected<std::shared_ptr<StoredGeometry>> built = build_geometry(geometry, limits_);
+  if (!built) return built.error();
+  std::unique_lock lock(geometries_mutex_);
+  if (geometries_.size() >= limits_.max_geometries)
+    return resource_exhausted(
+        "", text("the server holds ", geometries_.size(), " geometries; the limit is ",
+                 limits_.max_geometries, " (--max-geometries)"));
+  std::shared_ptr<StoredGeometry>& stored = built.value();
+  stored->info.geometry_id = text("geom-", next_geometry_number_++);
+  geometries_.emplace(stored->info.geometry_id, stored);
+  return stored->info;
+}
+
+Outcome SceneService::remove_geometry(const std::string& geometry_id) {
+  std::unique_lock lock(geometries_mutex_);
+  if (geometries_.erase(geometry_id) == 0)
+    return not_found("geometry_id", text("no geometry '", geometry_id, "'"));
+  return {};
+}
+
+std::vector<GeometryInfo> SceneService::list_geometries() const {
+  std::vector<GeometryInfo> out;
+  {
+    std::shared_lock lock(geometries_mutex_);
+    out.reserve(geometries_.size());
+    for (const auto& [id, geometry] : geometries_) out.push_back(geometry->info);
+  }
+  // Registration order: ids are "geom-N", and a shorter N is a smaller one.
+  std::sort(out.begin(), out.end(), [](const GeometryInfo& a, const GeometryInfo& b) {
+    return std::pair(a.geometry_id.size(), a.geometry_id) <
+           std::pair(b.geometry_id.size(), b.geometry_id);
+  });
+  return out;
+}
+
+// ---- scenes ----
+
+Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
+  if (input.name.size() > kMaxNameBytes)
+    return invalid_argument("name", text("is longer than ", kMaxNameBytes, " bytes"));
+  if (input.objects.empty()) return invalid_argument("objects", "must hold at least one object");
+  if (input.objects.size() > limits_.max_objects_per_scene)
+    return resource_exhausted("objects",
+                              text("has ", input.objects.size(), " objects; the limit is ",
+                                   limits_.max_objects_per_scene, " (--max-objects-per-scene)"));
+  auto scene = std::make_shared<SceneDefinition>();
+  scene->name = input.name;
+  scene->objects.reserve(input.objects.size());
+  for (std::size_t i = 0; i < input.objects.size(); ++i) {
+    const ObjectInput& object = input.objects[i];
+    const std::string field = text("objects[", i, ']');
+    if (object.id.empty() || object.id.size() > kMaxObjectIdBytes)
+      return invalid_argument(field + ".id", text("must be 1-", kMaxObjectIdBytes, " bytes long"));
+    if (const auto [it, inserted] = scene->index_by_id.emplace(object.id, std::uint32_t(i));
+        !inserted)
+      return invalid_argument(
+          field + ".id", text("'", object.id, "' is already the id of objects[", it->second, "]"));
+    std::shared_ptr<const StoredGeometry> geometry;
+    {
+      std::shared_lock lock(geometries_mutex_);
+      const auto found = geometries_.find(object.geometry_id);
+      if (found != geometries_.end()) geometry = found->second;
+    }
+    if (!geometry)
+      return not_found(field + ".geometry_id", text("no geometry '", object.geometry_id, "'"));
+    Expected<Pose<double>> pose = check_pose(object.pose, field + ".pose");
+    if (!pose) return pose.error();
+    scene->objects.push_back(SceneObject{object.id, std::move(geometry), pose.value(),
+                                         object.group.value_or(1u),
+                                         object.mask.value_or(0xFFFFFFFFu)});
+  }
+  Expected<ResolvedOptions> defaults =
+      resolve_options(ResolvedOptions{}, input.default_options, "default_options");
+  if (!defaults) return defaults.error();
+  scene->default_options = defaults.value();
+
+  // The pairs.
+  const std::vector<SceneObject>& objects = scene->objects;
+  auto add_pair = [&](std::uint32_t a, std::uint32_t b, const std::string& field) -> Outcome {
+    if (scene->pairs.size() >= limits_.max_pairs_per_scene)
+      return resource_exhausted(field,
+                                text("the scene selects more than ", limits_.max_pairs_per_scene,
+                                     " pairs (--max-pairs-per-scene)"));
+    const std::size_t count =
+        objects[a].geometry->compound.size() * objects[b].geometry->compound.size();
+    if (scene->piece_pair_count + count > limits_.max_piece_pairs_per_scene)
+      return resource_exhausted(
+          field, text("the scene's pairs hold more than ", limits_.max_piece_pairs_per_scene,
+                      " piece pairs (--max-piece-pairs-per-scene)"));
+    scene->pairs.push_back(ScenePair{a, b, scene->piece_pair_count, count});
+    scene->piece_pair_count += count;
+    return {};
+  };
+  // Resolves a listed pair's two ids; `field` is the pair's path.
+  auto resolve_pair =
+      [&](const std::pair<std::string, std::string>& pair,
+          const std::string& field) -> Expected<std::pair<std::uint32_t, std::uint32_t>> {
+    const std::int64_t a = scene->find_object(pair.first);
+    if (a < 0)
+      return not_found(field + ".object_a", text("no object '", pair.first, "' in the scene"));
+    const std::int64_t b = scene->find_object(pair.second);
+    if (b < 0)
+      return not_found(field + ".object_b", text("no object '", pair.second, "' in the scene"));
+    if (a == b) return invalid_argument(field, "must name two different objects");
+    return std::pair(std::uint32_t(a), std::uint32_t(b));
+  };
+  auto key = [](std::uint32_t a, std::uint32_t b) {
+    return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
+  };
+
+  const PairSelectionInput& selection = input.pair_selection;
+  if (selection.mode == PairSelectionInput::Mode::listed_pairs) {
+    std::unordered_set<std::uint64_t> seen;
+    for (std::size_t k = 0; k < selection.pairs.size(); ++k) {
+      const std::string field = text("pair_selection.listed_pairs.pairs[", k, ']');
+      auto pair = resolve_pair(selection.pairs[k], field);
+      if (!pair) return pair.error();
+      if (!seen.insert(key(pair->first, pair->second)).second)
+        return invalid_argument(field, "lists a pair already listed");
+      if (Outcome added = add_pair(pair->first, pair->second, "pair_selection"); !added)
+        return added.error();
+    }
+  } else {
+    std::unordered_set<std::uint64_t> excluded;
+    if (selection.mode == PairSelectionInput::Mode::excluded_pairs) {
+      for (std::size_t k = 0; k < selection.pairs.size(); ++k) {
+        auto pair =
+            resolve_pair(selection.pairs[k], text("pair_selection.excluded_pairs.pairs[", k, ']'));
+        if (!pair) return pair.error();
+        excluded.insert(key(pair->first, pair->second));
+      }
+    }
+    for (std::uint32_t a = 0; a < objects.size(); ++a) {
+      for (std::uint32_t b = a + 1; b < objects.size(); ++b) {
+        const bool filtered_in =
+            (objects[a].group & objects[b].mask) != 0 && (objects[b].group & objects[a].mask) != 0;
+        if (!filtered_in || excluded.count(key(a, b))) continue;
+        if (Outcome added = add_pair(a, b, "pair_selection"); !added) return added.error();
+      }
+    }
+  }
+
+  std::size_t visits = 0;
+  for (const ScenePair& pair : scene->pairs)
+    visits +=
+        pair_cost(objects[pair.object_a].geometry->info, objects[pair.object_b].geometry->info);
+  scene->tasks_per_evaluation =
+      std::clamp<std::size_t>(visits / kVisitsPerTask, 1, std::max<std::size_t>(1, pool_.size()));
+
+  std::unique_lock lock(scenes_mutex_);
+  if (scenes_.size() >= limits_.max_scenes)
+    return resource_exhausted(
+        "", text("the server holds ", scenes_.size(), " scenes; the limit is ", limits_.max_scenes,
+                 " (--max-scenes)"));
+  scene->id = text("scene-", next_scene_number_++);
+  SceneInfo info{scene->id, scene->pairs.size()};
+  scenes_.emplace(info.scene_id, std::make_shared<Scene>(std::move(scene)));
+  return info;
+}
+
+Outcome SceneService::delete_scene(const std::string& scene_id) {
+  std::shared_ptr<Scene> scene;
+  {
+    std::unique_lock lock(scenes_mutex_);
+    const auto found = scenes_.find(scene_id);
+    if (found == scenes_.end()) return not_found("scene_id", text("no scene '", scene_id, "'"));
+    scene = std::move(found->second);
+    scenes_.erase(found);
+  }
+  scene->mark_deleted();
+  return {};
+}
+
+std::shared_ptr<Scene> SceneService::find_scene(const std::string& scene_id) const {
+  std::shared_lock lock(scenes_mutex_);
+  const auto found = scenes_.find(scene_id);
+  return found == scenes_.end() ? nullptr : found->second;
+}
+
+Expected<std::vector<Pose<double>>> SceneService::apply_poses(
+    const SceneDefinition& scene, std::vector<Pose<double>> poses,
+    const std::vector<ObjectPoseInput>& updates, const char* field) const {
+  std::vector<char> seen(scene.objects.size(), 0);
+  for (std::size_t j = 0; j < updates.size(); ++j) {
+    const std::string entry = text(field, '[', j, ']');
+    const std::int64_t index = scene.find_object(updates[j].object_id);
+    if (index < 0)
+      return not_found(entry + ".object_id",
+                       text("no object '", updates[j].object_id, "' in scene '", scene.id, "'"));
+    if (seen[std::size_t(index)]++)
+      return invalid_argument(entry + ".object_id",
+                              text("object '", updates[j].object_id, "' is listed twice"));
+    Expected<Pose<double>> pose = check_pose(updates[j].pose, entry + ".pose");
+    if (!pose) return pose.error();
+    poses[std::size_t(index)] = pose.value();
+  }
+  return poses;
+}
+
+Outcome SceneService::query(const QueryInput& query, Clock::time_point received,
+                            ReportCallback done) {
+  std::shared_ptr<Scene> scene = find_scene(query.scene_id);
+  if (!scene) return not_found("scene_id", text("no scene '", query.scene_id, "'"));
+  const std::shared_ptr<const SceneDefinition>& definition = scene->definition();
+  Expected<ResolvedOptions> options =
+      resolve_options(definition->default_options, query.options, "options");
+  if (!options) return options.error();
+  std::vector<Pose<double>> initial;
+  initial.reserve(definition->objects.size());
+  for (const SceneObject& object : definition->objects) initial.push_back(object.initial_pose);
+  Expected<std::vector<Pose<double>>> poses =
+      apply_poses(*definition, std::move(initial), query.poses, "poses");
+  if (!poses) return poses.error();
+
+  if (running_queries_.fetch_add(1) >= limits_.max_concurrent_queries) {
+    running_queries_.fetch_sub(1);
+    return resource_exhausted(
+        "", text("the server is already evaluating ", limits_.max_concurrent_queries,
+                 " queries (--max-concurrent-queries)"));
+  }
+  auto job = std::make_shared<Job>();
+  job->scene = definition;
+  job->poses = std::move(poses.value());
+  job->options = options.value();
+  job->received = received;
+  job->report.sequence = query.sequence;
+  if (job->options.warm_start) {
+    scene->copy_query_cache(job->own_caches);
+    job->caches = job->own_caches;
+  }
+  job->complete = [this, scene, done = std::move(done)](Job& finished) {
+    if (finished.options.warm_start) scene->store_query_cache(finished.own_caches);
+    running_queries_.fetch_sub(1);
+    done(std::move(finished.report));
+  };
+  run(std::move(job));
+  return {};
+}
+
+// ---- streams ----
+
+Expected<std::unique_ptr<PoseStream>> SceneService::open_stream() {
+  const std::size_t open = open_streams_.fetch_add(1);
+  if (open >= limits_.max_streams) {
+    open_streams_.fetch_sub(1);
+    return resource_exhausted(
+        "", text("the server already serves ", open, " pose streams; the limit is ",
+                 limits_.max_streams, " (--max-streams)"));
+  }
+  return std::unique_ptr<PoseStream>(new PoseStream(*this));
+}
+
+PoseStream::PoseStream(SceneService& service) : service_(service) {}
+
+PoseStream::~PoseStream() {
+  service_.open_streams_.fetch_sub(1);
+}
+
+Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
+                                             Clock::time_point received) {
+  std::shared_ptr<Scene> scene = scene_;
+  if (!scene) {
+    scene = service_.find_scene(update.scene_id);
+    if (!scene) return not_found("scene_id", text("no scene '", update.scene_id, "'"));
+  } else if (!update.scene_id.empty() && update.scene_id != scene->definition()->id) {
+    return Error{
+        ErrorCode::failed_precondition, "scene_id",
+        text("this stream is bound to scene '", scene->definition()->id,
+             "' by its first update; open another stream for scene '", update.scene_id, "'")};
+  }
+  const SceneDefinition& definition = *scene->definition();
+  if (scene->deleted())
+    return not_found("scene_id", text("scene '", definition.id, "' was deleted"));
+  if (!scene_ && update.flow_control == FlowControl::unknown)
+    return invalid_argument("flow_control", "unknown FlowControl value");
+  if (has_sequence_ && update.sequence <= last_sequence_)
+    return invalid_argument("sequence", text("must increase over the stream: got ", update.sequence,
+                                             " after ", last_sequence_));
+  Expected<ResolvedOptions> options =
+      resolve_options(definition.default_options, update.options, "options");
+  if (!options) return options.error();
+  std::vector<Pose<double>> start;
+  if (scene_) {
+    start = current_poses_;
+  } else {
+    start.reserve(definition.objects.size());
+    for (const SceneObject& object : definition.objects) start.push_back(object.initial_pose);
+  }
+  Expected<std::vector<Pose<double>>> poses =
+      service_.apply_poses(definition, std::move(start), update.poses, "poses");
+  if (!poses) return poses.error();
+
+  // Accepted: only now does the stream's state change.
+  if (!scene_) {
+    scene_ = std::move(scene);
+    caches_.assign(definition.piece_pair_count, SimplexCache{});
+    flow_control_ = update.flow_control;
+  }
+  current_poses_ = poses.value();
+  has_sequence_ = true;
+  last_sequence_ = update.sequence;
+  PreparedUpdate prepared;
+  prepared.sequence = update.sequence;
+  prepared.poses = std::move(poses.value());
+  prepared.options = options.value();
+  prepared.received = received;
+  return prepared;
+}
+
+void PoseStream::coalesce(PreparedUpdate& newer, const PreparedUpdate& older) {
+  newer.coalesced_updates += older.coalesced_updates + 1;
+  newer.coalesced_from_sequence =
+      older.coalesced_updates > 0 ? older.coalesced_from_sequence : older.sequence;
+}
+
+void PoseStream::evaluate(PreparedUpdate update, ReportCallback done) {
+  auto job = std::make_shared<SceneService::Job>();
+  job->scene = scene_->definition();
+  job->poses = std::move(update.poses);
+  job->options = update.options;
+  if (update.options.warm_start) job->caches = caches_;
+  job->received = update.received;
+  job->report.sequence = update.sequence;
+  job->report.coalesced_updates = update.coalesced_updates;
+  job->report.coalesced_from_sequence = update.coalesced_from_sequence;
+  job->complete = [done = std::move(done)](SceneService::Job& finished) {
+    done(std::move(finished.report));
+  };
+  service_.run(std::move(job));
+}
+
+}  // namespace nearpoint::server

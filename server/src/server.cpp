@@ -1,0 +1,106 @@
+#include "nearpoint/server/server.hpp"
+
+#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <grpcpp/grpcpp.h>
+#include <grpcpp/health_check_service_interface.h>
+
+#include <mutex>
+
+#include "grpc_services.hpp"
+#include "nearpoint/server/log.hpp"
+
+namespace nearpoint::server {
+
+struct GrpcServer::Impl {
+  ServerConfig config;
+  // Destroyed in reverse order: the gRPC server first (no call can reach the services any more),
+  // then the services, then the scene service (whose pool finishes any queued work).
+  std::unique_ptr<SceneService> scenes;
+  std::unique_ptr<DistanceServiceImpl> distance;
+  std::unique_ptr<DiagnosticsServiceImpl> diagnostics;
+  std::unique_ptr<grpc::Server> server;
+  int port = 0;
+  std::mutex shutdown_mutex;
+  bool shut_down = false;
+};
+
+GrpcServer::GrpcServer() : impl_(std::make_unique<Impl>()) {}
+
+GrpcServer::~GrpcServer() {
+  shutdown();
+}
+
+Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& config) {
+  std::unique_ptr<GrpcServer> self(new GrpcServer());
+  Impl& impl = *self->impl_;
+  impl.config = config;
+  impl.scenes = std::make_unique<SceneService>(config.limits, config.workers);
+  impl.distance = std::make_unique<DistanceServiceImpl>(*impl.scenes);
+  if (config.diagnostics) impl.diagnostics = std::make_unique<DiagnosticsServiceImpl>();
+
+  grpc::EnableDefaultHealthCheckService(true);
+  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::ServerBuilder builder;
+  // gRPC sets SO_REUSEPORT by default, which lets a second server bind a port already in use
+  // without an error; we want "address in use" to be an error.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
+  const int max_message =
+      static_cast<int>(std::min<std::size_t>(config.max_message_bytes, INT32_MAX));
+  builder.SetMaxReceiveMessageSize(max_message);
+  builder.SetMaxSendMessageSize(max_message);
+  builder.AddListeningPort(config.listen, grpc::InsecureServerCredentials(), &impl.port);
+  builder.RegisterService(impl.distance.get());
+  if (impl.diagnostics) builder.RegisterService(impl.diagnostics.get());
+  impl.server = builder.BuildAndStart();
+  if (!impl.server || impl.port == 0) {
+    impl.server.reset();
+    impl.shut_down = true;
+    return Error{
+        ErrorCode::unavailable, "listen",
+        text("cannot listen on '", config.listen, "' (malformed, or the address is in use)")};
+  }
+  if (grpc::HealthCheckServiceInterface* health = impl.server->GetHealthCheckService()) {
+    health->SetServingStatus(true);
+    health->SetServingStatus("nearpoint.v1.DistanceService", true);
+  }
+  return self;
+}
+
+int GrpcServer::port() const {
+  return impl_->port;
+}
+
+SceneService& GrpcServer::scenes() {
+  return *impl_->scenes;
+}
+
+void GrpcServer::shutdown() {
+  std::lock_guard lock(impl_->shutdown_mutex);
+  Impl& impl = *impl_;
+  if (impl.shut_down) return;
+  impl.shut_down = true;
+  const auto begin = Clock::now();
+  log_info("shutdown_begin")
+      .kv("open_streams", impl.scenes->open_streams())
+      .kv("drain_timeout_ms", impl.config.drain_timeout.count());
+  // Health first, so that load balancers stop sending before the listener closes.
+  if (grpc::HealthCheckServiceInterface* health = impl.server->GetHealthCheckService())
+    health->Shutdown();
+  // New calls are refused (UNAVAILABLE); every open stream stops reading, answers what it has
+  // read and ends (UNAVAILABLE); unary calls in flight finish.
+  impl.distance->calls().drain_all();
+  if (impl.diagnostics) impl.diagnostics->calls().drain_all();
+  const auto deadline = Clock::now() + impl.config.drain_timeout;
+  bool drained = impl.distance->calls().wait_idle(deadline);
+  if (impl.diagnostics) drained = impl.diagnostics->calls().wait_idle(deadline) && drained;
+  // Our calls are over (or the drain timed out): close the listener and the connections now.
+  // With a later deadline gRPC would also wait for the clients to close their connections, which
+  // idle clients never do.
+  impl.server->Shutdown(std::chrono::system_clock::now());
+  impl.server->Wait();
+  log_info("shutdown_complete")
+      .kv("drained", drained ? "all" : "timed_out")
+      .kv("ms", std::chrono::duration<double, std::milli>(Clock::now() - begin).count());
+}
+
+}  // namespace nearpoint::server

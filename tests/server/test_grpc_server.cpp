@@ -1,0 +1,857 @@
+// Integration tests: a real in-process server on 127.0.0.1:0, driven through the generated gRPC
+// client. Every reported distance is checked against the engine run locally on the same poses.
+#include <grpcpp/generic/generic_stub.h>
+
+#include <atomic>
+#include <functional>
+#include <future>
+#include <thread>
+
+#include "scene_fixture.hpp"
+
+namespace nearpoint::server::testing {
+namespace {
+
+class GrpcServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ServerConfig config = test_config();
+    config.limits.max_vertices_per_geometry = 2000;
+    config.max_message_bytes = 1u << 20;
+    running_ = start_server(config);
+    ASSERT_TRUE(running_.server);
+  }
+  v1::DistanceService::Stub& stub() { return *running_.stub; }
+
+  RunningServer running_;
+};
+
+// ---- streams ----
+
+// The main path: a pipelined stream of 300 poses along a smooth trajectory (a writer thread
+// sends while the reader checks), every report in order with its sequence number and every
+// distance equal to the engine's within the error bounds.
+TEST_F(GrpcServerTest, StreamedTrajectoryMatchesTheEngineInOrder) {
+  v1::QueryOptions defaults;
+  defaults.set_near_points(true);
+  const LocalScene scene = make_scene(stub(), defaults);
+  ASSERT_EQ(scene.pair_count, 21u);
+  constexpr int kSteps = 300;
+  constexpr std::uint64_t kFirstSequence = 1000;
+
+  StreamClient stream(stub());
+  std::thread writer([&] {
+    for (int step = 0; step < kSteps; ++step)
+      if (!stream.write(make_update(scene, kFirstSequence + std::uint64_t(step),
+                                    trajectory(scene.size(), step))))
+        return;
+  });
+  CheckStats stats;
+  int warm_pairs_after_first = 0, pairs_after_first = 0;
+  for (int step = 0; step < kSteps; ++step) {
+    v1::DistanceReport report;
+    ASSERT_TRUE(stream.read(report)) << "stream ended at step " << step;
+    ASSERT_EQ(report.sequence(), kFirstSequence + std::uint64_t(step));
+    EXPECT_EQ(report.coalesced_updates(), 0u);
+    EXPECT_GE(report.timing().server_us(), report.timing().evaluation_us());
+    EXPECT_GT(report.timing().geometry_us(), 0.0);
+    const CheckStats before = stats;
+    expect_matches_local(scene, trajectory(scene.size(), step), report, true, &stats);
+    if (step > 0) {
+      pairs_after_first += stats.pairs - before.pairs;
+      warm_pairs_after_first += stats.warm_started - before.warm_started;
+    }
+  }
+  writer.join();
+  EXPECT_TRUE(stream.finish().ok());
+  // A representative sample (lesson 8): contacts and clearances are both common.
+  EXPECT_GT(stats.intersecting, stats.pairs / 5) << stats.intersecting << " of " << stats.pairs;
+  EXPECT_LT(stats.intersecting, stats.pairs * 4 / 5) << stats.intersecting << " of " << stats.pairs;
+  // After the first update the stream's caches warm-start nearly every pair (the two-piece arm
+  // may switch to a piece pair that was pruned before, which then starts cold).
+  EXPECT_GT(warm_pairs_after_first, pairs_after_first * 9 / 10);
+}
+
+// Section VIII's mechanism: the stream keeps each pair's final simplex (vertex indices) and the
+// next update starts from it. With single-piece polytopes every pair after the first update is
+// warm; with warm_start = false none is, and the answers are the same within the error bounds.
+TEST_F(GrpcServerTest, WarmStartCachesMakeLaterUpdatesWarm) {
+  const TestGeometry box = polytope_geometry("box", box_vertices(Vec3<double>(0.5, 0.4, 0.3)));
+  const TestGeometry hull = polytope_geometry("hull", random_hull_vertices(5, 30, 0.5));
+  const std::string box_id = register_geometry(stub(), box);
+  const std::string hull_id = register_geometry(stub(), hull);
+  v1::CreateSceneRequest create;
+  for (auto [id, geometry] : {std::pair{"a", box_id}, {"b", hull_id}, {"c", hull_id}}) {
+    v1::SceneObject& object = *create.add_objects();
+    object.set_id(id);
+    object.set_geometry_id(geometry);
+  }
+  v1::CreateSceneResponse created;
+  ASSERT_TRUE(stub().CreateScene(make_context().get(), create, &created).ok());
+
+  for (const bool warm : {true, false}) {
+    SCOPED_TRACE(warm ? "warm" : "cold");
+    StreamClient stream(stub());
+    for (int step = 0; step < 20; ++step) {
+      v1::PoseUpdate update;
+      update.set_scene_id(created.scene_id());
+      update.set_sequence(std::uint64_t(step));
+      update.mutable_options()->set_warm_start(warm);
+      const std::vector<TestPose> poses = trajectory(3, step);
+      for (int i = 0; i < 3; ++i) {
+        v1::ObjectPose& pose = *update.add_poses();
+        pose.set_object_id(std::string(1, char('a' + i)));
+        poses[std::size_t(i)].to_message(*pose.mutable_pose());
+      }
+      ASSERT_TRUE(stream.write(update));
+      v1::DistanceReport report;
+      ASSERT_TRUE(stream.read(report));
+      ASSERT_EQ(report.pairs_size(), 3);
+      for (const v1::PairDistance& pair : report.pairs())
+        EXPECT_EQ(pair.warm_started(), warm && step > 0) << "step " << step;
+    }
+    EXPECT_TRUE(stream.finish().ok());
+  }
+}
+
+// A rejected update yields an error report naming its sequence number and the field, and the
+// stream goes on: later updates are answered as usual.
+TEST_F(GrpcServerTest, RejectedUpdateGetsAnErrorReportAndTheStreamContinues) {
+  const LocalScene scene = make_scene(stub());
+  StreamClient stream(stub());
+  auto send = [&](const v1::PoseUpdate& update) {
+    EXPECT_TRUE(stream.write(update));
+    v1::DistanceReport report;
+    EXPECT_TRUE(stream.read(report));
+    return report;
+  };
+  const std::vector<TestPose> poses = trajectory(scene.size(), 3);
+
+  // The first update names an unknown scene: NOT_FOUND, and the stream is still unbound.
+  v1::PoseUpdate unknown_scene = make_update(scene, 1, poses);
+  unknown_scene.set_scene_id("scene-404");
+  v1::DistanceReport report = send(unknown_scene);
+  EXPECT_EQ(report.sequence(), 1u);
+  EXPECT_EQ(report.error().code(), v1::ERROR_CODE_NOT_FOUND);
+  EXPECT_EQ(report.error().field(), "scene_id");
+  EXPECT_EQ(report.pairs_size(), 0);
+
+  report = send(make_update(scene, 2, poses));
+  EXPECT_EQ(report.sequence(), 2u);
+  expect_matches_local(scene, poses, report, false);
+
+  v1::PoseUpdate nan_translation = make_update(scene, 3, poses);
+  nan_translation.mutable_poses(1)->mutable_pose()->mutable_translation()->set_x(std::nan(""));
+  report = send(nan_translation);
+  EXPECT_EQ(report.sequence(), 3u);
+  EXPECT_EQ(report.error().code(), v1::ERROR_CODE_INVALID_ARGUMENT);
+  EXPECT_EQ(report.error().field(), "poses[1].pose.translation.x");
+
+  v1::PoseUpdate long_quaternion = make_update(scene, 4, poses);
+  long_quaternion.mutable_poses(0)->mutable_pose()->mutable_rotation()->set_w(2.0);
+  report = send(long_quaternion);
+  EXPECT_EQ(report.error().code(), v1::ERROR_CODE_INVALID_ARGUMENT);
+  EXPECT_EQ(report.error().field(), "poses[0].pose.rotation");
+
+  v1::PoseUpdate unknown_object = make_update(scene, 5, poses);
+  unknown_object.mutable_poses(2)->set_object_id("ghost");
+  report = send(unknown_object);
+  EXPECT_EQ(report.error().code(), v1::ERROR_CODE_NOT_FOUND);
+  EXPECT_EQ(report.error().field(), "poses[2].object_id");
+
+  v1::PoseUpdate depth = make_update(scene, 6, poses);
+  depth.mutable_options()->set_penetration(v1::PENETRATION_MODE_DEPTH);
+  report = send(depth);
+  EXPECT_EQ(report.error().code(), v1::ERROR_CODE_INVALID_ARGUMENT);
+  EXPECT_EQ(report.error().field(), "options.penetration");
+
+  // Sequence numbers must increase over the accepted updates (2 was the last accepted).
+  report = send(make_update(scene, 2, poses));
+  EXPECT_EQ(report.error().code(), v1::ERROR_CODE_INVALID_ARGUMENT);
+  EXPECT_EQ(report.error().field(), "sequence");
+
+  // Still alive, and the rejected updates changed nothing.
+  const std::vector<TestPose> later = trajectory(scene.size(), 9);
+  report = send(make_update(scene, 7, later));
+  EXPECT_EQ(report.sequence(), 7u);
+  expect_matches_local(scene, later, report, false);
+  EXPECT_TRUE(stream.finish().ok());
+}
+
+// Objects an update leaves out keep the stream's previous poses (not the initial ones).
+TEST_F(GrpcServerTest, UnlistedObjectsKeepTheirPreviousPose) {
+  const LocalScene scene = make_scene(stub());
+  StreamClient stream(stub());
+  std::vector<TestPose> poses = trajectory(scene.size(), 4);
+  ASSERT_TRUE(stream.write(make_update(scene, 1, poses)));
+  v1::DistanceReport report;
+  ASSERT_TRUE(stream.read(report));
+  poses[2].translation.x() += 0.25;
+  v1::PoseUpdate partial;
+  partial.set_sequence(2);  // scene_id may be left out once the stream is bound
+  v1::ObjectPose& moved = *partial.add_poses();
+  moved.set_object_id(scene.object_ids[2]);
+  poses[2].to_message(*moved.mutable_pose());
+  ASSERT_TRUE(stream.write(partial));
+  ASSERT_TRUE(stream.read(report));
+  expect_matches_local(scene, poses, report, false);
+  EXPECT_TRUE(stream.finish().ok());
+}
+
+// Two streams on one scene with different trajectories each get the answers for their own
+// poses: streams share the immutable scene but none of the mutable state.
+TEST_F(GrpcServerTest, TwoConcurrentStreamsOnOneSceneGetTheirOwnAnswers) {
+  const LocalScene scene = make_scene(stub());
+  auto run = [&](double phase) {
+    StreamClient stream(stub());
+    for (int step = 0; step < 120; ++step) {
+      const std::vector<TestPose> poses = trajectory(scene.size(), step, phase);
+      ASSERT_TRUE(stream.write(make_update(scene, std::uint64_t(step) + 1, poses)));
+      v1::DistanceReport report;
+      ASSERT_TRUE(stream.read(report));
+      ASSERT_EQ(report.sequence(), std::uint64_t(step) + 1);
+      expect_matches_local(scene, poses, report, false);
+    }
+    EXPECT_TRUE(stream.finish().ok());
+  };
+  std::thread first(run, 0.0);
+  std::thread second(run, 2.5);
+  first.join();
+  second.join();
+}
+
+// A client that vanishes mid-stream (cancelled with updates in flight and reports unread) does
+// not disturb another stream, and its server-side state is released.
+TEST_F(GrpcServerTest, ClientThatDisconnectsMidStreamDoesNotDisturbOthers) {
+  const LocalScene scene = make_scene(stub());
+  std::promise<void> steady_started;
+  std::thread steady([&] {
+    StreamClient stream(stub());
+    for (int step = 0; step < 150; ++step) {
+      const std::vector<TestPose> poses = trajectory(scene.size(), step);
+      ASSERT_TRUE(stream.write(make_update(scene, std::uint64_t(step), poses)));
+      v1::DistanceReport report;
+      ASSERT_TRUE(stream.read(report));
+      ASSERT_EQ(report.sequence(), std::uint64_t(step));
+      expect_matches_local(scene, poses, report, false);
+      if (step == 10) steady_started.set_value();
+    }
+    EXPECT_TRUE(stream.finish().ok());
+  });
+  steady_started.get_future().wait();
+  {
+    StreamClient leaver(stub());
+    for (int step = 0; step < 30; ++step)
+      ASSERT_TRUE(leaver.write(
+          make_update(scene, std::uint64_t(step), trajectory(scene.size(), step, 1.0))));
+    leaver.context().TryCancel();
+  }  // the stream object is destroyed with reports unread
+  steady.join();
+  // The cancelled stream's reactor ends once its evaluation in flight returns. Bounded wait for
+  // that asynchronous cleanup (there is no event to wait on from outside the server).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (running_.server->scenes().open_streams() != 0 &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_EQ(running_.server->scenes().open_streams(), 0u);
+}
+
+// A stream bound to a scene that is deleted gets NOT_FOUND error reports from then on.
+TEST_F(GrpcServerTest, DeletedSceneRejectsFurtherUpdates) {
+  const LocalScene scene = make_scene(stub());
+  StreamClient stream(stub());
+  const std::vector<TestPose> poses = trajectory(scene.size(), 0);
+  ASSERT_TRUE(stream.write(make_update(scene, 1, poses)));
+  v1::DistanceReport report;
+  ASSERT_TRUE(stream.read(report));
+  EXPECT_FALSE(report.has_error());
+  v1::DeleteSceneRequest remove;
+  remove.set_scene_id(scene.scene_id);
+  v1::DeleteSceneResponse removed;
+  ASSERT_TRUE(stub().DeleteScene(make_context().get(), remove, &removed).ok());
+  ASSERT_TRUE(stream.write(make_update(scene, 2, poses)));
+  ASSERT_TRUE(stream.read(report));
+  EXPECT_EQ(report.error().code(), v1::ERROR_CODE_NOT_FOUND);
+  EXPECT_EQ(report.error().field(), "scene_id");
+  EXPECT_TRUE(stream.finish().ok());
+}
+
+// Flow control, BLOCK (the default): a client that keeps writing without reading any report
+// gets every update answered, in order — the server stops reading (HTTP/2 flow control then
+// holds the writer back) instead of buffering without bound or dropping.
+TEST_F(GrpcServerTest, BlockPolicyAnswersEveryUpdateOfAFastWriter) {
+  const LocalScene scene = make_scene(stub());
+  StreamClient stream(stub());
+  constexpr int kUpdates = 200;
+  std::promise<void> half_written;
+  std::thread writer([&] {
+    for (int step = 0; step < kUpdates; ++step) {
+      if (!stream.write(
+              make_update(scene, std::uint64_t(step) + 1, trajectory(scene.size(), step))))
+        break;
+      if (step == kUpdates / 4) half_written.set_value();
+    }
+    stream.writes_done();
+  });
+  half_written.get_future().wait();
+  std::vector<v1::DistanceReport> reports;
+  const grpc::Status status = stream.read_to_end(reports);
+  writer.join();
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  ASSERT_EQ(reports.size(), std::size_t(kUpdates));
+  for (int step = 0; step < kUpdates; ++step) {
+    ASSERT_EQ(reports[std::size_t(step)].sequence(), std::uint64_t(step) + 1);
+    EXPECT_EQ(reports[std::size_t(step)].coalesced_updates(), 0u);
+  }
+  expect_matches_local(scene, trajectory(scene.size(), kUpdates - 1), reports.back(), false);
+}
+
+// Flow control, COALESCE: with a reader that reads nothing until the writer is done, the server
+// keeps reading and merges what arrives while it is busy into the newest update. Every update is
+// accounted for (each report counts the updates it absorbed), the newest poses are answered, and
+// the merged reports are correct for their own sequence's poses.
+TEST_F(GrpcServerTest, CoalescePolicyMergesUpdatesForASlowReader) {
+  v1::QueryOptions defaults;
+  defaults.set_near_points(true);
+  defaults.set_gradient(true);  // larger reports fill the transport's window sooner
+  const LocalScene scene = make_scene(stub(), defaults);
+  StreamClient stream(stub());
+  constexpr int kUpdates = 400;
+  std::promise<void> all_written;
+  std::thread writer([&] {
+    for (int step = 0; step < kUpdates; ++step) {
+      v1::PoseUpdate update =
+          make_update(scene, std::uint64_t(step) + 1, trajectory(scene.size(), step));
+      if (step == 0) update.set_flow_control(v1::FLOW_CONTROL_COALESCE);
+      if (!stream.write(update)) break;
+    }
+    all_written.set_value();
+    stream.writes_done();
+  });
+  // The server must keep reading: the writer finishes without any report being read.
+  ASSERT_EQ(all_written.get_future().wait_for(std::chrono::seconds(15)), std::future_status::ready);
+  std::vector<v1::DistanceReport> reports;
+  const grpc::Status status = stream.read_to_end(reports);
+  writer.join();
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  ASSERT_FALSE(reports.empty());
+  std::uint64_t accounted = 0, previous = 0;
+  int merged_reports = 0;
+  for (const v1::DistanceReport& report : reports) {
+    ASSERT_GT(report.sequence(), previous);
+    if (report.coalesced_updates() > 0) {
+      ++merged_reports;
+      EXPECT_EQ(report.coalesced_from_sequence(), previous + 1);
+      EXPECT_EQ(report.sequence() - report.coalesced_from_sequence(), report.coalesced_updates());
+    } else {
+      EXPECT_EQ(report.sequence(), previous + 1);
+    }
+    accounted += 1 + report.coalesced_updates();
+    previous = report.sequence();
+    expect_matches_local(scene, trajectory(scene.size(), int(report.sequence()) - 1), report, true);
+  }
+  EXPECT_EQ(accounted, std::uint64_t(kUpdates));
+  EXPECT_EQ(reports.back().sequence(), std::uint64_t(kUpdates));
+  EXPECT_GT(merged_reports, 0);
+}
+
+// ---- unary queries ----
+
+TEST_F(GrpcServerTest, UnaryQueryMatchesTheEngineAndWarmStartsFromTheSceneCache) {
+  const LocalScene scene = make_scene(stub());
+  const std::vector<TestPose> poses = trajectory(scene.size(), 7);
+  v1::QueryRequest query;
+  query.set_scene_id(scene.scene_id);
+  query.set_sequence(77);
+  query.mutable_options()->set_near_points(true);
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    v1::ObjectPose& pose = *query.add_poses();
+    pose.set_object_id(scene.object_ids[i]);
+    poses[i].to_message(*pose.mutable_pose());
+  }
+  v1::DistanceReport first, second, cold;
+  ASSERT_TRUE(stub().Query(make_context().get(), query, &first).ok());
+  EXPECT_EQ(first.sequence(), 77u);
+  expect_matches_local(scene, poses, first, true);
+  for (const v1::PairDistance& pair : first.pairs()) EXPECT_FALSE(pair.warm_started());
+  // The same query again starts every pair from the scene's shared cache.
+  ASSERT_TRUE(stub().Query(make_context().get(), query, &second).ok());
+  expect_matches_local(scene, poses, second, true);
+  for (const v1::PairDistance& pair : second.pairs()) EXPECT_TRUE(pair.warm_started());
+  query.mutable_options()->set_warm_start(false);
+  ASSERT_TRUE(stub().Query(make_context().get(), query, &cold).ok());
+  for (const v1::PairDistance& pair : cold.pairs()) EXPECT_FALSE(pair.warm_started());
+}
+
+// Objects a query does not list sit at their initial pose: here the identity, all at the origin,
+// so every pair intersects; the penetration bound is reported on request.
+TEST_F(GrpcServerTest, UnaryQueryUsesInitialPosesAndReportsPenetrationBounds) {
+  const LocalScene scene = make_scene(stub());
+  v1::QueryRequest query;
+  query.set_scene_id(scene.scene_id);
+  query.mutable_options()->set_penetration(v1::PENETRATION_MODE_BOUND);
+  v1::DistanceReport report;
+  ASSERT_TRUE(stub().Query(make_context().get(), query, &report).ok());
+  ASSERT_EQ(report.pairs_size(), 21);
+  for (const v1::PairDistance& pair : report.pairs()) {
+    EXPECT_EQ(pair.status(), v1::PAIR_STATUS_INTERSECTING)
+        << pair.object_a() << "/" << pair.object_b();
+    EXPECT_EQ(pair.distance(), 0.0);
+    EXPECT_TRUE(pair.has_penetration_bound());
+    EXPECT_GE(pair.penetration_bound(), 0.0);
+  }
+}
+
+// The broad phase: pairs whose bounding spheres are farther apart than the cutoff are reported
+// as BEYOND_CUTOFF with a certified lower bound, without running GJK; near pairs get exact
+// distances.
+TEST_F(GrpcServerTest, PairsBeyondTheCutoffAreReportedWithALowerBound) {
+  const LocalScene scene = make_scene(stub());
+  std::vector<TestPose> poses(scene.size());
+  for (std::size_t i = 0; i < poses.size(); ++i)
+    poses[i].translation = Vec3<double>(3.0 * double(i), 0, 0);            // 3 m apart: all far
+  poses[1].translation = poses[0].translation + Vec3<double>(0, 0.95, 0);  // 0.25 m gap
+  v1::QueryRequest query;
+  query.set_scene_id(scene.scene_id);
+  query.mutable_options()->set_distance_cutoff(0.3);
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    v1::ObjectPose& pose = *query.add_poses();
+    pose.set_object_id(scene.object_ids[i]);
+    poses[i].to_message(*pose.mutable_pose());
+  }
+  v1::DistanceReport report;
+  ASSERT_TRUE(stub().Query(make_context().get(), query, &report).ok());
+  int beyond = 0, skipped_by_spheres = 0;
+  for (const v1::PairDistance& pair : report.pairs()) {
+    const int a = scene.object_index.at(pair.object_a());
+    const int b = scene.object_index.at(pair.object_b());
+    const double truth = distance(scene.compound(a), poses[std::size_t(a)].local(),
+                                  scene.compound(b), poses[std::size_t(b)].local())
+                             .nearest.distance;
+    SCOPED_TRACE(pair.object_a() + "/" + pair.object_b());
+    if (pair.status() == v1::PAIR_STATUS_BEYOND_CUTOFF) {
+      ++beyond;
+      skipped_by_spheres += pair.iterations() == 0 && pair.piece_pairs_evaluated() == 0;
+      EXPECT_GT(pair.distance_lower_bound(), 0.3 - 1e-9);
+      EXPECT_LE(pair.distance_lower_bound(), truth + 1e-9);
+    } else {
+      EXPECT_EQ(pair.status(), v1::PAIR_STATUS_SEPARATED);
+      EXPECT_NEAR(pair.distance(), truth, pair.error_bound() + 1e-9);
+      EXPECT_LE(truth, 0.3 + 1e-9);
+    }
+  }
+  EXPECT_EQ(beyond, 20);
+  EXPECT_GT(skipped_by_spheres, 10);
+}
+
+// ---- error paths ----
+
+/// Expects `status` to carry `code` and a message that starts with the field path.
+void expect_error(const grpc::Status& status, grpc::StatusCode code, const std::string& field) {
+  EXPECT_EQ(status.error_code(), code) << status.error_message();
+  if (!field.empty()) {
+    EXPECT_EQ(status.error_message().rfind(field + ": ", 0), 0u)
+        << "message '" << status.error_message() << "' does not start with '" << field << ": '";
+  }
+}
+
+TEST_F(GrpcServerTest, InvalidGeometriesAreRejectedNamingTheField) {
+  const TestGeometry base =
+      polytope_geometry("tetra", {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}});
+  struct Case {
+    const char* what;
+    std::function<void(v1::Geometry&)> mutate;
+    grpc::StatusCode code;
+    std::string field;
+  };
+  const double nan = std::nan("");
+  const std::vector<Case> cases = {
+      {"no pieces", [](v1::Geometry& g) { g.clear_pieces(); }, grpc::StatusCode::INVALID_ARGUMENT,
+       "geometry.pieces"},
+      {"no shape", [](v1::Geometry& g) { g.add_pieces(); }, grpc::StatusCode::INVALID_ARGUMENT,
+       "geometry.pieces[1].shape"},
+      {"empty polytope",
+       [](v1::Geometry& g) { g.mutable_pieces(0)->mutable_polytope()->clear_vertices(); },
+       grpc::StatusCode::INVALID_ARGUMENT, "geometry.pieces[0].polytope.vertices"},
+      {"NaN coordinate",
+       [nan](v1::Geometry& g) {
+         g.mutable_pieces(0)->mutable_polytope()->mutable_vertices(1)->set_y(nan);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "geometry.pieces[0].polytope.vertices[1].y"},
+      {"infinite coordinate",
+       [](v1::Geometry& g) {
+         g.mutable_pieces(0)->mutable_polytope()->mutable_vertices(2)->set_z(INFINITY);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "geometry.pieces[0].polytope.vertices[2].z"},
+      {"negative radius", [](v1::Geometry& g) { g.mutable_pieces(0)->set_radius(-0.1); },
+       grpc::StatusCode::INVALID_ARGUMENT, "geometry.pieces[0].radius"},
+      {"negative half extent",
+       [](v1::Geometry& g) {
+         v1::Vector3& half = *g.add_pieces()->mutable_box()->mutable_half_extents();
+         half.set_x(1);
+         half.set_y(-1);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "geometry.pieces[1].box.half_extents.y"},
+      {"zero offset quaternion",
+       [](v1::Geometry& g) { g.mutable_pieces(0)->mutable_offset()->mutable_rotation(); },
+       grpc::StatusCode::INVALID_ARGUMENT, "geometry.pieces[0].offset.rotation"},
+      {"too many vertices",
+       [](v1::Geometry& g) {
+         for (int i = 0; i < 2001; ++i) g.mutable_pieces(0)->mutable_polytope()->add_vertices();
+       },
+       grpc::StatusCode::RESOURCE_EXHAUSTED, "geometry.pieces"},
+      {"message too large",  // beyond --max-message-bytes (1 MiB here): gRPC refuses it
+       [](v1::Geometry& g) {
+         for (int i = 0; i < 50000; ++i) {
+           v1::Vector3& v = *g.mutable_pieces(0)->mutable_polytope()->add_vertices();
+           v.set_x(0.5 + i);
+           v.set_y(0.25);
+           v.set_z(0.125);
+         }
+       },
+       grpc::StatusCode::RESOURCE_EXHAUSTED, ""},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    v1::RegisterGeometryRequest request;
+    *request.mutable_geometry() = base.message;
+    c.mutate(*request.mutable_geometry());
+    v1::RegisterGeometryResponse response;
+    expect_error(stub().RegisterGeometry(make_context().get(), request, &response), c.code,
+                 c.field);
+  }
+  // Nothing was stored by the rejected requests.
+  v1::ListGeometriesResponse listed;
+  ASSERT_TRUE(stub().ListGeometries(make_context().get(), {}, &listed).ok());
+  EXPECT_EQ(listed.geometries_size(), 0);
+}
+
+TEST_F(GrpcServerTest, InvalidScenesAreRejectedNamingTheField) {
+  const std::string box =
+      register_geometry(stub(), polytope_geometry("box", box_vertices({1, 1, 1})));
+  auto valid = [&] {
+    v1::CreateSceneRequest request;
+    for (const char* id : {"a", "b"}) {
+      v1::SceneObject& object = *request.add_objects();
+      object.set_id(id);
+      object.set_geometry_id(box);
+    }
+    return request;
+  };
+  struct Case {
+    const char* what;
+    std::function<void(v1::CreateSceneRequest&)> mutate;
+    grpc::StatusCode code;
+    std::string field;
+  };
+  const std::vector<Case> cases = {
+      {"no objects", [](v1::CreateSceneRequest& r) { r.clear_objects(); },
+       grpc::StatusCode::INVALID_ARGUMENT, "objects"},
+      {"unknown geometry",
+       [](v1::CreateSceneRequest& r) { r.mutable_objects(1)->set_geometry_id("geom-999"); },
+       grpc::StatusCode::NOT_FOUND, "objects[1].geometry_id"},
+      {"duplicate id", [](v1::CreateSceneRequest& r) { r.mutable_objects(1)->set_id("a"); },
+       grpc::StatusCode::INVALID_ARGUMENT, "objects[1].id"},
+      {"empty id", [](v1::CreateSceneRequest& r) { r.mutable_objects(0)->clear_id(); },
+       grpc::StatusCode::INVALID_ARGUMENT, "objects[0].id"},
+      {"non-unit initial quaternion",
+       [](v1::CreateSceneRequest& r) {
+         r.mutable_objects(0)->mutable_pose()->mutable_rotation()->set_w(0.9);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "objects[0].pose.rotation"},
+      {"listed pair with unknown object",
+       [](v1::CreateSceneRequest& r) {
+         v1::ObjectPair& pair = *r.mutable_pair_selection()->mutable_listed_pairs()->add_pairs();
+         pair.set_object_a("a");
+         pair.set_object_b("zz");
+       },
+       grpc::StatusCode::NOT_FOUND, "pair_selection.listed_pairs.pairs[0].object_b"},
+      {"listed pair of one object",
+       [](v1::CreateSceneRequest& r) {
+         v1::ObjectPair& pair = *r.mutable_pair_selection()->mutable_listed_pairs()->add_pairs();
+         pair.set_object_a("a");
+         pair.set_object_b("a");
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "pair_selection.listed_pairs.pairs[0]"},
+      {"NaN epsilon",
+       [](v1::CreateSceneRequest& r) { r.mutable_default_options()->set_epsilon(std::nan("")); },
+       grpc::StatusCode::INVALID_ARGUMENT, "default_options.epsilon"},
+      {"penetration depth",
+       [](v1::CreateSceneRequest& r) {
+         r.mutable_default_options()->set_penetration(v1::PENETRATION_MODE_DEPTH);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "default_options.penetration"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    v1::CreateSceneRequest request = valid();
+    c.mutate(request);
+    v1::CreateSceneResponse response;
+    expect_error(stub().CreateScene(make_context().get(), request, &response), c.code, c.field);
+  }
+  v1::CreateSceneResponse response;
+  EXPECT_TRUE(stub().CreateScene(make_context().get(), valid(), &response).ok());
+}
+
+TEST_F(GrpcServerTest, InvalidQueriesAndUnknownIdsAreRejectedNamingTheField) {
+  const LocalScene scene = make_scene(stub());
+  auto valid = [&] {
+    v1::QueryRequest request;
+    request.set_scene_id(scene.scene_id);
+    v1::ObjectPose& pose = *request.add_poses();
+    pose.set_object_id(scene.object_ids[0]);
+    TestPose{}.to_message(*pose.mutable_pose());
+    return request;
+  };
+  struct Case {
+    const char* what;
+    std::function<void(v1::QueryRequest&)> mutate;
+    grpc::StatusCode code;
+    std::string field;
+  };
+  const std::vector<Case> cases = {
+      {"unknown scene", [](v1::QueryRequest& r) { r.set_scene_id("scene-404"); },
+       grpc::StatusCode::NOT_FOUND, "scene_id"},
+      {"unknown object", [](v1::QueryRequest& r) { r.mutable_poses(0)->set_object_id("nobody"); },
+       grpc::StatusCode::NOT_FOUND, "poses[0].object_id"},
+      {"object twice", [](v1::QueryRequest& r) { *r.add_poses() = r.poses(0); },
+       grpc::StatusCode::INVALID_ARGUMENT, "poses[1].object_id"},
+      {"NaN quaternion component",
+       [](v1::QueryRequest& r) {
+         r.mutable_poses(0)->mutable_pose()->mutable_rotation()->set_x(std::nan(""));
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "poses[0].pose.rotation.x"},
+      {"zero quaternion",
+       [](v1::QueryRequest& r) {
+         r.mutable_poses(0)->mutable_pose()->mutable_rotation()->set_w(0);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "poses[0].pose.rotation"},
+      {"infinite translation",
+       [](v1::QueryRequest& r) {
+         r.mutable_poses(0)->mutable_pose()->mutable_translation()->set_z(-INFINITY);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "poses[0].pose.translation.z"},
+      {"penetration depth",
+       [](v1::QueryRequest& r) {
+         r.mutable_options()->set_penetration(v1::PENETRATION_MODE_DEPTH);
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "options.penetration"},
+      {"negative cutoff", [](v1::QueryRequest& r) { r.mutable_options()->set_distance_cutoff(-1); },
+       grpc::StatusCode::INVALID_ARGUMENT, "options.distance_cutoff"},
+      {"zero iteration cap",
+       [](v1::QueryRequest& r) { r.mutable_options()->set_max_iterations(0); },
+       grpc::StatusCode::INVALID_ARGUMENT, "options.max_iterations"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    v1::QueryRequest request = valid();
+    c.mutate(request);
+    v1::DistanceReport report;
+    expect_error(stub().Query(make_context().get(), request, &report), c.code, c.field);
+  }
+  v1::DistanceReport report;
+  EXPECT_TRUE(stub().Query(make_context().get(), valid(), &report).ok());
+
+  v1::DeleteSceneRequest delete_unknown;
+  delete_unknown.set_scene_id("scene-404");
+  v1::DeleteSceneResponse deleted;
+  expect_error(stub().DeleteScene(make_context().get(), delete_unknown, &deleted),
+               grpc::StatusCode::NOT_FOUND, "scene_id");
+  v1::RemoveGeometryRequest remove_unknown;
+  remove_unknown.set_geometry_id("geom-404");
+  v1::RemoveGeometryResponse removed;
+  expect_error(stub().RemoveGeometry(make_context().get(), remove_unknown, &removed),
+               grpc::StatusCode::NOT_FOUND, "geometry_id");
+
+  // Removing a geometry a scene uses is allowed: the scene holds it and keeps working.
+  v1::RemoveGeometryRequest remove_used;
+  remove_used.set_geometry_id(scene.geometry_ids[0]);
+  EXPECT_TRUE(stub().RemoveGeometry(make_context().get(), remove_used, &removed).ok());
+  EXPECT_TRUE(stub().Query(make_context().get(), valid(), &report).ok());
+  EXPECT_EQ(report.pairs_size(), 21);
+}
+
+// Limits give RESOURCE_EXHAUSTED: geometries, scenes, vertices, message size, streams.
+TEST(GrpcServerLimits, LimitsAreResourceExhausted) {
+  ServerConfig config = test_config();
+  config.limits.max_geometries = 2;
+  config.limits.max_scenes = 1;
+  config.limits.max_streams = 1;
+  config.limits.max_vertices_per_geometry = 100;
+  config.max_message_bytes = 64u << 10;
+  RunningServer running = start_server(config);
+  ASSERT_TRUE(running.server);
+  v1::DistanceService::Stub& stub = *running.stub;
+
+  const TestGeometry box = polytope_geometry("box", box_vertices({1, 1, 1}));
+  const std::string first = register_geometry(stub, box);
+  register_geometry(stub, box);
+  v1::RegisterGeometryRequest request;
+  *request.mutable_geometry() = box.message;
+  v1::RegisterGeometryResponse response;
+  expect_error(stub.RegisterGeometry(make_context().get(), request, &response),
+               grpc::StatusCode::RESOURCE_EXHAUSTED, "");
+
+  *request.mutable_geometry() = polytope_geometry("many", random_hull_vertices(1, 101, 1)).message;
+  expect_error(stub.RegisterGeometry(make_context().get(), request, &response),
+               grpc::StatusCode::RESOURCE_EXHAUSTED, "geometry.pieces");
+  *request.mutable_geometry() = polytope_geometry("huge", random_hull_vertices(1, 4000, 1)).message;
+  expect_error(stub.RegisterGeometry(make_context().get(), request, &response),
+               grpc::StatusCode::RESOURCE_EXHAUSTED, "");
+
+  v1::CreateSceneRequest create;
+  for (const char* id : {"a", "b"}) {
+    v1::SceneObject& object = *create.add_objects();
+    object.set_id(id);
+    object.set_geometry_id(first);
+  }
+  v1::CreateSceneResponse created, refused;
+  ASSERT_TRUE(stub.CreateScene(make_context().get(), create, &created).ok());
+  expect_error(stub.CreateScene(make_context().get(), create, &refused),
+               grpc::StatusCode::RESOURCE_EXHAUSTED, "");
+
+  v1::PoseUpdate update;
+  update.set_scene_id(created.scene_id());
+  StreamClient open(stub);
+  ASSERT_TRUE(open.write(update));
+  v1::DistanceReport report;
+  ASSERT_TRUE(open.read(report));
+  StreamClient second(stub);
+  second.write(update);
+  EXPECT_FALSE(second.read(report));
+  std::vector<v1::DistanceReport> rest;
+  expect_error(second.read_to_end(rest), grpc::StatusCode::RESOURCE_EXHAUSTED, "");
+  EXPECT_TRUE(open.finish().ok());
+}
+
+// ---- operations ----
+
+// Graceful shutdown: open streams stop reading, answer every update they had read (a gap-free
+// prefix of what was sent, each correct), and end with UNAVAILABLE; shutdown returns well
+// before the drain timeout, i.e. nothing had to be cancelled.
+TEST(GrpcServerShutdown, ShutdownDrainsOpenStreams) {
+  RunningServer running = start_server();
+  ASSERT_TRUE(running.server);
+  const LocalScene scene = make_scene(*running.stub);
+  StreamClient stream(*running.stub);
+  for (int step = 0; step < 5; ++step) {
+    ASSERT_TRUE(
+        stream.write(make_update(scene, std::uint64_t(step) + 1, trajectory(scene.size(), step))));
+    v1::DistanceReport report;
+    ASSERT_TRUE(stream.read(report));
+  }
+  for (int step = 5; step < 30; ++step)  // in flight when the shutdown starts
+    ASSERT_TRUE(
+        stream.write(make_update(scene, std::uint64_t(step) + 1, trajectory(scene.size(), step))));
+  const auto begin = std::chrono::steady_clock::now();
+  auto shutdown = std::async(std::launch::async, [&] { running.server->shutdown(); });
+  std::vector<v1::DistanceReport> reports;
+  const grpc::Status status = stream.read_to_end(reports);
+  ASSERT_EQ(shutdown.wait_for(std::chrono::seconds(15)), std::future_status::ready);
+  EXPECT_LT(std::chrono::steady_clock::now() - begin, std::chrono::seconds(4));
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << status.error_message();
+  ::testing::Test::RecordProperty("drained_reports", int(reports.size()));
+  for (std::size_t i = 0; i < reports.size(); ++i) {
+    ASSERT_EQ(reports[i].sequence(), 6 + i);
+    expect_matches_local(scene, trajectory(scene.size(), int(5 + i)), reports[i], false);
+  }
+  // New calls are refused once the server is down.
+  v1::ListGeometriesResponse listed;
+  EXPECT_FALSE(
+      running.stub->ListGeometries(make_context(std::chrono::seconds(2)).get(), {}, &listed).ok());
+}
+
+// The gRPC health checking protocol answers SERVING (checked with a generic call: the health
+// proto's generated client is not installed by Debian's packages).
+TEST_F(GrpcServerTest, HealthCheckSaysServing) {
+  grpc::GenericStub generic(running_.channel);
+  for (const std::string service : {"", "nearpoint.v1.DistanceService"}) {
+    // HealthCheckRequest { string service = 1; }
+    std::string request_bytes;
+    if (!service.empty()) {
+      request_bytes.push_back(0x0a);
+      request_bytes.push_back(char(service.size()));
+      request_bytes += service;
+    }
+    grpc::Slice slice(request_bytes);
+    grpc::ByteBuffer request(&slice, 1), response;
+    std::promise<grpc::Status> done;
+    auto context = make_context();
+    generic.UnaryCall(context.get(), "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
+                      &response, [&](grpc::Status status) { done.set_value(status); });
+    const grpc::Status status = done.get_future().get();
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    std::vector<grpc::Slice> slices;
+    ASSERT_TRUE(response.Dump(&slices).ok());
+    std::string bytes;
+    for (const grpc::Slice& s : slices)
+      bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+    EXPECT_EQ(bytes, std::string("\x08\x01", 2)) << "HealthCheckResponse { status: SERVING }";
+  }
+}
+
+// Server reflection lists the services (checked with a generic call, for the same reason).
+TEST_F(GrpcServerTest, ReflectionListsTheServices) {
+  grpc::GenericStub generic(running_.channel);
+  grpc::CompletionQueue queue;
+  auto context = make_context();
+  auto call = generic.PrepareCall(
+      context.get(), "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &queue);
+  ASSERT_TRUE(call);
+  auto wait = [&](std::intptr_t expected) {
+    void* tag = nullptr;
+    bool ok = false;
+    EXPECT_TRUE(queue.Next(&tag, &ok));
+    EXPECT_EQ(reinterpret_cast<std::intptr_t>(tag), expected);
+    return ok;
+  };
+  call->StartCall(reinterpret_cast<void*>(1));
+  ASSERT_TRUE(wait(1));
+  // ServerReflectionRequest { string list_services = 7; } with an empty string.
+  grpc::Slice request_slice(std::string("\x3a\x00", 2));
+  grpc::ByteBuffer request(&request_slice, 1), response;
+  call->Write(request, reinterpret_cast<void*>(2));
+  ASSERT_TRUE(wait(2));
+  call->Read(&response, reinterpret_cast<void*>(3));
+  ASSERT_TRUE(wait(3));
+  call->WritesDone(reinterpret_cast<void*>(4));
+  wait(4);
+  grpc::Status status;
+  call->Finish(&status, reinterpret_cast<void*>(5));
+  wait(5);
+  EXPECT_TRUE(status.ok()) << status.error_message();
+  queue.Shutdown();
+  void* tag;
+  bool ok;
+  while (queue.Next(&tag, &ok)) {
+  }
+  std::vector<grpc::Slice> slices;
+  ASSERT_TRUE(response.Dump(&slices).ok());
+  std::string bytes;
+  for (const grpc::Slice& s : slices)
+    bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  EXPECT_NE(bytes.find("nearpoint.v1.DistanceService"), std::string::npos);
+  EXPECT_NE(bytes.find("nearpoint.v1.Diagnostics"), std::string::npos);
+  EXPECT_NE(bytes.find("grpc.health.v1.Health"), std::string::npos);
+}
+
+// The echo stream the service benchmark uses for the transport floor.
+TEST_F(GrpcServerTest, DiagnosticsEchoWritesBackWhatItReads) {
+  auto stub = v1::Diagnostics::NewStub(running_.channel);
+  auto context = make_context();
+  auto stream = stub->Echo(context.get());
+  for (std::uint64_t i = 1; i <= 3; ++i) {
+    v1::EchoMessage message, echoed;
+    message.set_sequence(i);
+    message.set_payload(std::string(std::size_t(i) * 10, 'x'));
+    ASSERT_TRUE(stream->Write(message));
+    ASSERT_TRUE(stream->Read(&echoed));
+    EXPECT_EQ(echoed.sequence(), i);
+    EXPECT_EQ(echoed.payload(), message.payload());
+  }
+  stream->WritesDone();
+  EXPECT_TRUE(stream->Finish().ok());
+}
+
+}  // namespace
+}  // namespace nearpoint::server::testing

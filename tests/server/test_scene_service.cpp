@@ -1,0 +1,239 @@
+// The scene API without any transport: what the gRPC service (and later the DDS bridge) adapts.
+#include <gtest/gtest.h>
+
+#include <future>
+#include <random>
+
+#include "nearpoint/distance.hpp"
+#include "nearpoint/server/scene_service.hpp"
+#include "validation.hpp"
+
+namespace nearpoint::server {
+namespace {
+
+GeometryInput box_input(double half = 0.5) {
+  GeometryInput geometry;
+  geometry.name = "box";
+  PieceInput& piece = geometry.pieces.emplace_back();
+  PolytopeInput polytope;
+  for (int i = 0; i < 8; ++i)
+    polytope.vertices.emplace_back(i & 1 ? half : -half, i & 2 ? half : -half,
+                                   i & 4 ? half : -half);
+  piece.shape = std::move(polytope);
+  return geometry;
+}
+
+ObjectInput object(const std::string& id, const std::string& geometry,
+                   std::optional<std::uint32_t> group = {},
+                   std::optional<std::uint32_t> mask = {}) {
+  ObjectInput out;
+  out.id = id;
+  out.geometry_id = geometry;
+  out.group = group;
+  out.mask = mask;
+  return out;
+}
+
+/// Runs a query and waits for its report (the callback runs on a pool thread).
+Report run_query(SceneService& service, const QueryInput& query) {
+  std::promise<Report> done;
+  const Outcome started =
+      service.query(query, Clock::now(), [&](Report report) { done.set_value(std::move(report)); });
+  EXPECT_TRUE(started.ok()) << (started.ok() ? "" : started.error().describe());
+  return done.get_future().get();
+}
+
+std::vector<std::pair<std::string, std::string>> pair_ids(const Report& report) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const PairReport& pair : report.pairs)
+    out.emplace_back(report.scene->objects[pair.object_a].id,
+                     report.scene->objects[pair.object_b].id);
+  return out;
+}
+
+using Pairs = std::vector<std::pair<std::string, std::string>>;
+
+// Group/mask filtering (Bullet's rule), listed pairs (exactly these, in this order) and
+// excluded pairs (all others).
+TEST(SceneService, PairSelectionFollowsGroupsMasksAndLists) {
+  SceneService service(ServiceLimits{}, 1);
+  const std::string box = service.register_geometry(box_input()).value().geometry_id;
+
+  SceneInput filtered;
+  filtered.objects = {object("a", box, 1u), object("b", box, 2u, 2u), object("c", box),
+                      object("d", box, 2u)};
+  const SceneInfo filtered_scene = service.create_scene(filtered).value();
+  // b (group 2) only checks group 2: a and c (group 1) are out, d (group 2) is in.
+  EXPECT_EQ(pair_ids(run_query(service, {filtered_scene.scene_id, {}, {}, 0})),
+            (Pairs{{"a", "c"}, {"a", "d"}, {"b", "d"}, {"c", "d"}}));
+
+  SceneInput listed;
+  listed.objects = {object("a", box), object("b", box), object("c", box)};
+  listed.pair_selection.mode = PairSelectionInput::Mode::listed_pairs;
+  listed.pair_selection.pairs = {{"c", "a"}, {"b", "c"}};
+  const SceneInfo listed_scene = service.create_scene(listed).value();
+  EXPECT_EQ(pair_ids(run_query(service, {listed_scene.scene_id, {}, {}, 0})),
+            (Pairs{{"c", "a"}, {"b", "c"}}));
+
+  SceneInput excluded = listed;
+  excluded.pair_selection.mode = PairSelectionInput::Mode::excluded_pairs;
+  excluded.pair_selection.pairs = {{"c", "a"}};  // order within an excluded pair is ignored
+  const SceneInfo excluded_scene = service.create_scene(excluded).value();
+  EXPECT_EQ(pair_ids(run_query(service, {excluded_scene.scene_id, {}, {}, 0})),
+            (Pairs{{"a", "b"}, {"b", "c"}}));
+}
+
+// Options inherit field by field: update overrides → scene defaults → engine defaults.
+TEST(SceneService, OptionsInheritFieldByField) {
+  ResolvedOptions engine_defaults;
+  QueryOptionsInput scene_defaults;
+  scene_defaults.near_points = true;
+  scene_defaults.distance_cutoff = 2.0;
+  const ResolvedOptions scene =
+      resolve_options(engine_defaults, scene_defaults, "default_options").value();
+  QueryOptionsInput update;
+  update.distance_cutoff = 0.5;
+  update.penetration = PenetrationMode::bound;
+  const ResolvedOptions resolved = resolve_options(scene, update, "options").value();
+  EXPECT_TRUE(resolved.engine.near_points);                     // from the scene
+  EXPECT_EQ(resolved.engine.distance_cutoff, 0.5);              // from the update
+  EXPECT_TRUE(resolved.engine.penetration_bound);               // from the update
+  EXPECT_EQ(resolved.engine.epsilon, kDefaultEpsilon<double>);  // the engine's
+  EXPECT_TRUE(resolved.warm_start);
+
+  QueryOptionsInput bad;
+  bad.epsilon = -1;
+  EXPECT_EQ(resolve_options(scene, bad, "options").error().field, "options.epsilon");
+}
+
+// A quaternion within 1e-4 of unit length is accepted and normalised; beyond, it is refused.
+TEST(SceneService, QuaternionsAreNormalisedWithinTheToleranceAndRefusedBeyond) {
+  PoseInput pose;
+  pose.rotation_wxyz = {1.00005, 0, 0, 0};
+  const Expected<Pose<double>> accepted = check_pose(pose, "pose");
+  ASSERT_TRUE(accepted.ok());
+  EXPECT_NEAR((accepted.value().rotation - Mat3<double>::Identity()).norm(), 0.0, 1e-15);
+  pose.rotation_wxyz = {1.001, 0, 0, 0};
+  EXPECT_EQ(check_pose(pose, "pose").error().field, "pose.rotation");
+  pose.rotation_wxyz = {1, 0, 0, 0};
+  pose.translation.y() = 1e13;  // beyond any real site: refused before it can overflow
+  EXPECT_EQ(check_pose(pose, "pose").error().field, "pose.translation.y");
+}
+
+// The broad phase relies on the bounding sphere enclosing every piece, offsets and radii included.
+TEST(SceneService, BoundingSphereEnclosesEveryPiece) {
+  GeometryInput geometry = box_input(0.3);
+  PieceInput& capsule = geometry.pieces.emplace_back();
+  capsule.shape = Segment<double>{Vec3d(2, 0, 0), Vec3d(3, 1, 0)};
+  capsule.radius = 0.25;
+  capsule.offset.rotation_wxyz = {std::cos(0.3), 0, std::sin(0.3), 0};
+  capsule.offset.translation = Vec3d(0, 1, -1);
+  const auto stored = build_geometry(geometry, ServiceLimits{});
+  ASSERT_TRUE(stored.ok());
+  const GeometryInfo& info = stored.value()->info;
+  EXPECT_EQ(info.piece_count, 2u);
+  EXPECT_EQ(info.vertex_count, 8u);
+  // Sample the support of every piece in many directions: all within the sphere.
+  const Compound<double>& compound = stored.value()->compound;
+  for (std::size_t i = 0; i < compound.size(); ++i) {
+    const Piece<double>& piece = compound.piece(i);
+    for (int k = 0; k < 200; ++k) {
+      const Vec3d direction(std::cos(k * 0.7) * std::sin(k * 0.3),
+                            std::sin(k * 0.7) * std::sin(k * 0.3), std::cos(k * 0.3));
+      int index = 0;
+      const Vec3d local_direction = piece.offset.rotation.transpose() * direction;
+      const Vec3d local = support(piece.shape, local_direction, index);
+      const Vec3d point = piece.offset.apply(local) + piece.shape.radius * direction.normalized();
+      EXPECT_LE((point - info.bounding_center).norm(), info.bounding_radius);
+    }
+  }
+}
+
+// A stream through the plain API: binding, sequence order, and warm caches — no transport.
+TEST(SceneService, PoseStreamWorksWithoutATransport) {
+  SceneService service(ServiceLimits{}, 2);
+  const std::string box = service.register_geometry(box_input()).value().geometry_id;
+  SceneInput scene;
+  scene.objects = {object("a", box), object("b", box)};
+  const SceneInfo info = service.create_scene(scene).value();
+  auto stream = service.open_stream();
+  ASSERT_TRUE(stream.ok());
+  EXPECT_EQ(service.open_streams(), 1u);
+  for (std::uint64_t sequence = 1; sequence <= 3; ++sequence) {
+    PoseUpdateInput update;
+    update.scene_id = info.scene_id;
+    update.sequence = sequence;
+    ObjectPoseInput moved;
+    moved.object_id = "b";
+    moved.pose.translation = Vec3d(1.5 + 0.1 * double(sequence), 0, 0);
+    update.poses.push_back(moved);
+    Expected<PreparedUpdate> prepared = stream.value()->prepare(update, Clock::now());
+    ASSERT_TRUE(prepared.ok());
+    std::promise<Report> done;
+    stream.value()->evaluate(std::move(prepared.value()),
+                             [&](Report report) { done.set_value(std::move(report)); });
+    const Report report = done.get_future().get();
+    ASSERT_EQ(report.pairs.size(), 1u);
+    EXPECT_EQ(report.sequence, sequence);
+    EXPECT_NEAR(report.pairs[0].distance, 0.5 + 0.1 * double(sequence), 1e-12);
+    EXPECT_EQ(report.pairs[0].warm_started, sequence > 1);
+  }
+  PoseUpdateInput stale;
+  stale.scene_id = info.scene_id;
+  stale.sequence = 3;
+  EXPECT_EQ(stream.value()->prepare(stale, Clock::now()).error().field, "sequence");
+  stream.value().reset();
+  EXPECT_EQ(service.open_streams(), 0u);
+}
+
+// Scenes heavy enough to outweigh a worker's wake-up are split across the pool: every pair is
+// still evaluated exactly once, into its own slot, with the right answer.
+TEST(SceneService, LargeScenesAreSplitAcrossWorkersAndStillExact) {
+  SceneService service(ServiceLimits{}, 2);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  SceneInput scene;
+  std::vector<Compound<double>> local;
+  for (int i = 0; i < 6; ++i) {
+    GeometryInput geometry;
+    PolytopeInput polytope;
+    for (int k = 0; k < 3000; ++k) polytope.vertices.emplace_back(unit(rng), unit(rng), unit(rng));
+    std::vector<Piece<double>> pieces;
+    pieces.push_back({Shape<double>(Polytope<double>(polytope.vertices)), Pose<double>{}});
+    local.emplace_back(std::move(pieces));
+    geometry.pieces.emplace_back().shape = std::move(polytope);
+    const std::string id = service.register_geometry(geometry).value().geometry_id;
+    scene.objects.push_back(object("o" + std::to_string(i), id));
+    scene.objects.back().pose.translation = Vec3d(2.5 * i, 0.3 * (i % 2), 0);
+  }
+  const SceneInfo info = service.create_scene(scene).value();
+  EXPECT_EQ(service.find_scene(info.scene_id)->definition()->tasks_per_evaluation, 2u);
+  const Report report = run_query(service, {info.scene_id, {}, {}, 0});
+  ASSERT_EQ(report.pairs.size(), 15u);
+  for (const PairReport& pair : report.pairs) {
+    Pose<double> pose_a, pose_b;
+    pose_a.translation = scene.objects[pair.object_a].pose.translation;
+    pose_b.translation = scene.objects[pair.object_b].pose.translation;
+    const double truth =
+        distance(local[pair.object_a], pose_a, local[pair.object_b], pose_b).nearest.distance;
+    EXPECT_NEAR(pair.distance, truth, pair.error_bound + 1e-12);
+  }
+}
+
+// Coalescing keeps the newest update and counts everything it absorbed.
+TEST(SceneService, CoalescingCountsTheMergedUpdates) {
+  PreparedUpdate first, second, third;
+  first.sequence = 4;
+  second.sequence = 5;
+  third.sequence = 9;
+  PoseStream::coalesce(second, first);
+  EXPECT_EQ(second.coalesced_updates, 1u);
+  EXPECT_EQ(second.coalesced_from_sequence, 4u);
+  PoseStream::coalesce(third, second);
+  EXPECT_EQ(third.sequence, 9u);
+  EXPECT_EQ(third.coalesced_updates, 2u);
+  EXPECT_EQ(third.coalesced_from_sequence, 4u);
+}
+
+}  // namespace
+}  // namespace nearpoint::server
