@@ -18,7 +18,23 @@ configure_and_build() {
 case "${1:-}" in
   demo)
     configure_and_build
-    echo "== nearpoint distance examples/pairs.jsonl"
+    # The server on a free loopback port, a demo client streaming poses to it, then a clean
+    # shutdown (SIGTERM drains the streams and exits 0).
+    port_file="$(mktemp)"
+    rm -f "$port_file"
+    "$build/server/nearpointd" --listen 127.0.0.1:0 --port-file "$port_file" --log-level warn &
+    server_pid=$!
+    trap 'kill -TERM "$server_pid" 2>/dev/null || true; rm -f "$port_file"' EXIT
+    for _ in $(seq 100); do [ -s "$port_file" ] && break; sleep 0.1; done
+    [ -s "$port_file" ] || { echo "run.sh: nearpointd did not start" >&2; exit 1; }
+    port="$(cat "$port_file")"
+    echo "== nearpointd listening on 127.0.0.1:$port; streaming the demo scene"
+    "$build/server/nearpoint_stream_demo" --target "127.0.0.1:$port" --updates 20
+    kill -TERM "$server_pid"
+    wait "$server_pid" && echo "== nearpointd drained and exited 0"
+    trap - EXIT
+    rm -f "$port_file"
+    echo "== nearpoint distance examples/pairs.jsonl (the engine locally, JSON Lines)"
     "$build/client/nearpoint" distance examples/pairs.jsonl
     ;;
   test)
