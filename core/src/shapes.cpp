@@ -118,25 +118,37 @@ __attribute__((always_inline)) inline std::size_t argmax_dot(const S* xs, const 
     return argmax_dot_simd<Float8, Int32x8, float, 8>(xs, ys, zs, n, dx, dy, dz);
 }
 
-__attribute__((target_clones("avx2", "default"))) std::size_t argmax_dot_double(
-    const double* xs, const double* ys, const double* zs, std::size_t n, double dx, double dy,
-    double dz) {
+// One copy compiled for AVX2 and one for the baseline, chosen once at run time. Explicit dispatch
+// rather than target_clones: an ifunc resolver runs during relocation, before a sanitizer's
+// runtime is up, and crashes ThreadSanitizer builds.
+#if defined(__x86_64__) || defined(__i386__)
+#define NEARPOINT_HAVE_AVX2_CLONE 1
+__attribute__((target("avx2"))) std::size_t argmax_dot_avx2(const double* xs, const double* ys,
+                                                            const double* zs, std::size_t n,
+                                                            double dx, double dy, double dz) {
   return argmax_dot(xs, ys, zs, n, dx, dy, dz);
 }
-
-__attribute__((target_clones("avx2", "default"))) std::size_t argmax_dot_float(
-    const float* xs, const float* ys, const float* zs, std::size_t n, float dx, float dy,
-    float dz) {
+__attribute__((target("avx2"))) std::size_t argmax_dot_avx2(const float* xs, const float* ys,
+                                                            const float* zs, std::size_t n,
+                                                            float dx, float dy, float dz) {
   return argmax_dot(xs, ys, zs, n, dx, dy, dz);
 }
-
-std::size_t argmax_dot_dispatch(const double* xs, const double* ys, const double* zs, std::size_t n,
-                                double dx, double dy, double dz) {
-  return argmax_dot_double(xs, ys, zs, n, dx, dy, dz);
+bool cpu_has_avx2() {
+  static const bool has = [] {
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") != 0;
+  }();
+  return has;
 }
-std::size_t argmax_dot_dispatch(const float* xs, const float* ys, const float* zs, std::size_t n,
-                                float dx, float dy, float dz) {
-  return argmax_dot_float(xs, ys, zs, n, dx, dy, dz);
+#endif
+
+template <class S>
+std::size_t argmax_dot_dispatch(const S* xs, const S* ys, const S* zs, std::size_t n, S dx, S dy,
+                                S dz) {
+#ifdef NEARPOINT_HAVE_AVX2_CLONE
+  if (cpu_has_avx2()) return argmax_dot_avx2(xs, ys, zs, n, dx, dy, dz);
+#endif
+  return argmax_dot(xs, ys, zs, n, dx, dy, dz);
 }
 
 template <class S>
