@@ -9,7 +9,6 @@
 #include "gjk.hpp"
 
 namespace nearpoint {
-namespace {}  // namespace
 
 // Orthonormal to within what a rotation built from a float quaternion achieves. Column norms
 // and mutual inner products (18 products) rather than the full RᵀR; NaN fails every comparison.
@@ -74,7 +73,7 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   const S cutoff = options.distance_cutoff + radii;  // the loop works on the cores
 
   detail::LoopOutcome<S> loop;
-  detail::run_numerical_algorithm(k_set, epsilon * diameter * diameter,
+  detail::run_numerical_algorithm(k_set, diameter, epsilon * diameter * diameter,
                                   std::max(0, options.max_iterations), cutoff, options.subalgorithm,
                                   cache, loop);
 

@@ -72,6 +72,15 @@ S roundoff_gap(S nu_norm2, S diameter) {
   return S(16) * std::numeric_limits<S>::epsilon() * diameter * (sqrt(nu_norm2) + diameter);
 }
 
+/// The certified gap: min(g, |ν|² − L²), clamped at 0. |ν|² − L² is only trusted while |ν| is
+/// consistent with the proven lower bound L: |ν| is an upper bound on d only if ν ∈ K, and should
+/// roundoff ever put it clearly below L, the iterate's own g (not the clamped difference) decides.
+template <class S>
+S certified_gap(S gap, S nu_norm2, S lower_bound, S roundoff) {
+  const S sharpened = nu_norm2 - lower_bound * lower_bound;
+  return std::max(S(0), sharpened >= -roundoff ? std::min(gap, sharpened) : gap);
+}
+
 /// What the loop hands back to the query: the final simplex and ν, and how the run ended.
 template <class S>
 struct LoopOutcome {
@@ -89,7 +98,6 @@ struct LoopOutcome {
   FinishedBy finished_by = FinishedBy::distance_subalgorithm;
 };
 
-/// Runs steps 1–6. `d2_tolerance` is ε·D(K)² of eq. (35); `cutoff` is on the core distance.
 /// Step 2's "Distance Subalgorithm": Johnson's (which may fail on roundoff, step 4 of the
 /// subalgorithm) or signed volumes (which always answers).
 template <class S>
@@ -104,9 +112,12 @@ bool nearest_of_simplex(Subalgorithm method, const Simplex<S>& simplex, const Ve
   return distance_subalgorithm(simplex, order, n, nearest);
 }
 
+/// Runs steps 1–6. `diameter` is D(K) of eq. (37) and `d2_tolerance` ε·D(K)² of eq. (35);
+/// `cutoff` is on the core distance.
 template <class S, class K>
-void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations, S cutoff,
-                             Subalgorithm method, const SimplexCache* cache, LoopOutcome<S>& out) {
+void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max_iterations,
+                             S cutoff, Subalgorithm method, const SimplexCache* cache,
+                             LoopOutcome<S>& out) {
   Simplex<S>& simplex = out.simplex;
   // Johnson's method reads the inner products and Δ's every step; signed volumes never does, and
   // the Backup Procedure rebuilds them on the rare occasions it runs.
@@ -171,12 +182,8 @@ void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations,
     // On curved or flat-sided shapes the support point can jump between iterations (a cylinder's
     // two rims), so g of the latest iterate may be far worse than what an earlier support plane
     // proved: the stopping test uses the sharper of the two certificates.
-    // |ν| is an upper bound on d only if ν ∈ K. Should roundoff ever put it clearly below a proven
-    // lower bound, the iterate is inconsistent, and its own g (not the clamped difference) must
-    // decide whether to go on.
-    const S sharpened = nearest.nu_norm2 - best_lower_bound * best_lower_bound;
-    const bool consistent = sharpened >= -roundoff_gap(nearest.nu_norm2, diameter_bound(k_set));
-    out.gap = std::max(S(0), consistent ? std::min(gap, sharpened) : gap);
+    const S roundoff = roundoff_gap(nearest.nu_norm2, diameter);
+    out.gap = certified_gap(gap, nearest.nu_norm2, best_lower_bound, roundoff);
     out.lower_bound = best_lower_bound;
     NEARPOINT_TRACE_PRINTF("k=%d |V|=%d subset=%x |nu|^2=%.17g g=%.6g backup=%d rep=%d\n", k,
                            simplex.size(), nearest.subset, double(nearest.nu_norm2), double(gap),
@@ -192,7 +199,7 @@ void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations,
     // The support point repeats a vertex of V̂_k: in exact arithmetic g = 0 (ν·(ν − y_i) = 0 on
     // V̂_k, eq. 43). Accept when g is at its roundoff level; otherwise let the descent check and
     // the Backup Procedure deal with the inconsistency.
-    if (repeated && gap <= roundoff_gap(nearest.nu_norm2, diameter_bound(k_set))) {
+    if (repeated && gap <= roundoff) {
       out.termination = Termination::repeated_support;
       break;
     }
@@ -223,10 +230,10 @@ void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations,
     if (backup) {
       if (k > 0 && !(nearest.nu_norm2 < previous.nu_norm2)) {
         nearest = previous;
-        out.gap = std::max(
-            S(0), std::min(previous_gap, previous.nu_norm2 - best_lower_bound * best_lower_bound));
+        out.gap = certified_gap(previous_gap, previous.nu_norm2, best_lower_bound,
+                                roundoff_gap(previous.nu_norm2, diameter));
       }
-      out.termination = out.gap <= roundoff_gap(nearest.nu_norm2, diameter_bound(k_set))
+      out.termination = out.gap <= roundoff_gap(nearest.nu_norm2, diameter)
                             ? Termination::roundoff_floor
                             : Termination::numerical_limit;
       break;
@@ -240,7 +247,7 @@ void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations,
   // that triangle's own normal (accurate whatever |ν| is) gives the plane of K's face or of the
   // two shapes' edge–edge contact: one more support call proves d ≥ n̂·s_K(−n̂).
   using std::sqrt;
-  const S slack = S(8) * std::numeric_limits<S>::epsilon() * diameter_bound(k_set);
+  const S slack = S(8) * std::numeric_limits<S>::epsilon() * diameter;
   if (std::popcount(nearest.subset) == 3 && nearest.nu_norm2 > 0 &&
       out.termination != Termination::beyond_cutoff &&
       sqrt(nearest.nu_norm2) - out.lower_bound > slack) {
@@ -257,7 +264,8 @@ void run_numerical_algorithm(const K& k_set, S d2_tolerance, int max_iterations,
       const S plane_bound = normal.dot(w);
       if (plane_bound > out.lower_bound) {
         out.lower_bound = plane_bound;
-        out.gap = std::max(S(0), std::min(out.gap, nearest.nu_norm2 - plane_bound * plane_bound));
+        out.gap = certified_gap(out.gap, nearest.nu_norm2, plane_bound,
+                                roundoff_gap(nearest.nu_norm2, diameter));
       }
     }
   }
