@@ -5,9 +5,10 @@
 // cache carried from the previous step, Section VIII), and the peers cold. The exact distance
 // (CGAL) is computed on every 10th step (50th above 10⁴ vertices) for the error columns.
 //
-// nearpoint's support function is a linear scan over the vertices at the time of writing; hill
-// climbing over the hull's adjacency is not in the engine yet, so it has no column here. FCL's
-// fcl::Convex walks the adjacency on its own for hulls above 32 vertices.
+// nearpoint runs twice: with polytopes from nearpoint::hull_polytope (hull faces given, so from
+// Polytope::kHillClimbThreshold vertices on the support climbs the hull's edges), and with plain
+// vertex lists (the vectorised linear scan), so the crossover can be read off. FCL's fcl::Convex
+// walks the adjacency on its own for hulls above 32 vertices.
 #include <algorithm>
 #include <numbers>
 #include <random>
@@ -15,7 +16,7 @@
 #include "common/exact_distance.hpp"
 #include "common/paper_family.hpp"
 #include "experiments.hpp"
-#include "hull.hpp"
+#include "nearpoint/hull.hpp"
 #include "runners.hpp"
 
 namespace nearpoint::bench {
@@ -96,8 +97,11 @@ int run_large(const Args& args) {
       options.near_points = true;
       const char* name =
           method == Subalgorithm::johnson ? "nearpoint_johnson" : "nearpoint_signed_volumes";
-      impls.push_back({name, "cold", make_nearpoint_runner(inputs, options, false), ""});
-      impls.push_back({name, "warm", make_nearpoint_runner(inputs, options, true), ""});
+      impls.push_back({name, "cold", make_nearpoint_runner(inputs, options, false, true), ""});
+      impls.push_back({name, "warm", make_nearpoint_runner(inputs, options, true, true), ""});
+      const std::string scan = std::string(name) + "_scan";
+      impls.push_back({scan, "cold", make_nearpoint_runner(inputs, options, false, false), ""});
+      impls.push_back({scan, "warm", make_nearpoint_runner(inputs, options, true, false), ""});
     }
     for (const Peer peer : {Peer::fcl_libccd, Peer::fcl_indep, Peer::bullet}) {
       Impl impl{to_string(peer), "cold", nullptr, ""};

@@ -2,6 +2,7 @@
 #include <map>
 #include <utility>
 
+#include "nearpoint/hull.hpp"
 #include "runners.hpp"
 
 namespace nearpoint::bench {
@@ -10,13 +11,13 @@ namespace {
 class NearpointRunner final : public Runner {
  public:
   NearpointRunner(std::span<const PairInput> inputs, const DistanceOptions<double>& options,
-                  bool warm)
+                  bool warm, bool climb)
       : options_(options), warm_(warm) {
     // One Shape per distinct (vertex list, radius): the Polytope's one-time work (centroid,
     // extent, centred copy) is done here, outside the timed region, as a user would.
     auto shape_of = [&](const std::shared_ptr<const std::vector<Vec3<double>>>& v, double r) {
       auto [it, inserted] = shapes_.try_emplace({v.get(), r});
-      if (inserted) it->second = Shape<double>(Polytope<double>(*v), r);
+      if (inserted) it->second = Shape<double>(climb ? hull_polytope(*v) : Polytope<double>(*v), r);
       return &it->second;
     };
     queries_.reserve(inputs.size());
@@ -56,8 +57,9 @@ class NearpointRunner final : public Runner {
 }  // namespace
 
 std::unique_ptr<Runner> make_nearpoint_runner(std::span<const PairInput> inputs,
-                                              const DistanceOptions<double>& options, bool warm) {
-  return std::make_unique<NearpointRunner>(inputs, options, warm);
+                                              const DistanceOptions<double>& options, bool warm,
+                                              bool climb) {
+  return std::make_unique<NearpointRunner>(inputs, options, warm, climb);
 }
 
 const char* to_string(Peer peer) {

@@ -20,7 +20,7 @@
 
 #include <map>
 
-#include "hull.hpp"
+#include "nearpoint/hull.hpp"
 #include "runners.hpp"
 
 // Bullet's types change layout with BT_USE_DOUBLE_PRECISION: the headers must agree with the

@@ -13,8 +13,11 @@ namespace nearpoint::bench {
 
 /// nearpoint on `inputs`. With `warm`, one SimplexCache is carried from each query to the next
 /// (Section VIII: consecutive inputs are consecutive steps of a path); `reset()` empties it.
+/// With `climb`, polytopes are built by nearpoint::hull_polytope (hull vertices and faces), so
+/// large ones climb their edges instead of scanning.
 std::unique_ptr<Runner> make_nearpoint_runner(std::span<const PairInput> inputs,
-                                              const DistanceOptions<double>& options, bool warm);
+                                              const DistanceOptions<double>& options, bool warm,
+                                              bool climb = false);
 
 /// How a nearpoint result ended (DS / BP / numerical limit / cap …), from its `termination` and
 /// `finished_by`.

@@ -208,7 +208,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
       break;
     }
     // Step 4: descend with V_{k+1} = V̂_k ∪ {s_K(−ν_k)} while |ν| strictly decreases (26).
-    if ((k == 0 || nearest.nu_norm2 < previous.nu_norm2) && std::popcount(nearest.subset) <= 3) {
+    if ((k == 0 || nearest.nu_norm2 < previous.nu_norm2) && subset_size(nearest.subset) <= 3) {
       if (k >= max_iterations) {
         out.termination = Termination::iteration_limit;  // the cap, not convergence
         break;
@@ -248,7 +248,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   // two shapes' edge–edge contact: one more support call proves d ≥ n̂·s_K(−n̂).
   using std::sqrt;
   const S slack = S(8) * std::numeric_limits<S>::epsilon() * diameter;
-  if (std::popcount(nearest.subset) == 3 && nearest.nu_norm2 > 0 &&
+  if (subset_size(nearest.subset) == 3 && nearest.nu_norm2 > 0 &&
       out.termination != Termination::beyond_cutoff &&
       sqrt(nearest.nu_norm2) - out.lower_bound > slack) {
     int idx[3], n = 0;

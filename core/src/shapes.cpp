@@ -1,7 +1,10 @@
 #include "nearpoint/shapes.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <type_traits>
 #include <utility>
 
@@ -28,7 +31,9 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices) {
   const long double n = static_cast<long double>(vertices.size());
   centroid_ = Vec3<S>(S(sum[0] / n), S(sum[1] / n), S(sum[2] / n));
   size_ = vertices.size();
-  const std::size_t padded = (size_ + 15) / 16 * 16;  // two vectors of 8 floats or 4 doubles
+  // Whole blocks of two vectors (2 × 4 doubles or 2 × 8 floats), the scan's unit of work.
+  constexpr std::size_t kBlock = std::is_same_v<S, double> ? 8 : 16;
+  const std::size_t padded = (size_ + kBlock - 1) / kBlock * kBlock;
   xs_.resize(padded);
   ys_.resize(padded);
   zs_.resize(padded);
@@ -51,7 +56,8 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices) {
 
 namespace {
 
-// The support scan of eq. (17): argmax of x·dx + y·dy + z·dz over n vertices (n a multiple of 8),
+// The support scan of eq. (17): argmax of x·dx + y·dy + z·dz over n vertices (n a multiple of
+// 2 × kLanes),
 // first index on ties. Written with GCC vector types so that it is SIMD whatever the optimiser
 // decides: running maxima and their indices per lane, then a reduction that prefers the lowest
 // index among equal values. '>' is false for NaN, so a NaN product is never selected. Compiled
@@ -187,8 +193,178 @@ struct ReasonVisitor {
 }  // namespace
 
 template <class S>
-std::size_t Polytope<S>::support_index(const Vec3<S>& d) const {
-  return argmax_dot_dispatch(xs_.data(), ys_.data(), zs_.data(), xs_.size(), d.x(), d.y(), d.z());
+Polytope<S>::Polytope(std::span<const Vec3<S>> vertices, std::span<const std::vector<int>> faces)
+    : Polytope(vertices) {
+  if (invalid_reason_) return;
+  invalid_reason_ = check_faces(faces);
+  if (invalid_reason_ || size_ < kHillClimbThreshold) return;
+
+  // The edge graph: each undirected edge once per end (check_faces proved every directed edge
+  // has its twin, so the directed edges of the faces list each neighbour exactly once).
+  neighbor_begin_.assign(size_ + 1, 0);
+  for (const std::vector<int>& face : faces)
+    for (const int v : face) ++neighbor_begin_[std::size_t(v) + 1];
+  for (std::size_t i = 0; i < size_; ++i) neighbor_begin_[i + 1] += neighbor_begin_[i];
+  neighbors_.resize(neighbor_begin_[size_]);
+  std::vector<std::uint32_t> fill(neighbor_begin_.begin(), neighbor_begin_.end() - 1);
+  for (const std::vector<int>& face : faces)
+    for (std::size_t k = 0; k < face.size(); ++k)
+      neighbors_[fill[std::size_t(face[k])]++] = std::uint32_t(face[(k + 1) % face.size()]);
+
+  packed_.resize(size_);
+  for (std::size_t i = 0; i < size_; ++i) packed_[i] = {xs_[i], ys_[i], zs_[i], S(0)};
+
+  // Cold climbs start from the best of the extreme vertices along the axes and the diagonals:
+  // one of them is within a few edges of the answer for any direction.
+  for (int x = -1; x <= 1; ++x)
+    for (int y = -1; y <= 1; ++y)
+      for (int z = -1; z <= 1; ++z) {
+        const int nonzero = (x != 0) + (y != 0) + (z != 0);
+        if (nonzero != 1 && nonzero != 3) continue;  // 6 axes + 8 diagonals
+        seeds_.push_back(std::uint32_t(
+            argmax_dot_dispatch(xs_.data(), ys_.data(), zs_.data(), xs_.size(), S(x), S(y), S(z))));
+      }
+}
+
+template <class S>
+const char* Polytope<S>::check_faces(std::span<const std::vector<int>> faces) const {
+  if (faces.empty()) return "polytope faces: none given";
+  // Directed edges (from, to) as 64-bit keys, sorted: each must occur once, with its twin.
+  std::vector<std::uint64_t> edges;
+  std::vector<bool> used(size_, false);
+  for (const std::vector<int>& face : faces) {
+    if (face.size() < 3) return "polytope faces: a face has fewer than 3 vertices";
+    for (const int v : face) {
+      if (v < 0 || std::size_t(v) >= size_) return "polytope faces: a vertex index is out of range";
+      used[std::size_t(v)] = true;
+    }
+    for (std::size_t k = 0; k < face.size(); ++k)
+      edges.push_back(std::uint64_t(std::uint32_t(face[k])) << 32 |
+                      std::uint32_t(face[(k + 1) % face.size()]));
+  }
+  if (std::find(used.begin(), used.end(), false) != used.end())
+    return "polytope faces: a vertex lies on no face (pass only the hull's vertices)";
+  std::sort(edges.begin(), edges.end());
+  if (std::adjacent_find(edges.begin(), edges.end()) != edges.end())
+    return "polytope faces: an edge is used twice in the same direction (faces not consistently "
+           "oriented, or not a closed surface)";
+  auto twin = [](std::uint64_t e) { return e << 32 | e >> 32; };
+  for (const std::uint64_t e : edges)
+    if (!std::binary_search(edges.begin(), edges.end(), twin(e)))
+      return "polytope faces: the surface is not closed (an edge borders only one face)";
+  const long long euler =
+      (long long)size_ - (long long)(edges.size() / 2) + (long long)faces.size();
+  if (euler != 2) return "polytope faces: the surface is not a sphere (V - E + F != 2)";
+
+  // Geometry: every face planar and every edge convex, up to roundoff. Each face is represented
+  // by its largest fan triangle (p, q, r); "d above the plane" is the sign of the orientation
+  // determinant (q − p)×(r − p)·(d − p), trusted only beyond its rounding-error bound, so sliver
+  // triangles of a fine hull pass while a real dent (a vertex above a neighbouring face) fails.
+  auto height = [&](const std::array<std::uint32_t, 3>& t, std::uint32_t d, S& bound) {
+    const Vec3<S> p = centered_vertex(t[0]);
+    const Vec3<S> u = centered_vertex(t[1]) - p, v = centered_vertex(t[2]) - p;
+    const Vec3<S> w = centered_vertex(d) - p;
+    bound = S(32) * std::numeric_limits<S>::epsilon() * u.norm() * v.norm() * w.norm();
+    return u.cross(v).dot(w);
+  };
+  std::vector<std::array<std::uint32_t, 3>> planes;
+  planes.reserve(faces.size());
+  S volume6 = 0;
+  for (const std::vector<int>& face : faces) {
+    std::array<std::uint32_t, 3> best{};
+    S best_area = -1;
+    const Vec3<S> p = centered_vertex(std::size_t(face[0]));
+    for (std::size_t k = 1; k + 1 < face.size(); ++k) {
+      const S area = (centered_vertex(std::size_t(face[k])) - p)
+                         .cross(centered_vertex(std::size_t(face[k + 1])) - p)
+                         .norm();
+      if (area > best_area) {
+        best_area = area;
+        best = {std::uint32_t(face[0]), std::uint32_t(face[k]), std::uint32_t(face[k + 1])};
+      }
+    }
+    if (!(best_area > 0)) return "polytope faces: a face has zero area";
+    S bound = 0;
+    for (const int v : face)
+      if (std::abs(height(best, std::uint32_t(v), bound)) > bound)
+        return "polytope faces: a face is not planar";
+    // 6 × the volume of the cone from z̄ over the fan triangle; positive when oriented outwards.
+    const Vec3<S> a = centered_vertex(best[0]), b = centered_vertex(best[1]),
+                  c = centered_vertex(best[2]);
+    volume6 += a.dot(b.cross(c)) * S(face.size() - 2);
+    planes.push_back(best);
+  }
+  if (!(volume6 > 0))
+    return "polytope faces: faces are oriented inwards (want counter-clockwise seen from outside)";
+  // Convexity: every vertex lies below every face's plane is O(V·F); checking it at each edge
+  // (the far vertex of the neighbouring face) suffices for a closed oriented sphere surface.
+  // For each directed edge (a, b) of face f, the twin lies in a face g; g's vertex after a is off
+  // the edge and must not rise above f's plane.
+  std::vector<std::uint64_t> keys;
+  std::vector<std::uint32_t> next_after;  // per directed edge: the vertex following its end
+  keys.reserve(edges.size());
+  next_after.reserve(edges.size());
+  for (const std::vector<int>& face : faces)
+    for (std::size_t k = 0; k < face.size(); ++k) {
+      keys.push_back(std::uint64_t(std::uint32_t(face[k])) << 32 |
+                     std::uint32_t(face[(k + 1) % face.size()]));
+      next_after.push_back(std::uint32_t(face[(k + 2) % face.size()]));
+    }
+  std::vector<std::size_t> order(keys.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t i, std::size_t j) { return keys[i] < keys[j]; });
+  std::size_t edge = 0;
+  for (std::size_t f = 0; f < faces.size(); ++f) {
+    for (std::size_t k = 0; k < faces[f].size(); ++k, ++edge) {
+      const std::uint64_t t = twin(keys[edge]);
+      const auto found =
+          std::lower_bound(order.begin(), order.end(), t,
+                           [&](std::size_t i, std::uint64_t key) { return keys[i] < key; });
+      S bound = 0;
+      if (height(planes[f], next_after[*found], bound) > bound)
+        return "polytope faces: the surface is not convex (use the convex hull's faces)";
+    }
+  }
+  return nullptr;
+}
+
+template <class S>
+std::size_t Polytope<S>::support_index(const Vec3<S>& d, std::int32_t hint) const {
+  if (neighbor_begin_.empty())
+    return argmax_dot_dispatch(xs_.data(), ys_.data(), zs_.data(), xs_.size(), d.x(), d.y(), d.z());
+  const Packed* vertices = packed_.data();
+  const S dx = d.x(), dy = d.y(), dz = d.z();
+  auto value = [&](std::uint32_t i) {
+    return vertices[i].x * dx + vertices[i].y * dy + vertices[i].z * dz;
+  };
+  // Start from the better of the hint (GJK's previous answer for this shape: usually a step or
+  // two away) and the precomputed extreme vertices (never far, even when an early GJK direction
+  // reverses).
+  std::uint32_t at = seeds_[0];
+  S best = value(at);
+  if (hint >= 0 && std::size_t(hint) < size_) {
+    at = std::uint32_t(hint);
+    best = value(at);
+  }
+  for (const std::uint32_t seed : seeds_)
+    if (const S v = value(seed); v > best) {
+      best = v;
+      at = seed;
+    }
+  // Steepest ascent over the edges. On a convex polytope a vertex with no better neighbour is a
+  // maximiser (the simplex method's optimality condition), so the climb ends at a support point;
+  // each step strictly increases the value, so it ends. A NaN direction never moves.
+  for (;;) {
+    std::uint32_t next = at;
+    for (std::uint32_t k = neighbor_begin_[at]; k < neighbor_begin_[at + 1]; ++k)
+      if (const S v = value(neighbors_[k]); v > best) {
+        best = v;
+        next = neighbors_[k];
+      }
+    if (next == at) return at;
+    at = next;
+  }
 }
 
 template <class S>

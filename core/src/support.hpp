@@ -90,17 +90,23 @@ struct Support<Box<S>, S> {
 template <class S>
 struct Support<Polytope<S>, S> {
   const Polytope<S>& shape;
+  // Where a climbing polytope's next support query starts: the last answer (or the warm-start
+  // vertex). GJK's directions turn a little per iteration, so the answer is usually a step away.
+  mutable std::int32_t hint = -1;
   Vec3<S> center() const { return shape.centroid(); }
   S extent() const { return shape.extent(); }
-  // eq. (17): an enumeration of inner products (vectorised, see Polytope::support_index).
+  // eq. (17): an enumeration of inner products (vectorised), or a climb over the hull's edges
+  // (see Polytope::support_index).
   Vec3<S> support(const Vec3<S>& d, std::int32_t& index) const {
-    const std::size_t best = shape.support_index(d);
+    const std::size_t best = shape.support_index(d, hint);
     index = static_cast<std::int32_t>(best);
+    hint = index;
     return shape.centered_vertex(best);
   }
   bool vertex(std::int32_t index, Vec3<S>& out) const {
     if (index < 0 || std::size_t(index) >= shape.size()) return false;
     out = shape.centered_vertex(std::size_t(index));
+    hint = index;
     return true;
   }
 };

@@ -69,6 +69,21 @@ class Polytope {
   explicit Polytope(const std::vector<Vec3<Scalar>>& vertices)
       : Polytope(std::span<const Vec3<Scalar>>(vertices.data(), vertices.size())) {}
 
+  /// A polytope that also knows the faces of its hull, so that support queries climb from vertex
+  /// to better neighbour over the hull's edges (a few dozen inner products on a hull of thousands
+  /// of vertices) instead of scanning every vertex. `vertices` must be exactly the hull's
+  /// vertices and `faces` its faces, each a cycle of vertex indices counter-clockwise seen from
+  /// outside (what `nearpoint::convex_hull` in nearpoint/hull.hpp returns). The faces are checked:
+  /// indices in range, every vertex on a face, a closed oriented surface of sphere topology
+  /// (V − E + F = 2), planar faces and convex edges to within a few ulps of the extent². A set
+  /// that fails any check leaves the polytope invalid with the reason. Below
+  /// `kHillClimbThreshold` vertices the faces are checked but the scan is used: it is faster there.
+  Polytope(std::span<const Vec3<Scalar>> vertices, std::span<const std::vector<int>> faces);
+
+  /// From this many vertices on, a polytope built with faces climbs instead of scanning (the
+  /// crossover measured by bench/ experiment `large`).
+  static constexpr std::size_t kHillClimbThreshold = 64;
+
   /// Number of vertices as given (duplicates included).
   std::size_t size() const { return size_; }
   /// Vertex `index` in the local frame, as given.
@@ -77,9 +92,15 @@ class Polytope {
   Vec3<Scalar> centered_vertex(std::size_t index) const {
     return Vec3<Scalar>(xs_[index], ys_[index], zs_[index]);
   }
-  /// The index of a vertex maximising v·direction (eq. 17), the first one on ties; never selects
-  /// on a NaN product. A vectorised scan over the structure-of-arrays storage.
-  std::size_t support_index(const Vec3<Scalar>& direction) const;
+  /// The index of a vertex maximising v·direction (eq. 17); never selects on a NaN product. A
+  /// vectorised scan over the structure-of-arrays storage (the first maximiser on ties), or, for
+  /// a large polytope built with its faces, a climb over the hull's edges that starts from the
+  /// better of `hint` (a vertex index, e.g. the previous answer; -1 for none) and a few
+  /// precomputed extreme vertices.
+  std::size_t support_index(const Vec3<Scalar>& direction, std::int32_t hint = -1) const;
+  /// True when support queries climb the hull's edges (built with faces, at least
+  /// kHillClimbThreshold vertices).
+  bool climbs() const { return !neighbor_begin_.empty(); }
   /// The vertex mean z̄ of eq. (34), local frame.
   const Vec3<Scalar>& centroid() const { return centroid_; }
   /// max |z − z̄| over the vertices: the shape's term in the D(K) bound of eq. (37).
@@ -88,10 +109,23 @@ class Polytope {
   const char* invalid_reason() const { return invalid_reason_; }
 
  private:
+  const char* check_faces(std::span<const std::vector<int>> faces) const;
+
   // Coordinates relative to z̄, one array per axis so the support scan runs four (or eight)
-  // vertices per instruction; padded to a multiple of 16 with copies of vertex 0, which can never
-  // win a tie against vertex 0 itself.
+  // vertices per instruction; padded to whole blocks of two vectors (8 doubles, 16 floats) with
+  // copies of vertex 0, which can never win a tie against vertex 0 itself.
   std::vector<Scalar> xs_, ys_, zs_;
+  // The hull's edge graph in compressed rows (vertex i's neighbours are
+  // neighbors_[neighbor_begin_[i] .. neighbor_begin_[i + 1])), empty when the polytope scans;
+  // and the extreme vertices along 14 fixed directions, where cold climbs start.
+  std::vector<std::uint32_t> neighbor_begin_, neighbors_;
+  std::vector<std::uint32_t> seeds_;
+  // For climbing: the centred vertices again, packed (x, y, z, 0) so that a neighbour's inner
+  // product reads one cache line rather than one from each axis array.
+  struct alignas(4 * sizeof(Scalar)) Packed {
+    Scalar x, y, z, unused;
+  };
+  std::vector<Packed> packed_;
   std::size_t size_ = 0;
   Vec3<Scalar> centroid_ = Vec3<Scalar>::Zero();
   Scalar extent_ = 0;

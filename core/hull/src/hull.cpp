@@ -1,4 +1,4 @@
-#include "hull.hpp"
+#include "nearpoint/hull.hpp"
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Surface_mesh.h>
@@ -9,44 +9,44 @@
 #include <cmath>
 #include <map>
 
-namespace nearpoint::bench {
+namespace nearpoint {
 namespace {
 
 // Exact predicates, double constructions: the hull only selects input points (no new point is
 // constructed), so it is exact for double input.
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
-using Point = Kernel::Point_3;
-using Mesh = CGAL::Surface_mesh<Point>;
+using HullPoint = Kernel::Point_3;
+using Mesh = CGAL::Surface_mesh<HullPoint>;
 
 }  // namespace
 
 Hull convex_hull(std::span<const Vec3<double>> input) {
   Hull hull;
   if (input.empty()) return hull;
-  std::vector<Point> points;
+  std::vector<HullPoint> points;
   points.reserve(input.size());
-  std::map<Point, int> first_index;
+  std::map<HullPoint, int> first_index;
   for (std::size_t i = 0; i < input.size(); ++i) {
     points.emplace_back(input[i].x(), input[i].y(), input[i].z());
     first_index.emplace(points.back(), int(i));
   }
-  auto add_vertex = [&](const Point& p) {
+  auto add_vertex = [&](const HullPoint& p) {
     hull.vertices.emplace_back(p.x(), p.y(), p.z());
     hull.input_index.push_back(first_index.at(p));
     return int(hull.vertices.size()) - 1;
   };
 
   // The affine dimension, from exact predicates on witnesses p0, p1, p2, p3.
-  const Point& p0 = points[0];
+  const HullPoint& p0 = points[0];
   const auto p1 =
-      std::find_if(points.begin(), points.end(), [&](const Point& p) { return p != p0; });
+      std::find_if(points.begin(), points.end(), [&](const HullPoint& p) { return p != p0; });
   if (p1 == points.end()) {
     hull.dimension = 0;
     add_vertex(p0);
     return hull;
   }
   const auto p2 = std::find_if(points.begin(), points.end(),
-                               [&](const Point& p) { return !CGAL::collinear(p0, *p1, p); });
+                               [&](const HullPoint& p) { return !CGAL::collinear(p0, *p1, p); });
   if (p2 == points.end()) {
     // A segment: its two extreme points along p1 − p0 (lexicographic order is the same order
     // on a line, and exact).
@@ -56,7 +56,7 @@ Hull convex_hull(std::span<const Vec3<double>> input) {
     add_vertex(*hi);
     return hull;
   }
-  const auto p3 = std::find_if(points.begin(), points.end(), [&](const Point& p) {
+  const auto p3 = std::find_if(points.begin(), points.end(), [&](const HullPoint& p) {
     return CGAL::orientation(p0, *p1, *p2, p) != CGAL::COPLANAR;
   });
   if (p3 == points.end()) {
@@ -100,4 +100,13 @@ Hull convex_hull(std::span<const Vec3<double>> input) {
   return hull;
 }
 
-}  // namespace nearpoint::bench
+Polytope<double> hull_polytope(std::span<const Vec3<double>> points) {
+  for (const Vec3<double>& p : points)
+    if (!p.allFinite()) return Polytope<double>(points);  // invalid, with the reason
+  if (points.empty()) return Polytope<double>(points);
+  const Hull hull = convex_hull(points);
+  if (hull.dimension < 3) return Polytope<double>(hull.vertices);
+  return Polytope<double>(hull.vertices, hull.faces);
+}
+
+}  // namespace nearpoint
