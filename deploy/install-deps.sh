@@ -17,6 +17,9 @@ packages=(
   libgtest-dev libgmock-dev libcgal-dev libgmp-dev libmpfr-dev
   # server: gRPC (nearpointd, its protos, reflection and health checking)
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
+  # Python client (client/python): Debian's /usr/bin/python3 with the runtimes matching the
+  # protoc 3.21 / grpc_python_plugin 1.51 above, which generate its modules
+  python3-grpcio python3-protobuf
 )
 for arg in "$@"; do
   case "$arg" in
