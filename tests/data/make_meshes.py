@@ -104,3 +104,24 @@ write("wedge.ply", "ply\nformat ascii 1.0\ncomment triangular prism with an inte
       f"element face {len(pf)}\nproperty list uchar int vertex_indices\nend_header\n" +
       "".join(f"{x:g} {y:g} {z:g}\n" for x, y, z in pv) +
       "".join(f"3 {a} {b} {c}\n" for a, b, c in pf))
+
+# nested_transform.gltf: node transforms are applied. The tetrahedron (0,0,0), (1,0,0), (0,1,0),
+# (0,0,1) (as points) hangs from node 'tetra' (scale 2) under node 'carrier' (translation
+# (10, 0, 0)): in the file's frame it is (10,0,0), (12,0,0), (10,2,0), (10,0,2).
+import base64  # noqa: E402
+import json  # noqa: E402
+
+buf = b"".join(struct.pack("<3f", *p) for p in [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)])
+gltf = {
+    "asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+    "nodes": [{"name": "carrier", "translation": [10, 0, 0], "children": [1]},
+              {"name": "tetra", "mesh": 0, "scale": [2, 2, 2]}],
+    "meshes": [{"name": "tetra_points", "primitives": [{"attributes": {"POSITION": 0},
+                                                         "mode": 0}]}],
+    "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                   "min": [0, 0, 0], "max": [1, 1, 1]}],
+    "bufferViews": [{"buffer": 0, "byteLength": len(buf)}],
+    "buffers": [{"byteLength": len(buf),
+                 "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}],
+}
+write("nested_transform.gltf", json.dumps(gltf, indent=1) + "\n")

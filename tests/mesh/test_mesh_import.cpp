@@ -159,6 +159,27 @@ TEST(MeshImport, ObjectSplitByMaterialsIsStillOnePart) {
   EXPECT_EQ(mesh.pieces[0].vertices.size(), 4u);
 }
 
+TEST(MeshImport, NodeTransformsArePlacedInTheFilesFrame) {
+  // Any format assimp reads works; glTF carries node transforms (OBJ/STL/OFF/PLY have none).
+  const MeshImport mesh = import_mesh(data("nested_transform.gltf"), {.scale = 0.5});
+  ASSERT_TRUE(mesh.ok()) << mesh.error;
+  ASSERT_EQ(mesh.pieces.size(), 1u);
+  EXPECT_EQ(mesh.pieces[0].name, "tetra");
+  EXPECT_EQ(as_set(mesh.pieces[0].vertices),
+            (std::set<Point>{{5, 0, 0}, {6, 0, 0}, {5, 1, 0}, {5, 0, 1}}));
+}
+
+TEST_F(MeshFiles, ObjGroupsAreParts) {
+  const MeshImport mesh = import_mesh(write("groups.obj",
+                                            "g first\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+                                            "g second\nv 0 0 5\nv 1 0 5\nv 0 1 5\nf 4 5 6\n"));
+  ASSERT_TRUE(mesh.ok()) << mesh.error;
+  ASSERT_EQ(mesh.pieces.size(), 2u);
+  EXPECT_EQ(mesh.pieces[0].name, "first");
+  EXPECT_EQ(mesh.pieces[1].name, "second");
+  EXPECT_EQ(as_set(mesh.pieces[1].vertices), (std::set<Point>{{0, 0, 5}, {1, 0, 5}, {0, 1, 5}}));
+}
+
 // --- degenerate parts: valid convex sets, kept by their extreme points ---
 
 TEST_F(MeshFiles, CoplanarPartKeepsItsPolygonCorners) {
