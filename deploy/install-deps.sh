@@ -11,12 +11,15 @@ packages=(
   g++ cmake ninja-build pkg-config ccache python3
   # core: Eigen only
   libeigen3-dev
-  # command-line tool
-  nlohmann-json3-dev libcli11-dev
+  # command-line tool; mesh import (assimp reads the files; CGAL, listed below, finds the hulls)
+  nlohmann-json3-dev libcli11-dev libassimp-dev
   # tests: GoogleTest, and CGAL's exact arithmetic as the distance oracle
   libgtest-dev libgmock-dev libcgal-dev libgmp-dev libmpfr-dev
   # server: gRPC (nearpointd, its protos, reflection and health checking)
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
+  # Python client (client/python): Debian's /usr/bin/python3 with the runtimes matching the
+  # protoc 3.21 / grpc_python_plugin 1.51 above, which generate its modules
+  python3-grpcio python3-protobuf
 )
 for arg in "$@"; do
   case "$arg" in

@@ -1,0 +1,435 @@
+"""The nearpoint Python client: a thin, typed layer over the generated gRPC stubs.
+
+Everything on the wire is in metres and radians; poses map an object's geometry frame to the
+world frame; quaternions are (w, x, y, z). Calls that fail raise `NearpointError` carrying the
+server's status code and message; a rejected *stream update* does not raise (the server keeps the
+stream open) but yields a `Report` whose `error` says what was wrong.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+from typing import Iterable, Iterator, Mapping, Optional, Sequence, Tuple, Union
+
+import grpc
+
+import nearpoint_distance_pb2 as distance_pb
+import nearpoint_distance_pb2_grpc as distance_grpc
+import nearpoint_geometry_pb2 as geometry_pb
+import nearpoint_scene_pb2 as scene_pb
+
+Vec3 = Tuple[float, float, float]
+Quat = Tuple[float, float, float, float]
+
+#: Seconds a unary call may take before it fails with DEADLINE_EXCEEDED.
+DEFAULT_TIMEOUT = 10.0
+
+
+class NearpointError(Exception):
+    """A call the server (or the channel) refused.
+
+    `code` is the `grpc.StatusCode` (e.g. `grpc.StatusCode.NOT_FOUND`); `message` is the server's
+    own text, which names the offending field first ("scene_id: no scene 'scene-9'").
+    """
+
+    def __init__(self, code: grpc.StatusCode, message: str):
+        super().__init__(f"{code.name}: {message}")
+        self.code = code
+        self.message = message
+
+
+def _raise_from(error: grpc.RpcError) -> NearpointError:
+    return NearpointError(error.code(), error.details() or "")
+
+
+# --- geometry -------------------------------------------------------------------------------
+
+def _vec(v: Sequence[float]) -> geometry_pb.Vector3:
+    if len(v) != 3:
+        raise ValueError(f"expected 3 coordinates, got {len(v)}")
+    return geometry_pb.Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+
+def pose(translation: Sequence[float] = (0.0, 0.0, 0.0),
+         rotation: Sequence[float] = (1.0, 0.0, 0.0, 0.0)) -> geometry_pb.Pose:
+    """A pose: `translation` in metres and `rotation` as a unit quaternion (w, x, y, z).
+
+    The server accepts quaternions within 1e-4 of unit length and normalises them.
+    """
+    if len(rotation) != 4:
+        raise ValueError(f"rotation must be a quaternion (w, x, y, z), got {len(rotation)} values")
+    w, x, y, z = (float(c) for c in rotation)
+    return geometry_pb.Pose(rotation=geometry_pb.Quaternion(w=w, x=x, y=y, z=z),
+                            translation=_vec(translation))
+
+
+def rotation_about_z(angle: float) -> Quat:
+    """The unit quaternion (w, x, y, z) of a rotation by `angle` radians about the z axis."""
+    return (math.cos(angle / 2), 0.0, 0.0, math.sin(angle / 2))
+
+
+def _piece(radius: float, offset: Optional[geometry_pb.Pose], **shape) -> geometry_pb.Piece:
+    piece = geometry_pb.Piece(radius=float(radius), **shape)
+    if offset is not None:
+        piece.offset.CopyFrom(offset)
+    return piece
+
+
+def box(half_extents: Sequence[float], radius: float = 0.0,
+        offset: Optional[geometry_pb.Pose] = None) -> geometry_pb.Piece:
+    """The box [-h, h] (half extents h, metres), rounded by `radius`, placed by `offset`."""
+    return _piece(radius, offset, box=geometry_pb.Box(half_extents=_vec(half_extents)))
+
+
+def polytope(vertices: Iterable[Sequence[float]], radius: float = 0.0,
+             offset: Optional[geometry_pb.Pose] = None) -> geometry_pb.Piece:
+    """The convex hull of `vertices` (metres; interior points and duplicates are fine)."""
+    return _piece(radius, offset,
+                  polytope=geometry_pb.Polytope(vertices=[_vec(v) for v in vertices]))
+
+
+def sphere(radius: float, offset: Optional[geometry_pb.Pose] = None) -> geometry_pb.Piece:
+    """A sphere of `radius` metres about the piece origin (a point rounded by the radius)."""
+    return _piece(radius, offset, point=geometry_pb.PointShape())
+
+
+def capsule(a: Sequence[float], b: Sequence[float], radius: float,
+            offset: Optional[geometry_pb.Pose] = None) -> geometry_pb.Piece:
+    """The segment from `a` to `b` rounded by `radius` (radius 0: the bare segment)."""
+    return _piece(radius, offset, segment=geometry_pb.Segment(a=_vec(a), b=_vec(b)))
+
+
+def cylinder(radius: float, half_height: float, rounding: float = 0.0,
+             offset: Optional[geometry_pb.Pose] = None) -> geometry_pb.Piece:
+    """The solid cylinder about the z axis from z = -half_height to +half_height."""
+    return _piece(rounding, offset,
+                  cylinder=geometry_pb.Cylinder(radius=radius, half_height=half_height))
+
+
+def cone(radius: float, half_height: float, rounding: float = 0.0,
+         offset: Optional[geometry_pb.Pose] = None) -> geometry_pb.Piece:
+    """The solid cone about z: base disc of `radius` at z = -half_height, apex at +half_height."""
+    return _piece(rounding, offset, cone=geometry_pb.Cone(radius=radius, half_height=half_height))
+
+
+def ellipsoid(radii: Sequence[float], rounding: float = 0.0,
+              offset: Optional[geometry_pb.Pose] = None) -> geometry_pb.Piece:
+    """The solid ellipsoid with semi-axes `radii` = (rx, ry, rz) along x, y, z."""
+    return _piece(rounding, offset, ellipsoid=geometry_pb.Ellipsoid(radii=_vec(radii)))
+
+
+# --- reports --------------------------------------------------------------------------------
+
+_STATUS_NAMES = {
+    distance_pb.PAIR_STATUS_SEPARATED: "separated",
+    distance_pb.PAIR_STATUS_INTERSECTING: "intersecting",
+    distance_pb.PAIR_STATUS_BEYOND_CUTOFF: "beyond_cutoff",
+    distance_pb.PAIR_STATUS_ITERATION_LIMIT: "iteration_limit",
+    distance_pb.PAIR_STATUS_ENGINE_ERROR: "engine_error",
+}
+
+
+def _tuple(v: geometry_pb.Vector3) -> Vec3:
+    return (v.x, v.y, v.z)
+
+
+@dataclass(frozen=True)
+class PairDistance:
+    """One pair of a report. Distances in metres; points and normal in the world frame.
+
+    `status` is "separated", "intersecting" (distance 0; touching counts), "beyond_cutoff" (only
+    `distance_lower_bound` is meaningful), "iteration_limit" or "engine_error" (see `message`).
+    `point_a`, `point_b` and `normal` (unit, A towards B) are None unless near points were asked
+    for; `penetration_bound` is None unless asked for and the pair intersects.
+    """
+
+    object_a: str
+    object_b: str
+    status: str
+    distance: float
+    distance_lower_bound: float
+    error_bound: float
+    iterations: int
+    warm_started: bool
+    point_a: Optional[Vec3]
+    point_b: Optional[Vec3]
+    normal: Optional[Vec3]
+    penetration_bound: Optional[float]
+    message: str
+
+    @staticmethod
+    def from_proto(p: distance_pb.PairDistance) -> "PairDistance":
+        near = p.has_near_points
+        return PairDistance(
+            object_a=p.object_a, object_b=p.object_b,
+            status=_STATUS_NAMES.get(p.status, "unspecified"),
+            distance=p.distance, distance_lower_bound=p.distance_lower_bound,
+            error_bound=p.error_bound, iterations=p.iterations, warm_started=p.warm_started,
+            point_a=_tuple(p.point_a) if near else None,
+            point_b=_tuple(p.point_b) if near else None,
+            normal=_tuple(p.normal) if near else None,
+            penetration_bound=p.penetration_bound if p.has_penetration_bound else None,
+            message=p.message)
+
+
+@dataclass(frozen=True)
+class UpdateError:
+    """Why a stream update was rejected: a status code name ("INVALID_ARGUMENT", "NOT_FOUND",
+    ...), the offending field as a path into the update ("poses[0].pose.rotation") and the
+    server's message."""
+
+    code: str
+    field: str
+    message: str
+
+
+@dataclass(frozen=True)
+class Report:
+    """The answer to one query or stream update: its `sequence` number and one `PairDistance`
+    per selected pair of the scene, in the scene's pair order — or, for a rejected update, an
+    `error` and no pairs. `server_us` is the server-side time from reading the update to handing
+    over the report (microseconds); `raw` is the `DistanceReport` message itself."""
+
+    sequence: int
+    pairs: Tuple[PairDistance, ...]
+    error: Optional[UpdateError]
+    server_us: float
+    coalesced_updates: int
+    raw: distance_pb.DistanceReport
+
+    @staticmethod
+    def from_proto(r: distance_pb.DistanceReport) -> "Report":
+        error = None
+        if r.HasField("error"):
+            error = UpdateError(code=distance_pb.ErrorCode.Name(r.error.code)
+                                .removeprefix("ERROR_CODE_"),
+                                field=r.error.field, message=r.error.message)
+        return Report(sequence=r.sequence,
+                      pairs=tuple(PairDistance.from_proto(p) for p in r.pairs),
+                      error=error, server_us=r.timing.server_us,
+                      coalesced_updates=r.coalesced_updates, raw=r)
+
+    def pair(self, object_a: str, object_b: str) -> PairDistance:
+        """The entry for the pair (object_a, object_b), in either order; KeyError if absent."""
+        for p in self.pairs:
+            if {p.object_a, p.object_b} == {object_a, object_b}:
+                return p
+        raise KeyError(f"no pair ({object_a}, {object_b}) in the report")
+
+
+# --- scenes and options ---------------------------------------------------------------------
+
+_PENETRATION = {
+    "none": scene_pb.PENETRATION_MODE_NONE,
+    "bound": scene_pb.PENETRATION_MODE_BOUND,
+    "depth": scene_pb.PENETRATION_MODE_DEPTH,
+}
+
+
+def query_options(epsilon: Optional[float] = None, near_points: Optional[bool] = None,
+                  penetration: Optional[str] = None, gradient: Optional[bool] = None,
+                  distance_cutoff: Optional[float] = None, warm_start: Optional[bool] = None,
+                  max_iterations: Optional[int] = None) -> scene_pb.QueryOptions:
+    """Query options; every argument left as None inherits (update → scene → server defaults).
+
+    `penetration` is "none" or "bound" (a certified lower bound on the penetration depth).
+    """
+    options = scene_pb.QueryOptions()
+    if epsilon is not None:
+        options.epsilon = epsilon
+    if near_points is not None:
+        options.near_points = near_points
+    if penetration is not None:
+        if penetration not in _PENETRATION:
+            raise ValueError(f"penetration must be one of {sorted(_PENETRATION)}, "
+                             f"got {penetration!r}")
+        options.penetration = _PENETRATION[penetration]
+    if gradient is not None:
+        options.gradient = gradient
+    if distance_cutoff is not None:
+        options.distance_cutoff = distance_cutoff
+    if warm_start is not None:
+        options.warm_start = warm_start
+    if max_iterations is not None:
+        options.max_iterations = max_iterations
+    return options
+
+
+OptionsArg = Union[None, Mapping[str, object], scene_pb.QueryOptions]
+PoseArg = Union[geometry_pb.Pose, Sequence[float]]
+
+
+def _options(options: OptionsArg) -> Optional[scene_pb.QueryOptions]:
+    if options is None or isinstance(options, scene_pb.QueryOptions):
+        return options
+    return query_options(**options)
+
+
+def _pose(value: PoseArg) -> geometry_pb.Pose:
+    """A Pose message, or a bare (x, y, z) translation."""
+    if isinstance(value, geometry_pb.Pose):
+        return value
+    return pose(translation=value)
+
+
+def _object_poses(poses: Mapping[str, PoseArg]) -> list:
+    return [distance_pb.ObjectPose(object_id=object_id, pose=_pose(p))
+            for object_id, p in poses.items()]
+
+
+@dataclass(frozen=True)
+class Update:
+    """One stream update with an explicit sequence number (strictly increasing) and options.
+    `stream` also accepts bare pose mappings, numbered 1, 2, 3, ..."""
+
+    sequence: int
+    poses: Mapping[str, PoseArg]
+    options: OptionsArg = None
+
+
+_FLOW_CONTROL = {
+    "block": distance_pb.FLOW_CONTROL_BLOCK,
+    "coalesce": distance_pb.FLOW_CONTROL_COALESCE,
+}
+
+
+class Client:
+    """A connection to nearpointd. Use `connect()` to make one; close it (or use `with`)."""
+
+    def __init__(self, channel: grpc.Channel, timeout: float = DEFAULT_TIMEOUT):
+        self._channel = channel
+        self._stub = distance_grpc.DistanceServiceStub(channel)
+        self.timeout = timeout
+
+    def close(self) -> None:
+        """Closes the channel; open streams end with CANCELLED."""
+        self._channel.close()
+
+    def __enter__(self) -> "Client":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _call(self, method, request):
+        try:
+            return method(request, timeout=self.timeout)
+        except grpc.RpcError as error:
+            raise _raise_from(error) from None
+
+    def register_geometry(self, pieces: Sequence[geometry_pb.Piece], name: str = "") -> str:
+        """Stores a geometry, the union of `pieces` (made with `box`, `polytope`, `sphere`, ...),
+        and returns its id (e.g. "geom-1"). Invalid pieces raise INVALID_ARGUMENT naming the field
+        ("geometry.pieces[0].radius: ...")."""
+        request = distance_pb.RegisterGeometryRequest(
+            geometry=geometry_pb.Geometry(name=name, pieces=list(pieces)))
+        return self._call(self._stub.RegisterGeometry, request).geometry.geometry_id
+
+    def list_geometries(self) -> list:
+        """Every stored geometry as a `GeometryInfo` message (id, name, counts, bounding sphere)."""
+        response = self._call(self._stub.ListGeometries, distance_pb.ListGeometriesRequest())
+        return list(response.geometries)
+
+    def remove_geometry(self, geometry_id: str) -> None:
+        """Removes a geometry from the store (scenes using it keep working)."""
+        self._call(self._stub.RemoveGeometry,
+                   distance_pb.RemoveGeometryRequest(geometry_id=geometry_id))
+
+    def create_scene(self, objects: Mapping[str, Union[str, Tuple[str, PoseArg]]],
+                     pairs: Optional[Sequence[Tuple[str, str]]] = None,
+                     options: OptionsArg = None, name: str = "") -> str:
+        """Creates a scene and returns its id (e.g. "scene-1").
+
+        `objects` maps each object id to a geometry id, or to (geometry id, initial pose); a pose
+        is a `pose(...)` or a bare (x, y, z) translation. `pairs` lists the pairs to evaluate, in
+        report order (default: all pairs, i < j in the order of `objects`). `options` are the
+        scene's default query options: a `query_options(...)` or a dict of its arguments,
+        e.g. {"near_points": True}.
+        """
+        request = scene_pb.CreateSceneRequest(name=name)
+        for object_id, spec in objects.items():
+            geometry_id, initial = (spec, None) if isinstance(spec, str) else spec
+            entry = request.objects.add(id=object_id, geometry_id=geometry_id)
+            if initial is not None:
+                entry.pose.CopyFrom(_pose(initial))
+        if pairs is not None:
+            for a, b in pairs:
+                request.pair_selection.listed_pairs.pairs.add(object_a=a, object_b=b)
+        scene_options = _options(options)
+        if scene_options is not None:
+            request.default_options.CopyFrom(scene_options)
+        return self._call(self._stub.CreateScene, request).scene_id
+
+    def delete_scene(self, scene_id: str) -> None:
+        """Deletes a scene; its open streams get NOT_FOUND error reports afterwards."""
+        self._call(self._stub.DeleteScene, scene_pb.DeleteSceneRequest(scene_id=scene_id))
+
+    def query(self, scene_id: str, poses: Mapping[str, PoseArg] = None,
+              options: OptionsArg = None, sequence: int = 0) -> Report:
+        """Distances for the scene with the given object poses (others at their initial pose).
+        An unknown scene raises NOT_FOUND, a bad pose INVALID_ARGUMENT naming the field."""
+        request = distance_pb.QueryRequest(scene_id=scene_id, sequence=sequence,
+                                           poses=_object_poses(poses or {}))
+        query_opts = _options(options)
+        if query_opts is not None:
+            request.options.CopyFrom(query_opts)
+        return Report.from_proto(self._call(self._stub.Query, request))
+
+    def stream(self, scene_id: str, updates: Iterable[Union[Update, Mapping[str, PoseArg]]],
+               options: OptionsArg = None, flow_control: str = "block",
+               timeout: Optional[float] = None) -> Iterator[Report]:
+        """Streams pose updates to the scene and yields one `Report` per update, in order.
+
+        `updates` is any iterable (it may be a generator that runs as long as the robot moves) of
+        `Update`s or of bare {object id: pose} mappings, numbered 1, 2, 3, ... . `options` apply
+        to every bare update. The server keeps warm-start caches for the stream's lifetime.
+        A rejected update yields a report with `error` set and the stream goes on; a failure of
+        the stream itself (server gone, `timeout` seconds exceeded) raises `NearpointError`.
+        `flow_control`: "block" (every update answered) or "coalesce" (the server merges updates
+        that arrive while it is busy; only the first update's choice counts).
+        """
+        if flow_control not in _FLOW_CONTROL:
+            raise ValueError(f"flow_control must be one of {sorted(_FLOW_CONTROL)}")
+        default_options = _options(options)
+
+        def requests():
+            counter = itertools.count(1)
+            for index, item in enumerate(updates):
+                if isinstance(item, Update):
+                    sequence, poses, update_options = item.sequence, item.poses, item.options
+                else:
+                    sequence, poses, update_options = next(counter), item, None
+                message = distance_pb.PoseUpdate(scene_id=scene_id, sequence=sequence,
+                                                 poses=_object_poses(poses))
+                if index == 0:
+                    message.flow_control = _FLOW_CONTROL[flow_control]
+                chosen = _options(update_options) if update_options is not None \
+                    else default_options
+                if chosen is not None:
+                    message.options.CopyFrom(chosen)
+                yield message
+
+        responses = self._stub.StreamPoses(requests(), timeout=timeout)
+        try:
+            for response in responses:
+                yield Report.from_proto(response)
+        except grpc.RpcError as error:
+            raise _raise_from(error) from None
+        finally:
+            responses.cancel()  # the caller stopped early: end the call, not leave it open
+
+
+def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT) -> Client:
+    """Connects to nearpointd at `target` ("host:port"), waiting up to `timeout` seconds for the
+    channel to be ready (NearpointError UNAVAILABLE otherwise). `timeout` is also each unary
+    call's deadline. Plain-text channel: nearpointd listens on 127.0.0.1 by default."""
+    channel = grpc.insecure_channel(target)
+    try:
+        grpc.channel_ready_future(channel).result(timeout=timeout)
+    except grpc.FutureTimeoutError:
+        channel.close()
+        raise NearpointError(grpc.StatusCode.UNAVAILABLE,
+                             f"no server at {target} within {timeout} s") from None
+    return Client(channel, timeout=timeout)

@@ -1,0 +1,225 @@
+#!/usr/bin/python3
+"""The Python client (client/python) against a real nearpointd child process on 127.0.0.1:0.
+
+Distances are checked against analytic truth: for axis-aligned boxes the distance is the length
+of the per-axis gaps, max(0, |c_a - c_b| - (h_a + h_b)), computed here without the engine.
+
+    /usr/bin/python3 tests/python/test_python_client.py --nearpointd build/server/nearpointd \
+        --pythonpath build/client/python --example client/python/examples/two_boxes.py
+
+The server dies with this process whatever happens (PR_SET_PDEATHSIG), and is stopped with
+SIGTERM (it must drain and exit 0) at the end.
+"""
+import argparse
+import ctypes
+import math
+import os
+import random
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+ARGS = None  # set in __main__
+npc = None  # nearpoint_client, imported once the path is known
+
+
+def box_distance(centre_a, half_a, centre_b, half_b):
+    """Distance between two axis-aligned boxes: the length of the per-axis gaps."""
+    gaps = [max(0.0, abs(centre_a[k] - centre_b[k]) - (half_a[k] + half_b[k])) for k in range(3)]
+    return math.sqrt(sum(g * g for g in gaps))
+
+
+def die_with_parent():
+    """Runs in the child before exec: SIGKILL it when the test process dies, however it dies."""
+    PR_SET_PDEATHSIG = 1
+    ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+
+
+class PythonClientTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.TemporaryDirectory(prefix="nearpoint_py_")
+        port_file = os.path.join(cls.tmp.name, "port")
+        cls.server = subprocess.Popen(
+            [ARGS.nearpointd, "--listen", "127.0.0.1:0", "--port-file", port_file,
+             "--log-level", "warn", "--workers", "2"],
+            preexec_fn=die_with_parent)
+        # The port file is written atomically once the server listens; wait for it (bounded).
+        deadline = time.monotonic() + 20
+        while not os.path.exists(port_file):
+            if cls.server.poll() is not None or time.monotonic() > deadline:
+                cls.stop_server()
+                raise RuntimeError("nearpointd did not start")
+            time.sleep(0.05)
+        with open(port_file, encoding="ascii") as f:
+            cls.target = f"127.0.0.1:{int(f.read().strip())}"
+        cls.client = npc.connect(cls.target, timeout=10)
+
+    @classmethod
+    def stop_server(cls):
+        if cls.server.poll() is None:
+            cls.server.send_signal(signal.SIGTERM)
+            try:
+                cls.server.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                cls.server.kill()
+                cls.server.wait()
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.client.close()
+        cls.stop_server()
+        cls.tmp.cleanup()
+        # SIGTERM drains the streams and exits 0; anything else is a server bug worth failing on.
+        if cls.server.returncode != 0:
+            raise AssertionError(f"nearpointd exited with {cls.server.returncode}")
+
+    # --- helpers ---
+
+    def register_box(self, half):
+        return self.client.register_geometry([npc.box(half)], name=f"box {half}")
+
+    def check_pair(self, pair, truth, what):
+        """The reported distance agrees with the truth within the certified bound (plus the
+        truth's own rounding), the verdict matches, and near points are consistent."""
+        self.assertLessEqual(abs(pair.distance - truth), pair.error_bound + 1e-12,
+                             f"{what}: distance {pair.distance!r}, truth {truth!r}")
+        self.assertLess(pair.error_bound, 1e-9, what)
+        self.assertEqual(pair.status, "separated" if truth > 1e-9 else "intersecting", what)
+        if pair.point_a is not None and pair.status == "separated":
+            gap = math.dist(pair.point_a, pair.point_b)
+            self.assertAlmostEqual(gap, pair.distance, delta=1e-12, msg=what)
+            self.assertAlmostEqual(math.hypot(*pair.normal), 1.0, delta=1e-12, msg=what)
+
+    # --- tests ---
+
+    def test_example_two_boxes_prints_the_analytic_distances(self):
+        env = dict(os.environ, PYTHONPATH=ARGS.pythonpath)
+        run = subprocess.run([sys.executable, ARGS.example, self.target], env=env,
+                             capture_output=True, text=True, timeout=60)
+        self.assertEqual(run.returncode, 0, run.stderr)
+        lines = run.stdout.splitlines()
+        self.assertEqual(len(lines), 10, run.stdout)
+        pattern = re.compile(r"seq (\d+) slab at \(([-\d.e]+), ([-\d.e]+), ([-\d.e]+)\) (\w+) "
+                             r"distance ([-\d.e]+) \+- ([-\d.e+]+) warm (True|False)")
+        statuses = set()
+        for index, line in enumerate(lines):
+            match = pattern.match(line)
+            self.assertIsNotNone(match, line)
+            sequence = int(match.group(1))
+            centre = tuple(float(match.group(k)) for k in (2, 3, 4))
+            distance, bound = float(match.group(6)), float(match.group(7))
+            self.assertEqual(sequence, index + 1)
+            truth = box_distance((0, 0, 0), (0.5, 0.5, 0.5), centre, (1.0, 0.25, 0.1))
+            # The example prints 9 decimals.
+            self.assertLessEqual(abs(distance - truth), bound + 1e-9, line)
+            self.assertEqual(match.group(5), "separated" if truth > 0 else "intersecting", line)
+            statuses.add(match.group(5))
+        self.assertEqual(statuses, {"separated", "intersecting"})  # the slab passes through
+
+    def test_query_matches_analytic_box_distances(self):
+        rng = random.Random(20261121)
+        halves = [tuple(rng.uniform(0.2, 1.0) for _ in range(3)) for _ in range(3)]
+        ids = [self.register_box(h) for h in halves]
+        names = ["a", "b", "c"]
+        scene = self.client.create_scene(dict(zip(names, ids)), options={"near_points": True})
+        verdicts = {"separated": 0, "intersecting": 0}
+        for trial in range(40):
+            centres = [tuple(rng.uniform(-1.0, 1.0) for _ in range(3)) for _ in names]
+            # Quarter turns about z keep the boxes axis-aligned with x and y extents swapped.
+            turns = [rng.randrange(4) for _ in names]
+            poses = {n: npc.pose(c, npc.rotation_about_z(t * math.pi / 2))
+                     for n, c, t in zip(names, centres, turns)}
+            report = self.client.query(scene, poses, sequence=trial + 1)
+            self.assertEqual(report.sequence, trial + 1)
+            self.assertIsNone(report.error)
+            self.assertEqual([(p.object_a, p.object_b) for p in report.pairs],
+                             [("a", "b"), ("a", "c"), ("b", "c")])
+            placed = [(h[1], h[0], h[2]) if t % 2 else h for h, t in zip(halves, turns)]
+            for pair in report.pairs:
+                i, j = names.index(pair.object_a), names.index(pair.object_b)
+                truth = box_distance(centres[i], placed[i], centres[j], placed[j])
+                self.check_pair(pair, truth, f"trial {trial} {pair.object_a}-{pair.object_b}")
+                verdicts[pair.status] += 1
+        # The sample exercises both verdicts.
+        self.assertGreater(verdicts["separated"], 30, verdicts)
+        self.assertGreater(verdicts["intersecting"], 20, verdicts)
+
+    def test_stream_reports_in_order_with_sequences_and_warm_starts(self):
+        fixed, moving = self.register_box((0.5, 0.5, 0.5)), self.register_box((0.3, 0.2, 0.1))
+        scene = self.client.create_scene({"fixed": fixed, "moving": (moving, (3, 0, 0))})
+        # A helix around the fixed box, sequence numbers 10, 20, 30, ...
+        path = [(2.0 * math.cos(0.05 * k), 2.0 * math.sin(0.05 * k), 0.01 * k)
+                for k in range(60)]
+        updates = (npc.Update(sequence=10 * (k + 1), poses={"moving": c})
+                   for k, c in enumerate(path))
+        reports = list(self.client.stream(scene, updates, options={"near_points": True},
+                                          timeout=60))
+        self.assertEqual([r.sequence for r in reports], [10 * (k + 1) for k in range(60)])
+        for k, report in enumerate(reports):
+            self.assertIsNone(report.error)
+            (pair,) = report.pairs
+            truth = box_distance((0, 0, 0), (0.5, 0.5, 0.5), path[k], (0.3, 0.2, 0.1))
+            self.check_pair(pair, truth, f"update {k}")
+            # The first update starts cold; the stream's cache warms every later one.
+            self.assertEqual(pair.warm_started, k > 0, f"update {k}")
+            self.assertGreater(report.server_us, 0)
+
+    def test_rejected_update_is_a_report_and_the_stream_goes_on(self):
+        cube = self.register_box((0.5, 0.5, 0.5))
+        scene = self.client.create_scene({"a": cube, "b": (cube, (2, 0, 0))})
+        updates = [
+            npc.Update(1, {"b": (3, 0, 0)}),
+            npc.Update(2, {"b": npc.pose((3, 0, 0), (2, 0, 0, 0))}),  # not a unit quaternion
+            npc.Update(3, {"ghost": (1, 1, 1)}),                      # no such object
+            npc.Update(4, {"b": (1.5, 0.5, 0)}),
+        ]
+        reports = list(self.client.stream(scene, iter(updates), timeout=30))
+        self.assertEqual([r.sequence for r in reports], [1, 2, 3, 4])
+        self.check_pair(reports[0].pairs[0], 2.0, "update 1")
+        self.assertEqual(reports[1].pairs, ())
+        self.assertEqual(reports[1].error.code, "INVALID_ARGUMENT")
+        self.assertEqual(reports[1].error.field, "poses[0].pose.rotation")
+        self.assertIn("unit length", reports[1].error.message)
+        self.assertEqual(reports[2].error.code, "NOT_FOUND")
+        self.assertIn("ghost", reports[2].error.message)
+        self.check_pair(reports[3].pairs[0], 0.5, "update 4")
+
+    def test_unknown_scene_raises_with_the_servers_message(self):
+        with self.assertRaises(npc.NearpointError) as raised:
+            self.client.query("scene-does-not-exist", {})
+        self.assertEqual(raised.exception.code.name, "NOT_FOUND")
+        self.assertIn("no scene 'scene-does-not-exist'", raised.exception.message)
+        self.assertIn("scene_id", raised.exception.message)
+
+    def test_unknown_geometry_and_bad_piece_name_the_field(self):
+        cube = self.register_box((0.5, 0.5, 0.5))
+        with self.assertRaises(npc.NearpointError) as raised:
+            self.client.create_scene({"a": cube, "b": "geom-999999"})
+        self.assertEqual(raised.exception.code.name, "NOT_FOUND")
+        self.assertIn("objects[1].geometry_id", raised.exception.message)
+        with self.assertRaises(npc.NearpointError) as raised:
+            self.client.register_geometry([npc.sphere(-1.0)])
+        self.assertEqual(raised.exception.code.name, "INVALID_ARGUMENT")
+        self.assertIn("geometry.pieces[0].radius", raised.exception.message)
+
+    def test_connect_to_a_closed_port_fails_with_unavailable(self):
+        # Port 1 on loopback: nothing listens there; the attempt never leaves the machine.
+        with self.assertRaises(npc.NearpointError) as raised:
+            npc.connect("127.0.0.1:1", timeout=0.5)
+        self.assertEqual(raised.exception.code.name, "UNAVAILABLE")
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--nearpointd", required=True)
+    parser.add_argument("--pythonpath", required=True, help="build/client/python")
+    parser.add_argument("--example", required=True, help="client/python/examples/two_boxes.py")
+    ARGS, rest = parser.parse_known_args()
+    sys.path.insert(0, ARGS.pythonpath)
+    import nearpoint_client as npc  # noqa: E402  (the path is only known now)
+    unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)
