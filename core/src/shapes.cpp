@@ -92,22 +92,21 @@ __attribute__((always_inline)) inline std::size_t argmax_dot_simd(const S* xs, c
       where[h] = better ? lane_index + Index(i + h * kLanes) : where[h];
     }
   }
-  S best_value = best[0][0];
-  std::size_t best_index = std::size_t(where[0][0]);
-  bool found = best_value == best_value;
-  for (int h = 0; h < 2; ++h) {
-    for (int l = 0; l < kLanes; ++l) {
-      const S value = best[h][l];
-      const std::size_t index = std::size_t(where[h][l]);
-      if (!(value == value)) continue;  // NaN-safe on purpose: a NaN lane never wins
-      if (!found || value > best_value || (value == best_value && index < best_index)) {
-        best_value = value;
-        best_index = index;
-        found = true;
-      }
-    }
-  }
-  return best_index;
+  // Reduction without branches: the largest lane value, then the smallest index among the lanes
+  // holding it (each lane kept its earliest index on ties, so this is the first maximiser). NaN
+  // never equals anything: with an all-NaN direction no lane matches and vertex 0 is returned.
+  const V top2 = (best[0] > best[1]) | (best[1] != best[1]) ? best[0] : best[1];
+  S top = top2[0];
+  for (int l = 1; l < kLanes; ++l) top = top2[l] > top || top != top ? top2[l] : top;
+  const V vtop = V{} + top;
+  const I none = I{} + std::numeric_limits<Index>::max();
+  const I c0 = best[0] == vtop ? where[0] : none;
+  const I c1 = best[1] == vtop ? where[1] : none;
+  const I c = c0 < c1 ? c0 : c1;
+  Index best_index = c[0];
+  for (int l = 1; l < kLanes; ++l) best_index = c[l] < best_index ? c[l] : best_index;
+  if (best_index == std::numeric_limits<Index>::max()) best_index = 0;
+  return std::size_t(best_index);
 }
 
 using Double4 = double __attribute__((vector_size(32)));
