@@ -99,6 +99,10 @@ std::string number(double value, int digits = 6) {
   return text.str();
 }
 
+std::string point(const Eigen::Vector3d& v) {
+  return "(" + number(v.x()) + ", " + number(v.y()) + ", " + number(v.z()) + ")";
+}
+
 void print_pairs(const client::Report& report, std::ostream& out) {
   for (const client::PairDistance& p : report.pairs) {
     out << std::left << std::setw(24) << (p.object_a + " - " + p.object_b) << std::setw(16)
@@ -109,8 +113,7 @@ void print_pairs(const client::Report& report, std::ostream& out) {
       out << "distance " << number(p.distance, 12) << " (± " << number(p.error_bound, 2) << ")";
     if (p.penetration_bound) out << "  d⁻ " << number(*p.penetration_bound);
     if (p.near_points)
-      out << "  A (" << p.near_points->point_a.transpose() << ")  B ("
-          << p.near_points->point_b.transpose() << ")";
+      out << "  A " << point(p.near_points->point_a) << "  B " << point(p.near_points->point_b);
     out << "\n";
   }
 }
@@ -187,8 +190,8 @@ int run_register(const RegisterOptions& options, std::ostream& out, std::ostream
     } else {
       out << info->geometry_id << "  \"" << info->name << "\": " << info->piece_count
           << (info->piece_count == 1 ? " piece, " : " pieces, ") << info->vertex_count
-          << " vertices, bounding sphere radius " << number(info->bounding_radius) << " at ("
-          << info->bounding_center.transpose() << ")\n";
+          << " vertices, bounding sphere radius " << number(info->bounding_radius) << " at "
+          << point(info->bounding_center) << "\n";
     }
   }
   return 0;
