@@ -416,6 +416,28 @@ TEST_F(WithServer, RegisterReadsMeshesAndJsonGeometries) {
   EXPECT_EQ(info["name"], "combo");
   EXPECT_EQ(info["piece_count"], 3);
 
+  // A non-convex star prism becomes its convex hull: the 8 tips of its 16 vertices, and a point
+  // beyond the tips' square |x| + |y| <= 2 is (3 - 2)/sqrt(2) from it (farther from the star).
+  options.files = {(kSource / "tests/data/star_prism.obj").string()};
+  options.name.clear();
+  out.str("");
+  ASSERT_EQ(run_register(options, out, err), 0) << err.str();
+  EXPECT_EQ(parse_json(out.str())["vertex_count"], 8);
+  const std::filesystem::path scene = temp_file("star.json");
+  std::ofstream(scene) << R"({"geometries": {"star": {"mesh": ")"
+                       << (kSource / "tests/data/star_prism.obj").string()
+                       << R"("}, "dot": {"sphere": {}}},
+      "objects": [{"id": "star", "geometry": "star"},
+                  {"id": "dot", "geometry": "dot", "pose": {"translation": [1.5, 1.5, 0.5]}}]})";
+  QueryCommandOptions query;
+  query.remote = remote();
+  query.scene = scene.string();
+  out.str("");
+  ASSERT_EQ(run_query(query, out, err), 0) << err.str();
+  EXPECT_NEAR(parse_json(out.str())["pairs"][0]["distance"].get<double>(), 1 / std::sqrt(2.0),
+              1e-12);
+  std::filesystem::remove(scene);
+
   const std::filesystem::path json = temp_file("geometry.json");
   std::ofstream(json)
       << R"({"name": "pin", "pieces": [{"segment": [[0,0,0],[0,0,1]], "radius": 0.1}]})";
