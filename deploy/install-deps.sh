@@ -13,6 +13,8 @@ packages=(
   libeigen3-dev
   # command-line tool; mesh import (assimp reads the files; CGAL, listed below, finds the hulls)
   nlohmann-json3-dev libcli11-dev libassimp-dev
+  # scene files in YAML (optional at build time; JSON always works)
+  libyaml-cpp-dev
   # tests: GoogleTest, and CGAL's exact arithmetic as the distance oracle
   libgtest-dev libgmock-dev libcgal-dev libgmp-dev libmpfr-dev
   # server: gRPC (nearpointd, its protos, reflection and health checking)

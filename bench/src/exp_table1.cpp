@@ -1,5 +1,5 @@
 // (2) The paper's Section VIII / Table I: the two-piece object moving through five obstacles
-// (bench/scene/nearpoint/scenes/moving_object.hpp), distances to every obstacle at s = t/T,
+// (scenes/include/nearpoint/scenes/moving_object.hpp), distances to every obstacle at s = t/T,
 // t = 0 … T, for T = 10, 100, 1000, 10000. Total time with the single-point initialisation of
 // Section VI (cold: no cache) against the warm start from the previous step's simplex (one
 // SimplexCache per piece pair and obstacle, carried along the path), and their ratio.

@@ -1,55 +1,14 @@
-// SHAPE objects of the `nearpoint distance` JSON Lines contract (DESIGN.md) → engine shapes and
-// poses.
-//
-//   SHAPE = {"polytope": [[x,y,z], ...]} | {"sphere": {}} | {"segment": [[x,y,z],[x,y,z]]}
-//         | {"box": [hx,hy,hz]} | {"ellipsoid": [rx,ry,rz]}
-//         | {"cylinder": {"radius": r, "half_height": h}} | {"cone": {"radius": r, "half_height":
-//         h}}
-//   plus optional "radius": r (spherical extension, ≥ 0) and
-//   "pose": {"rotation": [w,x,y,z], "translation": [x,y,z]} (each part optional: identity / zero).
-//
-// Parsing never throws: every problem comes back as a message that names the offending field by
-// its path ("a.polytope[2]", "b.pose.rotation"), so that a bad input line becomes one error line.
+// The JSON shape syntax lives in the transport-free formats library (formats/), shared with scene
+// files and nearpointd; the command-line code names it in its own namespace.
 #pragma once
 
-#include <string>
-#include <string_view>
-
-#include <nlohmann/json.hpp>
-
-#include "nearpoint/pose.hpp"
-#include "nearpoint/shapes.hpp"
+#include "nearpoint/formats/json_shapes.hpp"
 
 namespace nearpoint::cli {
-
-/// The JSON value type used throughout the command-line tool. Ordered, so that output objects keep
-/// the field order of the contract and echoed ids keep the caller's key order.
-using Json = nlohmann::ordered_json;
-
-/// A shape and where it sits in the world.
-struct PlacedShape {
-  Shape<double> shape;
-  Pose<double> pose;
-};
-
-/// The shape kinds, in the order the help text lists them.
-inline constexpr const char* kShapeKinds[] = {"polytope",  "sphere",   "segment", "box",
-                                              "ellipsoid", "cylinder", "cone"};
-
-/// Parses the SHAPE object `value`, found at `path` in its line (e.g. "a"), into `out`.
-/// Returns an empty string on success; otherwise a message naming the problem, e.g.
-/// `"a.polytope" must be a non-empty array of [x,y,z]`. Unknown keys are errors (a misspelt
-/// "radius" must not silently give a radius of 0). After the syntax checks the engine's own
-/// `invalid_reason` has the last word. Never throws.
-std::string parse_shape(const Json& value, std::string_view path, PlacedShape& out) noexcept;
-
-/// Parses a "pose" object at `path` into `out`; the quaternion goes through
-/// `pose_from_quaternion_checked` (rejected when its norm is off by more than 1e-4).
-/// Returns an empty string on success, else a message naming the problem. Never throws.
-std::string parse_pose(const Json& value, std::string_view path, Pose<double>& out) noexcept;
-
-/// The JSON type of `value` as a user would say it ("a string", "an object", "null" …), for
-/// messages of the form "must be … (got a string)".
-std::string describe_type(const Json& value);
-
+using formats::describe_type;
+using formats::Json;
+using formats::kShapeKinds;
+using formats::parse_pose;
+using formats::parse_shape;
+using formats::PlacedShape;
 }  // namespace nearpoint::cli

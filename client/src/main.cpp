@@ -1,7 +1,7 @@
 // The `nearpoint` command-line tool. One CLI11 subcommand per verb; each `add_*_subcommand`
 // function declares its arguments and help and runs its command from the callback, setting the
-// process's exit code. The server-facing verbs (register, query, stream, demo, load) slot in beside
-// `distance` the same way once the gRPC client exists.
+// process's exit code. `distance` is local; register, scene, query, stream, load and demo talk to
+// nearpointd through nearpoint::client (remote_commands.cpp, demo.cpp).
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
@@ -16,6 +16,10 @@
 #include <CLI/CLI.hpp>
 
 #include "distance_command.hpp"
+#ifdef NEARPOINT_WITH_REMOTE
+#include "demo.hpp"
+#include "remote_commands.hpp"
+#endif
 #include "nearpoint/options.hpp"
 
 #ifndef NEARPOINT_VERSION
@@ -130,6 +134,220 @@ void add_distance_subcommand(CLI::App& app, int& exit_code) {
   command->callback([file, &exit_code] { exit_code = distance_main(*file); });
 }
 
+#ifdef NEARPOINT_WITH_REMOTE
+
+using nearpoint::cli::RemoteOptions;
+
+constexpr const char* kRemoteExitCodes = R"(
+Exit status: 0 success; 1 the server answered with an error (its message is printed, naming the
+field); 2 bad command line, or an unreadable or malformed file (the message names the line or
+field); 3 the server could not be reached (UNAVAILABLE, DEADLINE_EXCEEDED) or nearpointd could
+not be started.
+)";
+
+// --target, --json and --timeout-ms, shared by the server-facing verbs.
+void add_remote_options(CLI::App& command, RemoteOptions& remote) {
+  command
+      .add_option("--target", remote.target,
+                  "nearpointd address host:port (default $NEARPOINT_TARGET or "
+                  "127.0.0.1:50051)")
+      ->capture_default_str();
+  command.add_flag("--json", remote.json, "Machine-readable output (JSON)");
+  command
+      .add_option_function<long long>(
+          "--timeout-ms",
+          [&remote](long long ms) { remote.timeout = std::chrono::milliseconds(ms); },
+          "Deadline of each call, milliseconds (default 10000)")
+      ->check(CLI::Range(1LL, 3'600'000LL));
+}
+
+void add_register_subcommand(CLI::App& app, int& exit_code) {
+  auto options = std::make_shared<nearpoint::cli::RegisterOptions>();
+  CLI::App* command = app.add_subcommand(
+      "register", "Register a geometry: a mesh's convex hull(s) or a JSON geometry file");
+  command
+      ->add_option("FILE", options->files,
+                   "OBJ, STL, OFF or PLY meshes (several: one compound geometry, a convex "
+                   "piece per mesh part), or JSON/YAML geometry files")
+      ->required();
+  command->add_option("--name", options->name, "The geometry's label");
+  command->add_flag("--merge", options->merge,
+                    "Meshes: one hull per file rather than one per mesh part");
+  command->add_option("--scale", options->scale, "Meshes: multiply coordinates (e.g. 0.001 for mm)")
+      ->check(CLI::PositiveNumber);
+  add_remote_options(*command, options->remote);
+  command->footer(std::string(R"(
+A mesh is replaced by the convex hull of its vertices (one convex piece per mesh part; a convex
+decomposition given as several files or parts becomes one compound geometry). A JSON geometry is
+a SHAPE, an array of SHAPEs, or {"name": "...", "pieces": [SHAPE, ...]} (SHAPE as for
+`nearpoint distance --help`). Prints the geometry id the server assigned.
+
+Examples:
+  nearpoint register tests/data/cube.obj
+  nearpoint register --json gripper.json
+  nearpoint register part-1.stl part-2.stl --name bracket
+)") + kRemoteExitCodes);
+  command->callback([options, &exit_code] {
+    exit_code = nearpoint::cli::run_register(*options, std::cout, std::cerr);
+  });
+}
+
+void add_scene_subcommand(CLI::App& app, int& exit_code) {
+  CLI::App* scene = app.add_subcommand("scene", "Scenes on the server");
+  scene->require_subcommand(1);
+  auto options = std::make_shared<nearpoint::cli::SceneCreateOptions>();
+  CLI::App* create =
+      scene->add_subcommand("create", "Register a scene file's geometries and create its scene");
+  create->add_option("FILE", options->file, "Scene file, JSON or YAML")->required();
+  add_remote_options(*create, options->remote);
+  create->footer(std::string(R"(
+Scene file (JSON; YAML with the same structure):
+  {"id": "cell-1",                      optional: the scene id to ask for
+   "geometries": {"NAME": GEOMETRY, ...},
+   "objects": [{"id": "arm", "geometry": "NAME", "pose": {"rotation": [w,x,y,z],
+                "translation": [x,y,z]}, "group": 1, "mask": 4294967295}, ...],
+   "pairs": "all" | {"listed": [["a","b"], ...]} | {"excluded": [["a","b"], ...]},
+   "options": {"near_points": true, "penetration": "bound", "distance_cutoff": 2.0, ...}}
+GEOMETRY: a SHAPE, [SHAPE, ...], {"pieces": [SHAPE, ...]}, or {"mesh": "part.obj" | [files],
+"scale": 1.0, "merge": false} with paths relative to the scene file. An object may name a
+geometry already on the server with "geometry_id" instead of "geometry".
+
+Example:
+  nearpoint scene create examples/scene.json
+)") + kRemoteExitCodes);
+  create->callback([options, &exit_code] {
+    exit_code = nearpoint::cli::run_scene_create(*options, std::cout, std::cerr);
+  });
+}
+
+void add_query_subcommand(CLI::App& app, int& exit_code) {
+  auto options = std::make_shared<nearpoint::cli::QueryCommandOptions>();
+  CLI::App* command = app.add_subcommand("query", "One-shot distances for a scene");
+  command
+      ->add_option("SCENE", options->scene,
+                   "A scene id on the server, or a scene file (created first)")
+      ->required();
+  command->add_option("--pose", options->poses,
+                      "OBJECT=tx,ty,tz[,qw,qx,qy,qz]: an object's pose (repeatable; others stay "
+                      "at their initial pose)");
+  command->add_flag("--near-points", options->near_points, "Report near points and normals");
+  command->add_option("--penetration", options->penetration,
+                      "none | bound (d⁻, a certified lower bound on the penetration depth)");
+  add_remote_options(*command, options->remote);
+  command->footer(std::string(R"(
+Examples:
+  nearpoint query examples/scene.json --pose gripper=0.2,0,0.5
+  nearpoint query cell-1 --pose gripper=0,0,0.3,0.7071,0,0,0.7071 --near-points --json
+)") + kRemoteExitCodes);
+  command->callback([options, &exit_code] {
+    exit_code = nearpoint::cli::run_query(*options, std::cout, std::cerr);
+  });
+}
+
+void add_stream_subcommand(CLI::App& app, int& exit_code) {
+  auto options = std::make_shared<nearpoint::cli::StreamCommandOptions>();
+  CLI::App* command = app.add_subcommand(
+      "stream", "Replay a trajectory as a pose stream; print reports or a summary");
+  command
+      ->add_option("SCENE", options->scene,
+                   "A scene id on the server, or a scene file (created first)")
+      ->required();
+  command->add_option("TRAJECTORY", options->trajectory, "Poses over time: CSV or JSON Lines")
+      ->required();
+  command
+      ->add_option("--window", options->window,
+                   "Updates in flight before pushing waits (back-pressure)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  command->add_flag("--near-points", options->near_points, "Report near points and normals");
+  command->add_option("--penetration", options->penetration, "none | bound");
+  add_remote_options(*command, options->remote);
+  command->footer(std::string(R"(
+TRAJECTORY, one of:
+  CSV with the header t,object,tx,ty,tz,qw,qx,qy,qz; rows with equal t form one update
+  JSON Lines: {"t": 0.0, "poses": {"OBJ": {"rotation": [w,x,y,z], "translation": [x,y,z]}}}
+Objects not listed at a step keep their previous pose.
+
+Output: with --json one JSON object per report (JSON Lines, in order, with the step's "t");
+otherwise a progress line on stderr and a summary per pair (minimum distance and when, steps in
+contact) with the round-trip latency. A dropped connection is retried (the scene is replayed on
+the restarted server); updates in flight at the drop are reported as errors, never dropped
+silently.
+
+Example:
+  nearpoint stream examples/scene.json examples/trajectory.csv
+)") + kRemoteExitCodes);
+  command->callback([options, &exit_code] {
+    exit_code = nearpoint::cli::run_stream(*options, std::cout, std::cerr);
+  });
+}
+
+void add_load_subcommand(CLI::App& app, int& exit_code) {
+  auto options = std::make_shared<nearpoint::cli::LoadCommandOptions>();
+  CLI::App* command = app.add_subcommand(
+      "load", "Concurrent pose streams for a bounded time: latency percentiles and throughput");
+  command->add_option("SCENE", options->scene, "Scene id or file (default: the demo scene)");
+  command->add_option("TRAJECTORY", options->trajectory,
+                      "Poses replayed in a loop (default: the demo path, T = 1000)");
+  command->add_option("--streams", options->streams, "Concurrent streams")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 256));
+  command->add_option("--duration", options->duration_s, "Seconds")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 600.0));
+  command
+      ->add_option("--window", options->window,
+                   "Updates in flight per stream (1: latency; more: throughput)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  add_remote_options(*command, options->remote);
+  command->footer(std::string(R"(
+Prints a progress line on stderr while it runs, then the number of reports, updates/s and the
+push-to-report latency p50/p90/p99/max over all streams.
+
+Example:
+  nearpoint load --streams 4 --duration 5
+)") + kRemoteExitCodes);
+  command->callback([options, &exit_code] {
+    exit_code = nearpoint::cli::run_load(*options, std::cout, std::cerr);
+  });
+}
+
+void add_demo_subcommand(CLI::App& app, int& exit_code) {
+  auto options = std::make_shared<nearpoint::cli::DemoOptions>();
+  CLI::App* command = app.add_subcommand(
+      "demo", "The paper's Section VIII experiment (Fig. 5, Table I, Fig. 6) against a server");
+  command->add_option("--target", options->target,
+                      "Use this nearpointd (host:port) instead of starting one on 127.0.0.1:0");
+  command->add_option("--nearpointd", options->nearpointd,
+                      "The nearpointd binary to start (default: $NEARPOINTD, beside nearpoint, "
+                      "the build tree, or the PATH)");
+  command->add_option("--steps", options->steps, "T: the path is sampled at s = t/T, t = 0 … T")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1'000'000));
+  command->add_option("--plot", options->plot_path,
+                      "SVG of the distance curves (default demo.svg in the working directory, "
+                      "else in the temporary directory; - for none)");
+  command->add_flag("--json", options->json, "Machine-readable output (JSON)");
+  command->footer(std::string(R"(
+A moving object made of two convex pieces passes five obstacles along a straight line, turning by
+a slerp (the paper's Fig. 5; the same scene as bench's Table I). The path is streamed twice to the
+server, with warm starts and with single-point starts. Printed per obstacle: the minimum distance
+and where (s), the collision intervals [s0, s1] with the largest penetration bound d⁻ inside; then
+the warm/single-point ratio of server-side geometry time (the paper's Table I). The plot shows the
+five distance curves against s (the paper's Fig. 6).
+
+Example:
+  nearpoint demo                   # starts nearpointd on 127.0.0.1:0, T = 1000
+  nearpoint demo --steps 100 --json --target 127.0.0.1:50051
+)") + kRemoteExitCodes);
+  command->callback([options, &exit_code] {
+    exit_code = nearpoint::cli::run_demo(*options, std::cout, std::cerr);
+  });
+}
+
+#endif  // NEARPOINT_WITH_REMOTE
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -143,14 +361,28 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", std::string("nearpoint ") + NEARPOINT_VERSION);
     app.require_subcommand(1);
     app.footer(R"(
-Run 'nearpoint COMMAND --help' for the details of a command.
+Run 'nearpoint COMMAND --help' for the details of a command. `distance` runs locally; the other
+commands talk to nearpointd (--target, default $NEARPOINT_TARGET or 127.0.0.1:50051), and `demo`
+starts one of its own when given no --target.
 
-Example:
+Exit status: 0 success; 1 the server answered with an error; 2 bad command line or input file;
+3 the server could not be reached (or nearpointd not started).
+
+Examples:
+  nearpoint demo
   nearpoint distance examples/pairs.jsonl
   echo '{"a": {"sphere": {}, "radius": 1}, "b": {"sphere": {}, "radius": 1, "pose": {"translation": [3,0,0]}}}' | nearpoint distance
 )");
     int exit_code = kExitOk;
     add_distance_subcommand(app, exit_code);
+#ifdef NEARPOINT_WITH_REMOTE
+    add_register_subcommand(app, exit_code);
+    add_scene_subcommand(app, exit_code);
+    add_query_subcommand(app, exit_code);
+    add_stream_subcommand(app, exit_code);
+    add_load_subcommand(app, exit_code);
+    add_demo_subcommand(app, exit_code);
+#endif
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -2,6 +2,7 @@
 //
 //   nearpointd [--listen 127.0.0.1:50051] [--workers N] [--port-file PATH] [limits…]
 //   nearpointd --config nearpointd.toml
+//   nearpointd --scene cell.json [--scene other.yaml]   (preloads scenes under their ids)
 //
 // Logs one key=value line per event to stderr. SIGTERM or SIGINT: graceful shutdown (stop
 // accepting, drain streams), exit status 0. Exit status 1: could not start; 2: bad flags.
@@ -15,6 +16,7 @@
 
 #include "nearpoint/server/log.hpp"
 #include "nearpoint/server/server.hpp"
+#include "scene_file.hpp"
 
 namespace {
 
@@ -43,6 +45,7 @@ int main(int argc, char** argv) {
   std::string log_level = "info";
   long long drain_timeout_ms = config.drain_timeout.count();
   bool no_diagnostics = false;
+  std::vector<std::string> scene_files;
   auto& limits = config.limits;
 
   CLI::App app{"nearpointd: distances between registered geometries, over gRPC"};
@@ -87,6 +90,10 @@ int main(int argc, char** argv) {
                  "At shutdown, time streams get to answer what they have read")
       ->capture_default_str()
       ->check(CLI::Range(0LL, 600'000LL));
+  app.add_option("--scene", scene_files,
+                 "Preload a scene file (JSON or YAML, as for `nearpoint scene create`) under the "
+                 "id it requests; repeatable")
+      ->check(CLI::ExistingFile);
   app.add_flag("--no-diagnostics", no_diagnostics, "Do not serve nearpoint.v1.Diagnostics (Echo)");
   app.add_option("--log-level", log_level, "debug, info, warn or error")
       ->capture_default_str()
@@ -119,6 +126,20 @@ int main(int argc, char** argv) {
     return 1;
   }
   GrpcServer& server = *started.value();
+  for (const std::string& file : scene_files) {
+    auto preloaded = nearpoint::server::preload_scene_file(server.scenes(), file);
+    if (!preloaded) {
+      nearpoint::server::log_error("start_failed")
+          .kv("scene_file", file)
+          .kv("message", preloaded.error().describe());
+      server.shutdown();
+      return 1;
+    }
+    nearpoint::server::log_info("scene_loaded")
+        .kv("scene_file", file)
+        .kv("scene_id", preloaded->scene_id)
+        .kv("pairs", preloaded->pair_count);
+  }
   if (!port_file.empty() && !write_port_file(port_file, server.port())) {
     nearpoint::server::log_error("start_failed")
         .kv("port_file", port_file)

@@ -64,6 +64,9 @@ grpc::Status to_grpc_status(const Error& error) {
     case ErrorCode::unavailable:
       code = grpc::StatusCode::UNAVAILABLE;
       break;
+    case ErrorCode::already_exists:
+      code = grpc::StatusCode::ALREADY_EXISTS;
+      break;
     case ErrorCode::internal:
       code = grpc::StatusCode::INTERNAL;
       break;
@@ -154,6 +157,7 @@ QueryOptionsInput to_input(const v1::QueryOptions& options) {
 SceneInput to_input(const v1::CreateSceneRequest& request) {
   SceneInput out;
   out.name = request.name();
+  out.requested_id = request.scene_id();
   out.objects.reserve(std::size_t(request.objects_size()));
   for (const v1::SceneObject& object : request.objects()) {
     ObjectInput& in = out.objects.emplace_back();

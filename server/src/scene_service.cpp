@@ -46,6 +46,8 @@ const char* to_string(ErrorCode code) {
       return "failed_precondition";
     case ErrorCode::unavailable:
       return "unavailable";
+    case ErrorCode::already_exists:
+      return "already_exists";
     case ErrorCode::internal:
       return "internal";
   }
@@ -179,6 +181,13 @@ std::vector<GeometryInfo> SceneService::list_geometries() const {
 Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
   if (input.name.size() > kMaxNameBytes)
     return invalid_argument("name", text("is longer than ", kMaxNameBytes, " bytes"));
+  if (!input.requested_id.empty()) {
+    const bool printable = std::all_of(input.requested_id.begin(), input.requested_id.end(),
+                                       [](char c) { return c > ' ' && c < 127; });
+    if (input.requested_id.size() > kMaxObjectIdBytes || !printable)
+      return invalid_argument("scene_id", text("must be 1-", kMaxObjectIdBytes,
+                                               " bytes of printable ASCII without spaces"));
+  }
   if (input.objects.empty()) return invalid_argument("objects", "must hold at least one object");
   if (input.objects.size() > limits_.max_objects_per_scene)
     return resource_exhausted("objects",
@@ -293,7 +302,16 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
     return resource_exhausted(
         "", text("the server holds ", scenes_.size(), " scenes; the limit is ", limits_.max_scenes,
                  " (--max-scenes)"));
-  scene->id = text("scene-", next_scene_number_++);
+  if (!input.requested_id.empty()) {
+    if (scenes_.count(input.requested_id))
+      return Error{ErrorCode::already_exists, "scene_id",
+                   text("a scene '", input.requested_id, "' already exists")};
+    scene->id = input.requested_id;
+  } else {
+    // Skip numbers a client took by asking for "scene-N" itself.
+    do scene->id = text("scene-", next_scene_number_++);
+    while (scenes_.count(scene->id));
+  }
   SceneInfo info{scene->id, scene->pairs.size()};
   scenes_.emplace(info.scene_id, std::make_shared<Scene>(std::move(scene)));
   return info;

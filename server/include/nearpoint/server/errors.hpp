@@ -16,6 +16,7 @@ enum class ErrorCode : unsigned char {
   resource_exhausted,   ///< a configured limit was reached
   failed_precondition,  ///< valid, but not in the current state (e.g. a stream bound elsewhere)
   unavailable,          ///< the server is shutting down
+  already_exists,       ///< a requested id is taken
   internal,             ///< a bug: should never be seen
 };
 

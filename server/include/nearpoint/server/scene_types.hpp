@@ -94,6 +94,8 @@ struct PairSelectionInput {
 
 struct SceneInput {
   std::string name;
+  /// The id the client asks for ("" = the server assigns "scene-N"). Taken: ALREADY_EXISTS.
+  std::string requested_id;
   std::vector<ObjectInput> objects;
   PairSelectionInput pair_selection;
   QueryOptionsInput default_options;

@@ -9,7 +9,9 @@
 // 8–40 vertices. Everything is deterministic (no random numbers), so the benchmark's Table I and
 // the `nearpoint demo` command see exactly the same scene.
 //
-// Header-only, depends on the core library only: include it with `bench/scene` on the include path.
+// Header-only, depends on the core library only: link the CMake target nearpoint_scenes. The vertex
+// lists are kept beside the engine's compounds so that a client can send exactly these vertices to
+// a server (the engine stores polytopes centred, which would round the coordinates once more).
 #pragma once
 
 #include <array>
@@ -24,6 +26,10 @@ namespace nearpoint::scenes {
 struct MovingObjectScene {
   /// The moving object K_A = K6 ∪ K7, in its own frame (piece 0 is K6, piece 1 is K7).
   Compound<double> object;
+  /// The vertices of K6 and K7 (object frame) and of K1 … K5 (each obstacle's own frame): the
+  /// polytopes above are the convex hulls of these.
+  std::array<std::vector<Vec3<double>>, 2> object_piece_vertices;
+  std::array<std::vector<Vec3<double>>, 5> obstacle_vertices;
   /// The fixed obstacles K1 … K5 (one convex piece each) and where they stand (world frame).
   std::array<Compound<double>, 5> obstacles;
   std::array<Pose<double>, 5> obstacle_poses;
@@ -89,6 +95,7 @@ inline MovingObjectScene moving_object_scene() {
   detail::add_ring(frustum, 8, 0.7, 0.3, 1, std::numbers::pi / 8);
   detail::add_ring(frustum, 8, 0.35, 2.4, 1, std::numbers::pi / 8);
   for (Vec3<double>& v : frustum) v.x() += 1.5;
+  scene.object_piece_vertices = {bar, frustum};
   std::vector<Piece<double>> pieces;
   pieces.push_back({Shape<double>(Polytope<double>(bar)), Pose<double>::identity()});
   pieces.push_back({Shape<double>(Polytope<double>(frustum)), Pose<double>::identity()});
@@ -123,6 +130,7 @@ inline MovingObjectScene moving_object_scene() {
   detail::add_ring(prism, 10, 1.2, -1.25, 2);
   detail::add_ring(prism, 10, 1.2, 1.25, 2);
 
+  scene.obstacle_vertices = {box, cone, irregular, ball, prism};
   scene.obstacles = {detail::single(box), detail::single(cone), detail::single(irregular),
                      detail::single(ball), detail::single(prism)};
   scene.obstacle_poses = {

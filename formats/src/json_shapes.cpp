@@ -1,11 +1,11 @@
-#include "json_shapes.hpp"
+#include "nearpoint/formats/json_shapes.hpp"
 
 #include <cmath>
 #include <exception>
 #include <utility>
 #include <vector>
 
-namespace nearpoint::cli {
+namespace nearpoint::formats {
 namespace {
 
 // Paths and keys are quoted in messages the way they appear in JSON, so "a.pose" reads as a name.
@@ -92,7 +92,9 @@ std::string read_non_negative_vec3(const Json& value, const std::string& path, c
   return {};
 }
 
-std::string read_polytope(const Json& value, const std::string& path, Shape<double>& out) {
+using SpecGeometry = decltype(ShapeSpec::geometry);
+
+std::string read_polytope(const Json& value, const std::string& path, SpecGeometry& out) {
   if (!value.is_array() || value.empty())
     return in_quotes(path) + " must be a non-empty array of [x,y,z] (got " + describe_type(value) +
            ")";
@@ -102,12 +104,12 @@ std::string read_polytope(const Json& value, const std::string& path, Shape<doub
         !error.empty())
       return error;
   }
-  out.geometry = Polytope<double>(vertices);
+  out = std::move(vertices);
   return {};
 }
 
 std::string read_sphere(const Json& value, const std::string& path, std::string_view shape_path,
-                        Shape<double>& out) {
+                        SpecGeometry& out) {
   if (!value.is_object())
     return in_quotes(path) + " must be {} (got " + describe_type(value) + "); give the radius as " +
            in_quotes(member(shape_path, "radius"));
@@ -118,11 +120,11 @@ std::string read_sphere(const Json& value, const std::string& path, std::string_
              in_quotes(member(shape_path, "radius"));
     return in_quotes(path) + " must be {} (got the key " + user_key(key) + ")";
   }
-  out.geometry = Point{};
+  out = Point{};
   return {};
 }
 
-std::string read_segment(const Json& value, const std::string& path, Shape<double>& out) {
+std::string read_segment(const Json& value, const std::string& path, SpecGeometry& out) {
   if (!value.is_array() || value.size() != 2)
     return in_quotes(path) + " must be an array of 2 points [[x,y,z],[x,y,z]] (got " +
            describe_type(value) + ")";
@@ -133,7 +135,7 @@ std::string read_segment(const Json& value, const std::string& path, Shape<doubl
   if (std::string error = read_vec3(value[1], element(path, 1), "[x,y,z]", segment.b);
       !error.empty())
     return error;
-  out.geometry = segment;
+  out = segment;
   return {};
 }
 
@@ -155,7 +157,7 @@ std::string read_radius_half_height(const Json& value, const std::string& path, 
 }
 
 std::string read_geometry(std::string_view kind, const Json& value, std::string_view shape_path,
-                          Shape<double>& out) {
+                          SpecGeometry& out) {
   const std::string path = member(shape_path, kind);
   if (kind == "polytope") return read_polytope(value, path, out);
   if (kind == "sphere") return read_sphere(value, path, shape_path, out);
@@ -165,7 +167,7 @@ std::string read_geometry(std::string_view kind, const Json& value, std::string_
     if (std::string error = read_non_negative_vec3(value, path, "[hx,hy,hz]", box.half_extents);
         !error.empty())
       return error;
-    out.geometry = box;
+    out = box;
     return {};
   }
   if (kind == "ellipsoid") {
@@ -173,7 +175,7 @@ std::string read_geometry(std::string_view kind, const Json& value, std::string_
     if (std::string error = read_non_negative_vec3(value, path, "[rx,ry,rz]", ellipsoid.radii);
         !error.empty())
       return error;
-    out.geometry = ellipsoid;
+    out = ellipsoid;
     return {};
   }
   if (kind == "cylinder") {
@@ -182,7 +184,7 @@ std::string read_geometry(std::string_view kind, const Json& value, std::string_
             read_radius_half_height(value, path, cylinder.radius, cylinder.half_height);
         !error.empty())
       return error;
-    out.geometry = cylinder;
+    out = cylinder;
     return {};
   }
   if (kind == "cone") {
@@ -190,7 +192,7 @@ std::string read_geometry(std::string_view kind, const Json& value, std::string_
     if (std::string error = read_radius_half_height(value, path, cone.radius, cone.half_height);
         !error.empty())
       return error;
-    out.geometry = cone;
+    out = cone;
     return {};
   }
   return in_quotes(shape_path) + " has an unknown shape kind " + user_key(std::string(kind));
@@ -203,7 +205,24 @@ bool is_shape_kind(std::string_view key) {
   return false;
 }
 
-std::string parse_shape_or_throw(const Json& value, std::string_view path, PlacedShape& out) {
+// The engine's shape for a spec (polytopes are built, and so validated, here).
+Shape<double> engine_shape(const ShapeSpec& spec) {
+  Shape<double> shape;
+  std::visit(
+      [&](const auto& geometry) {
+        using G = std::decay_t<decltype(geometry)>;
+        if constexpr (std::is_same_v<G, std::vector<Vec3<double>>>)
+          shape.geometry = Polytope<double>(geometry);
+        else
+          shape.geometry = geometry;
+      },
+      spec.geometry);
+  shape.radius = spec.radius;
+  return shape;
+}
+
+std::string parse_spec_or_throw(const Json& value, std::string_view path, ShapeSpec& out,
+                                Shape<double>* engine) {
   if (!value.is_object())
     return in_quotes(path) + R"( must be a SHAPE object such as {"box": [1,1,1]} (got )" +
            describe_type(value) + ")";
@@ -222,28 +241,45 @@ std::string parse_shape_or_throw(const Json& value, std::string_view path, Place
   if (kind.empty())
     return in_quotes(path) + " names no shape kind; a SHAPE has one of " + kind_list();
 
-  PlacedShape placed;
-  if (std::string error = read_geometry(kind, value[kind], path, placed.shape); !error.empty())
+  ShapeSpec spec;
+  if (std::string error = read_geometry(kind, value[kind], path, spec.geometry); !error.empty())
     return error;
   if (value.contains("radius")) {
-    if (std::string error =
-            read_non_negative(value["radius"], member(path, "radius"), placed.shape.radius);
+    if (std::string error = read_non_negative(value["radius"], member(path, "radius"), spec.radius);
         !error.empty())
       return error;
   }
   if (value.contains("pose")) {
-    if (std::string error = parse_pose(value["pose"], member(path, "pose"), placed.pose);
+    if (std::string error = parse_pose_parts(value["pose"], member(path, "pose"),
+                                             spec.rotation_wxyz, spec.translation);
         !error.empty())
       return error;
   }
   // The engine's validation has the last word (it knows limits the syntax cannot see).
-  if (const char* why = invalid_reason(placed.shape); why != nullptr)
-    return in_quotes(path) + ": " + why;
+  Shape<double> shape = engine_shape(spec);
+  if (const char* why = invalid_reason(shape); why != nullptr) return in_quotes(path) + ": " + why;
+  if (engine != nullptr) *engine = std::move(shape);
+  out = std::move(spec);
+  return {};
+}
+
+std::string parse_shape_or_throw(const Json& value, std::string_view path, PlacedShape& out) {
+  ShapeSpec spec;
+  PlacedShape placed;
+  if (std::string error = parse_spec_or_throw(value, path, spec, &placed.shape); !error.empty())
+    return error;
+  const auto& q = spec.rotation_wxyz;
+  if (const char* why =
+          pose_from_quaternion_checked(q[0], q[1], q[2], q[3], spec.translation, placed.pose);
+      why != nullptr)
+    return in_quotes(member(path, "pose")) + ": " + why;
   out = std::move(placed);
   return {};
 }
 
-std::string parse_pose_or_throw(const Json& value, std::string_view path, Pose<double>& out) {
+std::string parse_pose_parts_or_throw(const Json& value, std::string_view path,
+                                      std::array<double, 4>& rotation_wxyz,
+                                      Vec3<double>& translation_out) {
   const std::string expected =
       in_quotes(path) + R"( must be {"rotation": [w,x,y,z], "translation": [x,y,z]})";
   if (!value.is_object()) return expected + " (got " + describe_type(value) + ")";
@@ -270,7 +306,18 @@ std::string parse_pose_or_throw(const Json& value, std::string_view path, Pose<d
           pose_from_quaternion_checked(wxyz[0], wxyz[1], wxyz[2], wxyz[3], translation, pose);
       why != nullptr)
     return in_quotes(path) + ": " + why;
-  out = pose;
+  rotation_wxyz = {wxyz[0], wxyz[1], wxyz[2], wxyz[3]};
+  translation_out = translation;
+  return {};
+}
+
+std::string parse_pose_or_throw(const Json& value, std::string_view path, Pose<double>& out) {
+  std::array<double, 4> q;
+  Vec3<double> translation;
+  if (std::string error = parse_pose_parts_or_throw(value, path, q, translation); !error.empty())
+    return error;
+  // Checked above; this normalises the quaternion.
+  pose_from_quaternion_checked(q[0], q[1], q[2], q[3], translation, out);
   return {};
 }
 
@@ -310,6 +357,31 @@ std::string parse_shape(const Json& value, std::string_view path, PlacedShape& o
   }
 }
 
+std::string parse_shape_spec(const Json& value, std::string_view path, ShapeSpec& out) noexcept {
+  try {
+    return parse_spec_or_throw(value, path, out, nullptr);
+  } catch (const std::exception& e) {
+    return in_quotes(path) + ": " + e.what();
+  }
+}
+
+bool looks_like_shape(const Json& value) {
+  if (!value.is_object()) return false;
+  for (const auto& [key, ignored] : value.items())
+    if (is_shape_kind(key)) return true;
+  return false;
+}
+
+std::string parse_pose_parts(const Json& value, std::string_view path,
+                             std::array<double, 4>& rotation_wxyz,
+                             Vec3<double>& translation) noexcept {
+  try {
+    return parse_pose_parts_or_throw(value, path, rotation_wxyz, translation);
+  } catch (const std::exception& e) {
+    return in_quotes(path) + ": " + e.what();
+  }
+}
+
 std::string parse_pose(const Json& value, std::string_view path, Pose<double>& out) noexcept {
   try {
     return parse_pose_or_throw(value, path, out);
@@ -318,4 +390,4 @@ std::string parse_pose(const Json& value, std::string_view path, Pose<double>& o
   }
 }
 
-}  // namespace nearpoint::cli
+}  // namespace nearpoint::formats

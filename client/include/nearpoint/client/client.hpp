@@ -1,0 +1,258 @@
+// nearpoint::client — the C++ client of nearpointd (gRPC, nearpoint.v1.DistanceService).
+//
+//   auto client = nearpoint::client::Client::connect("127.0.0.1:50051");
+//   auto box = client->register_geometry(nearpoint::client::box_geometry("box", {0.5, 0.5, 0.5}));
+//   Scene scene;  scene.objects = {{"a", box->geometry_id}, {"b", box->geometry_id}};
+//   auto created = client->create_scene(scene);
+//   auto session = client->open_session(created->scene_id);
+//   (*session)->push({{"a", Eigen::Isometry3d(Eigen::Translation3d(3, 0, 0))}});
+//   auto report = (*session)->next(std::chrono::steady_clock::now() + std::chrono::seconds(5));
+//
+// Errors are values: every call returns a Status or an Expected<T> carrying the gRPC status code
+// (by name) and the server's message, which names the offending field. Nothing throws.
+//
+// Geometries and scenes are described with the scene API's plain structs (scene_types.hpp: the
+// same structs the server and the file formats use, Eigen vectors inside); poses at this API are
+// Eigen::Isometry3d or an Eigen::Quaterniond with an Eigen::Vector3d.
+//
+// Thread safety: a Client may be used from any number of threads at once. A Session may be pushed
+// to from any thread (pushes are serialised, and numbered in the order they are serialised), and
+// its reports consumed by one thread at a time through next(), or by the callback, which runs on
+// the session's own reader thread.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <variant>
+#include <vector>
+
+#include <Eigen/Geometry>
+
+#include "nearpoint/server/scene_types.hpp"
+
+namespace nearpoint::client {
+
+using Clock = std::chrono::steady_clock;
+
+/// OK, or a failure: the gRPC status code and the message (from the server, or from the client
+/// when it never reached one).
+struct Status {
+  /// grpc::StatusCode value: 0 OK, 3 INVALID_ARGUMENT, 4 DEADLINE_EXCEEDED, 5 NOT_FOUND,
+  /// 6 ALREADY_EXISTS, 8 RESOURCE_EXHAUSTED, 11 OUT_OF_RANGE, 14 UNAVAILABLE, …
+  int code = 0;
+  std::string message;
+
+  bool ok() const { return code == 0; }
+  /// "OK", "INVALID_ARGUMENT", "UNAVAILABLE", …
+  std::string code_name() const;
+  /// "CODE_NAME: message".
+  std::string describe() const;
+
+  static Status error(int code, std::string message) { return {code, std::move(message)}; }
+};
+
+inline constexpr int kDeadlineExceeded = 4;
+inline constexpr int kNotFound = 5;
+inline constexpr int kAlreadyExists = 6;
+inline constexpr int kOutOfRange = 11;
+inline constexpr int kUnavailable = 14;
+
+/// A value or the Status that prevented it.
+template <class T>
+class [[nodiscard]] Expected {
+ public:
+  Expected(T value) : state_(std::move(value)) {}
+  Expected(Status status) : state_(std::move(status)) {}
+  bool ok() const { return state_.index() == 0; }
+  explicit operator bool() const { return ok(); }
+  T& value() { return std::get<0>(state_); }
+  const T& value() const { return std::get<0>(state_); }
+  T& operator*() { return value(); }
+  const T& operator*() const { return value(); }
+  T* operator->() { return &value(); }
+  const T* operator->() const { return &value(); }
+  /// The failure; an OK Status when ok().
+  Status status() const { return ok() ? Status{} : std::get<1>(state_); }
+
+ private:
+  std::variant<T, Status> state_;
+};
+
+// The request side: the scene API's plain structs (see scene_types.hpp and the .proto files for
+// every field's unit and frame).
+using Geometry = server::GeometryInput;
+using Piece = server::PieceInput;
+using GeometryInfo = server::GeometryInfo;
+using Scene = server::SceneInput;
+using SceneObject = server::ObjectInput;
+using PairSelection = server::PairSelectionInput;
+using QueryOptions = server::QueryOptionsInput;
+using PenetrationMode = server::PenetrationMode;
+using SceneInfo = server::SceneInfo;
+
+/// Conversions between Eigen poses and the plain structs' (w, x, y, z) + translation.
+server::PoseInput to_pose_input(const Eigen::Isometry3d& pose);
+server::PoseInput to_pose_input(const Eigen::Quaterniond& rotation,
+                                const Eigen::Vector3d& translation);
+/// One polytope piece (the convex hull of `vertices`, geometry frame).
+Piece polytope_piece(std::vector<Eigen::Vector3d> vertices,
+                     const Eigen::Isometry3d& offset = Eigen::Isometry3d::Identity());
+
+/// The pose of one scene object: geometry frame → world frame.
+struct ObjectPose {
+  std::string object_id;
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+
+  ObjectPose() = default;
+  ObjectPose(std::string id, const Eigen::Isometry3d& pose);
+  ObjectPose(std::string id, const Eigen::Quaterniond& q, const Eigen::Vector3d& t)
+      : object_id(std::move(id)), rotation(q), translation(t) {}
+};
+
+// ---- answers ----
+
+enum class PairStatus { separated, intersecting, beyond_cutoff, iteration_limit, engine_error };
+const char* to_string(PairStatus status);
+
+/// One object pair's answer (see nearpoint.v1.PairDistance): world frame, metres.
+struct PairDistance {
+  std::string object_a, object_b;
+  PairStatus status = PairStatus::engine_error;
+  double distance = 0;
+  double distance_lower_bound = 0;
+  double error_bound = 0;
+  std::uint32_t iterations = 0;
+  std::uint32_t piece_pairs_evaluated = 0;
+  std::uint32_t piece_a = 0, piece_b = 0;
+  bool warm_started = false;
+  /// With options.near_points.
+  struct NearPoints {
+    Eigen::Vector3d point_a, point_b, normal;
+  };
+  std::optional<NearPoints> near_points;
+  /// d⁻ (paper eq. 32–33) for intersecting pairs with penetration = bound.
+  std::optional<double> penetration_bound;
+  /// (∂/∂translation, ∂/∂rotation vector) of A's and B's pose, with options.gradient.
+  std::optional<std::pair<Eigen::Matrix<double, 6, 1>, Eigen::Matrix<double, 6, 1>>> gradient;
+  /// For engine_error.
+  std::string message;
+};
+
+/// Server-side timing, microseconds (see nearpoint.v1.ReportTiming).
+struct ReportTiming {
+  double server_us = 0, queue_us = 0, evaluation_us = 0, geometry_us = 0;
+};
+
+/// The answer to one update or query.
+struct Report {
+  std::uint64_t sequence = 0;
+  /// Not OK when the update was rejected (the server's code and "field: message") or never
+  /// answered (UNAVAILABLE: the connection dropped while it was in flight). Then `pairs` is empty.
+  Status error;
+  std::string error_field;
+  std::vector<PairDistance> pairs;
+  ReportTiming timing;
+  std::uint32_t coalesced_updates = 0;
+  std::uint64_t coalesced_from_sequence = 0;
+  /// Client side: when the update was handed to the transport and when the report arrived.
+  Clock::time_point sent, received;
+};
+
+// ---- streaming ----
+
+struct SessionOptions {
+  /// Updates pushed but not yet consumed (answered and taken by next() or the callback). push()
+  /// blocks while this many are outstanding: back-pressure, so memory stays bounded.
+  std::size_t max_in_flight = 32;
+  /// Sent with every update: overrides of the scene's default options.
+  QueryOptions options;
+  /// Ask the server to merge updates that arrive while it is busy (FLOW_CONTROL_COALESCE).
+  bool coalesce = false;
+  /// When set, every report is handed here, on the session's reader thread, in order; next() is
+  /// then not used. When empty, reports queue for next().
+  std::function<void(const Report&)> on_report;
+  /// On a dropped connection (UNAVAILABLE): reconnect, replay the scene's geometry registration
+  /// and creation, and go on. Updates in flight at the drop get an UNAVAILABLE error report.
+  bool reconnect = true;
+  /// Give up (the session fails with UNAVAILABLE) after this long without a working connection.
+  std::chrono::milliseconds reconnect_timeout{30000};
+  std::chrono::milliseconds initial_backoff{50};
+  std::chrono::milliseconds max_backoff{2000};
+};
+
+/// One pose stream on one scene. Create with Client::open_session.
+class Session {
+ public:
+  virtual ~Session() = default;
+
+  /// Sends one update: the poses that changed (objects not listed keep their last pose). Blocks
+  /// while `max_in_flight` updates are outstanding or while reconnecting, until `deadline`.
+  /// Returns the update's sequence number (1, 2, …), or DEADLINE_EXCEEDED, or the session's
+  /// failure. Per-update option overrides replace the session's options when given.
+  virtual Expected<std::uint64_t> push(const std::vector<ObjectPose>& poses,
+                                       Clock::time_point deadline = Clock::time_point::max(),
+                                       const QueryOptions* options = nullptr) = 0;
+
+  /// The next report, in sequence order. DEADLINE_EXCEEDED when none arrives by `deadline`;
+  /// OUT_OF_RANGE once the session is closed and every report has been taken; the session's
+  /// failure after its reports are drained.
+  virtual Expected<Report> next(Clock::time_point deadline) = 0;
+
+  /// Ends the stream after every pushed update is answered (waits until `deadline`; then
+  /// cancels). Reports not yet taken stay available to next(). OK, or the stream's failure.
+  virtual Status close(Clock::time_point deadline = Clock::time_point::max()) = 0;
+
+  /// How many times the session reconnected after a dropped connection.
+  virtual std::uint64_t reconnects() const = 0;
+  /// OK while the session works; its permanent failure otherwise.
+  virtual Status status() const = 0;
+  /// The scene's id on the server now (it changes when a reconnect re-created the scene).
+  virtual std::string server_scene_id() const = 0;
+};
+
+struct ClientOptions {
+  /// Deadline of each unary call (register, create, query, …).
+  std::chrono::milliseconds call_timeout{10000};
+  /// Largest message sent or received.
+  int max_message_bytes = 16 << 20;
+};
+
+class Client {
+ public:
+  /// A client of the server at `target` ("host:port"). The connection is made lazily, on the
+  /// first call; an unreachable server shows as UNAVAILABLE there.
+  static std::unique_ptr<Client> connect(const std::string& target, ClientOptions options = {});
+  virtual ~Client() = default;
+
+  /// Registers an immutable geometry. The client remembers it, so that sessions can replay it
+  /// on a restarted server.
+  virtual Expected<GeometryInfo> register_geometry(const Geometry& geometry) = 0;
+  virtual Status remove_geometry(const std::string& geometry_id) = 0;
+  virtual Expected<std::vector<GeometryInfo>> list_geometries() = 0;
+
+  /// Creates a scene whose objects name geometries by the ids register_geometry returned (or ids
+  /// of geometries registered by others). Remembered for replay, like geometries.
+  virtual Expected<SceneInfo> create_scene(const Scene& scene) = 0;
+  virtual Status delete_scene(const std::string& scene_id) = 0;
+
+  /// One-shot distances at the given poses (objects not listed are at their initial pose).
+  virtual Expected<Report> query(const std::string& scene_id, const std::vector<ObjectPose>& poses,
+                                 const QueryOptions& options = {}) = 0;
+
+  /// A pose stream on `scene_id` (a scene created by this client, or any scene on the server —
+  /// only this client's scenes can be replayed after a restart).
+  virtual Expected<std::unique_ptr<Session>> open_session(const std::string& scene_id,
+                                                          SessionOptions options = {}) = 0;
+
+  /// Waits until the channel is connected (true) or `deadline` passes (false).
+  virtual bool wait_connected(Clock::time_point deadline) = 0;
+  virtual const std::string& target() const = 0;
+};
+
+}  // namespace nearpoint::client

@@ -1,0 +1,656 @@
+#include "nearpoint/client/client.hpp"
+
+#include <grpcpp/grpcpp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <thread>
+
+#include "convert.hpp"
+#include "nearpoint_distance.grpc.pb.h"
+
+namespace nearpoint::client {
+
+namespace v1 = ::nearpoint::v1;
+
+// ---- small pieces ----
+
+std::string Status::code_name() const {
+  static const char* const kNames[] = {"OK",
+                                       "CANCELLED",
+                                       "UNKNOWN",
+                                       "INVALID_ARGUMENT",
+                                       "DEADLINE_EXCEEDED",
+                                       "NOT_FOUND",
+                                       "ALREADY_EXISTS",
+                                       "PERMISSION_DENIED",
+                                       "RESOURCE_EXHAUSTED",
+                                       "FAILED_PRECONDITION",
+                                       "ABORTED",
+                                       "OUT_OF_RANGE",
+                                       "UNIMPLEMENTED",
+                                       "INTERNAL",
+                                       "UNAVAILABLE",
+                                       "DATA_LOSS",
+                                       "UNAUTHENTICATED"};
+  if (code >= 0 && code < int(std::size(kNames))) return kNames[code];
+  return "CODE_" + std::to_string(code);
+}
+
+std::string Status::describe() const {
+  return message.empty() ? code_name() : code_name() + ": " + message;
+}
+
+const char* to_string(PairStatus status) {
+  switch (status) {
+    case PairStatus::separated:
+      return "separated";
+    case PairStatus::intersecting:
+      return "intersecting";
+    case PairStatus::beyond_cutoff:
+      return "beyond_cutoff";
+    case PairStatus::iteration_limit:
+      return "iteration_limit";
+    case PairStatus::engine_error:
+      return "engine_error";
+  }
+  return "engine_error";
+}
+
+server::PoseInput to_pose_input(const Eigen::Quaterniond& rotation,
+                                const Eigen::Vector3d& translation) {
+  server::PoseInput pose;
+  pose.rotation_wxyz = {rotation.w(), rotation.x(), rotation.y(), rotation.z()};
+  pose.translation = translation;
+  return pose;
+}
+
+server::PoseInput to_pose_input(const Eigen::Isometry3d& pose) {
+  return to_pose_input(Eigen::Quaterniond(pose.rotation()), pose.translation());
+}
+
+Piece polytope_piece(std::vector<Eigen::Vector3d> vertices, const Eigen::Isometry3d& offset) {
+  Piece piece;
+  piece.shape = server::PolytopeInput{std::move(vertices)};
+  piece.offset = to_pose_input(offset);
+  return piece;
+}
+
+ObjectPose::ObjectPose(std::string id, const Eigen::Isometry3d& pose)
+    : object_id(std::move(id)), rotation(pose.rotation()), translation(pose.translation()) {}
+
+namespace {
+
+Status from_grpc(const grpc::Status& status) {
+  return Status{int(status.error_code()), status.error_message()};
+}
+
+// A dropped connection, as opposed to an answer: worth reconnecting for.
+bool is_connection_loss(const grpc::Status& status) {
+  return status.error_code() == grpc::StatusCode::UNAVAILABLE ||
+         status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED;
+}
+
+class ClientImpl;
+
+// ---- Session ----
+
+class SessionImpl final : public Session {
+ public:
+  SessionImpl(ClientImpl& client, std::string scene_id, std::string server_scene_id,
+              SessionOptions options);
+  ~SessionImpl() override;
+
+  bool start(Status& error);
+  Expected<std::uint64_t> push(const std::vector<ObjectPose>& poses, Clock::time_point deadline,
+                               const QueryOptions* options) override;
+  Expected<Report> next(Clock::time_point deadline) override;
+  Status close(Clock::time_point deadline) override;
+  std::uint64_t reconnects() const override { return reconnects_.load(); }
+  Status status() const override {
+    std::lock_guard lock(mutex_);
+    return failure_;
+  }
+  std::string server_scene_id() const override {
+    std::lock_guard lock(mutex_);
+    return server_scene_id_;
+  }
+
+ private:
+  // One gRPC call (one stream). The context outlives the stream (declared first).
+  struct Call {
+    grpc::ClientContext context;
+    std::unique_ptr<grpc::ClientReaderWriter<v1::PoseUpdate, v1::DistanceReport>> stream;
+    bool finished = false;  // Finish() was called: no more writes (guarded by write_mutex_)
+  };
+  struct InFlight {
+    std::uint64_t sequence;
+    Clock::time_point sent;
+  };
+  enum class State { connected, reconnecting, closing, closed, failed };
+
+  std::shared_ptr<Call> open_call();
+  void read_loop();
+  void deliver(Report report);
+  // Gives every update in flight an UNAVAILABLE error report (they will never be answered).
+  void fail_in_flight(const std::string& why);
+  bool reconnect();
+
+  ClientImpl& client_;
+  const std::string scene_id_;
+  const SessionOptions options_;
+
+  std::mutex push_mutex_;   // serialises push() and close()
+  std::mutex write_mutex_;  // serialises Write / WritesDone / Finish on a call
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  State state_ = State::connected;
+  bool destroying_ = false;
+  std::shared_ptr<Call> call_;
+  std::string server_scene_id_;
+  std::deque<InFlight> in_flight_;  // sent, not yet answered
+  std::size_t outstanding_ = 0;     // pushed, not yet consumed
+  std::deque<Report> ready_;
+  std::uint64_t next_sequence_ = 1;
+  std::map<std::string, ObjectPose> latest_poses_;  // for the resync after a reconnect
+  bool resync_ = false;
+  Status failure_;
+  std::atomic<std::uint64_t> reconnects_{0};
+  std::thread reader_;
+};
+
+// ---- Client ----
+
+class ClientImpl final : public Client {
+ public:
+  ClientImpl(std::string target, ClientOptions options)
+      : target_(std::move(target)), options_(options) {
+    grpc::ChannelArguments args;
+    args.SetMaxReceiveMessageSize(options.max_message_bytes);
+    args.SetMaxSendMessageSize(options.max_message_bytes);
+    // Reconnect to a restarted server within a fraction of a second rather than gRPC's default
+    // backoff (1 s growing to 120 s): sessions replay their scene as soon as it is back.
+    args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
+    args.SetInt(GRPC_ARG_MIN_RECONNECT_BACKOFF_MS, 100);
+    args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
+    // Detect a silently dead peer on long streams.
+    args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, 20000);
+    args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 10000);
+    channel_ = grpc::CreateCustomChannel(target_, grpc::InsecureChannelCredentials(), args);
+    stub_ = v1::DistanceService::NewStub(channel_);
+  }
+
+  std::unique_ptr<grpc::ClientContext> context() const {
+    auto context = std::make_unique<grpc::ClientContext>();
+    context->set_deadline(std::chrono::system_clock::now() + options_.call_timeout);
+    return context;
+  }
+
+  Expected<GeometryInfo> register_raw(const Geometry& geometry) {
+    v1::RegisterGeometryRequest request;
+    detail::to_proto(geometry, *request.mutable_geometry());
+    v1::RegisterGeometryResponse response;
+    const grpc::Status status = stub_->RegisterGeometry(context().get(), request, &response);
+    if (!status.ok()) return from_grpc(status);
+    return detail::from_proto(response.geometry());
+  }
+
+  Expected<GeometryInfo> register_geometry(const Geometry& geometry) override {
+    Expected<GeometryInfo> info = register_raw(geometry);
+    if (info) {
+      std::lock_guard lock(registry_mutex_);
+      geometries_[info->geometry_id] = geometry;
+      current_geometry_[info->geometry_id] = info->geometry_id;
+    }
+    return info;
+  }
+
+  Status remove_geometry(const std::string& geometry_id) override {
+    v1::RemoveGeometryRequest request;
+    request.set_geometry_id(current_geometry_id(geometry_id));
+    v1::RemoveGeometryResponse response;
+    return from_grpc(stub_->RemoveGeometry(context().get(), request, &response));
+  }
+
+  Expected<std::vector<GeometryInfo>> list_geometries() override {
+    v1::ListGeometriesResponse response;
+    const grpc::Status status =
+        stub_->ListGeometries(context().get(), v1::ListGeometriesRequest{}, &response);
+    if (!status.ok()) return from_grpc(status);
+    std::vector<GeometryInfo> out;
+    for (const v1::GeometryInfo& info : response.geometries())
+      out.push_back(detail::from_proto(info));
+    return out;
+  }
+
+  Expected<SceneInfo> create_raw(Scene scene) {
+    for (SceneObject& object : scene.objects)
+      object.geometry_id = current_geometry_id(object.geometry_id);
+    v1::CreateSceneRequest request;
+    detail::to_proto(scene, request);
+    v1::CreateSceneResponse response;
+    const grpc::Status status = stub_->CreateScene(context().get(), request, &response);
+    if (!status.ok()) return from_grpc(status);
+    return SceneInfo{response.scene_id(), response.pair_count()};
+  }
+
+  Expected<SceneInfo> create_scene(const Scene& scene) override {
+    Expected<SceneInfo> info = create_raw(scene);
+    if (info) {
+      std::lock_guard lock(registry_mutex_);
+      scenes_[info->scene_id] = scene;
+      current_scene_[info->scene_id] = info->scene_id;
+    }
+    return info;
+  }
+
+  Status delete_scene(const std::string& scene_id) override {
+    v1::DeleteSceneRequest request;
+    request.set_scene_id(current_scene_id(scene_id));
+    v1::DeleteSceneResponse response;
+    const grpc::Status status = stub_->DeleteScene(context().get(), request, &response);
+    if (status.ok()) {
+      std::lock_guard lock(registry_mutex_);
+      scenes_.erase(scene_id);
+    }
+    return from_grpc(status);
+  }
+
+  Expected<Report> query(const std::string& scene_id, const std::vector<ObjectPose>& poses,
+                         const QueryOptions& options) override {
+    v1::QueryRequest request;
+    request.set_scene_id(current_scene_id(scene_id));
+    for (const ObjectPose& pose : poses) detail::to_proto(pose, *request.add_poses());
+    detail::to_proto(options, *request.mutable_options());
+    v1::DistanceReport response;
+    const Clock::time_point sent = Clock::now();
+    const grpc::Status status = stub_->Query(context().get(), request, &response);
+    if (!status.ok()) return from_grpc(status);
+    Report report = detail::from_proto(response);
+    report.sent = sent;
+    report.received = Clock::now();
+    return report;
+  }
+
+  Expected<std::unique_ptr<Session>> open_session(const std::string& scene_id,
+                                                  SessionOptions options) override {
+    if (options.max_in_flight == 0) options.max_in_flight = 1;
+    auto session = std::make_unique<SessionImpl>(*this, scene_id, current_scene_id(scene_id),
+                                                 std::move(options));
+    Status error;
+    if (!session->start(error)) return error;
+    return std::unique_ptr<Session>(std::move(session));
+  }
+
+  bool wait_connected(Clock::time_point deadline) override {
+    const auto system_deadline =
+        std::chrono::system_clock::now() +
+        std::chrono::duration_cast<std::chrono::system_clock::duration>(deadline - Clock::now());
+    return channel_->WaitForConnected(system_deadline);
+  }
+
+  const std::string& target() const override { return target_; }
+
+  // ---- for sessions ----
+
+  v1::DistanceService::Stub& stub() { return *stub_; }
+
+  std::string current_scene_id(const std::string& scene_id) const {
+    std::lock_guard lock(registry_mutex_);
+    const auto found = current_scene_.find(scene_id);
+    return found == current_scene_.end() ? scene_id : found->second;
+  }
+
+  std::string current_geometry_id(const std::string& geometry_id) const {
+    std::lock_guard lock(registry_mutex_);
+    const auto found = current_geometry_.find(geometry_id);
+    return found == current_geometry_.end() ? geometry_id : found->second;
+  }
+
+  /// Re-creates `scene_id` (as created by this client) and the geometries it uses, after its
+  /// server id `stale_server_id` stopped working. Another session on the same scene may have done
+  /// it already: then its result is used. Returns the scene's server id now.
+  Expected<std::string> replay_scene(const std::string& scene_id,
+                                     const std::string& stale_server_id) {
+    std::lock_guard replay(replay_mutex_);
+    Scene scene;
+    {
+      std::lock_guard lock(registry_mutex_);
+      const auto found = scenes_.find(scene_id);
+      // Not ours (preloaded, or another client's): nothing to replay; the id is all we know.
+      if (found == scenes_.end()) return stale_server_id;
+      if (current_scene_[scene_id] != stale_server_id) return current_scene_[scene_id];
+      scene = found->second;
+    }
+    // The server may have restarted (ids forgotten) or merely dropped the connection; either
+    // way, registering again is correct (geometries are immutable values). In the second case
+    // the old copies remain on the server until it restarts.
+    std::map<std::string, std::string> renamed;
+    for (const SceneObject& object : scene.objects) {
+      if (renamed.count(object.geometry_id)) continue;
+      Geometry geometry;
+      {
+        std::lock_guard lock(registry_mutex_);
+        const auto found = geometries_.find(object.geometry_id);
+        if (found == geometries_.end()) continue;  // not ours: hope it is still there
+        geometry = found->second;
+      }
+      Expected<GeometryInfo> info = register_raw(geometry);
+      if (!info) return info.status();
+      renamed[object.geometry_id] = info->geometry_id;
+    }
+    {
+      std::lock_guard lock(registry_mutex_);
+      for (const auto& [original, now] : renamed) current_geometry_[original] = now;
+    }
+    Expected<SceneInfo> created = create_raw(scene);
+    std::string server_id;
+    if (created) {
+      server_id = created->scene_id;
+    } else if (created.status().code == kAlreadyExists && !scene.requested_id.empty()) {
+      server_id = scene.requested_id;  // the same server, still holding the scene
+    } else {
+      return created.status();
+    }
+    std::lock_guard lock(registry_mutex_);
+    current_scene_[scene_id] = server_id;
+    return server_id;
+  }
+
+ private:
+  std::string target_;
+  ClientOptions options_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::DistanceService::Stub> stub_;
+
+  mutable std::mutex registry_mutex_;
+  // What this client registered and created, by the id first returned, for replay.
+  std::map<std::string, Geometry> geometries_;
+  std::map<std::string, Scene> scenes_;
+  // First id → id on the server now.
+  std::map<std::string, std::string> current_geometry_;
+  std::map<std::string, std::string> current_scene_;
+  std::mutex replay_mutex_;
+};
+
+// ---- Session implementation ----
+
+SessionImpl::SessionImpl(ClientImpl& client, std::string scene_id, std::string server_scene_id,
+                         SessionOptions options)
+    : client_(client),
+      scene_id_(std::move(scene_id)),
+      options_(std::move(options)),
+      server_scene_id_(std::move(server_scene_id)) {}
+
+std::shared_ptr<SessionImpl::Call> SessionImpl::open_call() {
+  auto call = std::make_shared<Call>();
+  call->stream = client_.stub().StreamPoses(&call->context);
+  return call;
+}
+
+bool SessionImpl::start(Status& /*error*/) {
+  // A stream to an unreachable server fails on its first read, which the reader thread handles
+  // like any dropped connection (reconnect or fail), so starting cannot fail here.
+  call_ = open_call();
+  reader_ = std::thread([this] { read_loop(); });
+  return true;
+}
+
+SessionImpl::~SessionImpl() {
+  {
+    std::lock_guard lock(mutex_);
+    destroying_ = true;
+    if (call_ && state_ != State::closed && state_ != State::failed) call_->context.TryCancel();
+  }
+  changed_.notify_all();
+  if (reader_.joinable()) reader_.join();
+}
+
+void SessionImpl::deliver(Report report) {
+  report.received = Clock::now();
+  {
+    std::lock_guard lock(mutex_);
+    // In order: every update up to this report's sequence number is answered now (coalesced
+    // ones by this report; they will get none of their own and leave the window here).
+    while (!in_flight_.empty() && in_flight_.front().sequence <= report.sequence) {
+      if (in_flight_.front().sequence == report.sequence) {
+        report.sent = in_flight_.front().sent;
+      } else {
+        --outstanding_;
+      }
+      in_flight_.pop_front();
+    }
+    if (!options_.on_report) {
+      ready_.push_back(std::move(report));
+      changed_.notify_all();
+      return;
+    }
+  }
+  options_.on_report(report);
+  std::lock_guard lock(mutex_);
+  --outstanding_;
+  changed_.notify_all();
+}
+
+void SessionImpl::fail_in_flight(const std::string& why) {
+  std::deque<InFlight> lost;
+  {
+    std::lock_guard lock(mutex_);
+    lost.swap(in_flight_);
+  }
+  for (const InFlight& update : lost) {
+    Report report;
+    report.sequence = update.sequence;
+    report.sent = update.sent;
+    report.error = Status::error(kUnavailable, why);
+    {
+      std::lock_guard lock(mutex_);
+      in_flight_.push_back(update);  // so that deliver() pops it like an answered one
+    }
+    deliver(std::move(report));
+  }
+}
+
+bool SessionImpl::reconnect() {
+  const Clock::time_point give_up = Clock::now() + options_.reconnect_timeout;
+  auto backoff = options_.initial_backoff;
+  std::string stale;
+  {
+    std::lock_guard lock(mutex_);
+    stale = server_scene_id_;
+  }
+  Status last = Status::error(kUnavailable, "no attempt made");
+  for (;;) {
+    {
+      std::lock_guard lock(mutex_);
+      if (destroying_) return false;
+    }
+    const Clock::time_point attempt_end = std::min(give_up, Clock::now() + backoff);
+    if (client_.wait_connected(attempt_end)) {
+      Expected<std::string> server_id = client_.replay_scene(scene_id_, stale);
+      if (server_id) {
+        auto call = open_call();
+        std::lock_guard lock(mutex_);
+        call_ = std::move(call);
+        server_scene_id_ = *server_id;
+        resync_ = true;
+        state_ = State::connected;
+        reconnects_.fetch_add(1);
+        changed_.notify_all();
+        return true;
+      }
+      last = server_id.status();
+      if (last.code != kUnavailable && last.code != kDeadlineExceeded) break;  // an answer: final
+    }
+    if (Clock::now() >= give_up) break;
+    std::unique_lock lock(mutex_);
+    changed_.wait_until(lock, std::min(give_up, Clock::now() + backoff),
+                        [&] { return destroying_; });
+    backoff = std::min(options_.max_backoff, backoff * 2);
+  }
+  std::lock_guard lock(mutex_);
+  failure_ =
+      last.code == kUnavailable || last.ok()
+          ? Status::error(kUnavailable, "could not reconnect to " + client_.target() + " within " +
+                                            std::to_string(options_.reconnect_timeout.count()) +
+                                            " ms: " + last.message)
+          : Status::error(last.code, "replaying the scene after a reconnect: " + last.message);
+  state_ = State::failed;
+  changed_.notify_all();
+  return false;
+}
+
+void SessionImpl::read_loop() {
+  for (;;) {
+    std::shared_ptr<Call> call;
+    {
+      std::lock_guard lock(mutex_);
+      call = call_;
+    }
+    v1::DistanceReport message;
+    while (call->stream->Read(&message)) deliver(detail::from_proto(message));
+    grpc::Status status;
+    {
+      std::lock_guard write(write_mutex_);
+      call->finished = true;
+      status = call->stream->Finish();
+    }
+    bool closing = false;
+    {
+      std::lock_guard lock(mutex_);
+      if (destroying_) {
+        state_ = State::closed;
+        changed_.notify_all();
+        return;
+      }
+      closing = state_ == State::closing;
+      if (closing && status.ok()) {
+        state_ = State::closed;
+        changed_.notify_all();
+      }
+    }
+    if (closing && status.ok()) {
+      fail_in_flight("the stream ended before this update was answered");
+      return;
+    }
+    const bool lost = is_connection_loss(status);
+    fail_in_flight(
+        lost ? "connection to " + client_.target() + " lost before this update was answered (" +
+                   status.error_message() + ")"
+             : "the stream failed before this update was answered: " + status.error_message());
+    if (closing || !lost || !options_.reconnect) {
+      std::lock_guard lock(mutex_);
+      failure_ = status.ok() ? Status::error(kUnavailable, "the server ended the stream")
+                             : from_grpc(status);
+      state_ = State::failed;
+      changed_.notify_all();
+      return;
+    }
+    {
+      std::lock_guard lock(mutex_);
+      state_ = State::reconnecting;
+    }
+    if (!reconnect()) return;
+  }
+}
+
+Expected<std::uint64_t> SessionImpl::push(const std::vector<ObjectPose>& poses,
+                                          Clock::time_point deadline, const QueryOptions* options) {
+  std::lock_guard pushing(push_mutex_);
+  std::unique_lock lock(mutex_);
+  const bool ready = changed_.wait_until(lock, deadline, [&] {
+    return state_ == State::failed || state_ == State::closing || state_ == State::closed ||
+           (state_ == State::connected && outstanding_ < options_.max_in_flight);
+  });
+  if (state_ == State::failed) return failure_;
+  if (state_ == State::closing || state_ == State::closed)
+    return Status::error(9, "the session is closed");  // FAILED_PRECONDITION
+  if (!ready)
+    return Status::error(kDeadlineExceeded, state_ == State::reconnecting
+                                                ? "still reconnecting"
+                                                : "the in-flight window stayed full");
+  v1::PoseUpdate update;
+  const std::uint64_t sequence = next_sequence_++;
+  update.set_scene_id(server_scene_id_);
+  update.set_sequence(sequence);
+  update.set_flow_control(options_.coalesce ? v1::FLOW_CONTROL_COALESCE : v1::FLOW_CONTROL_BLOCK);
+  detail::to_proto(options != nullptr ? *options : options_.options, *update.mutable_options());
+  for (const ObjectPose& pose : poses) {
+    detail::to_proto(pose, *update.add_poses());
+    latest_poses_[pose.object_id] = pose;
+  }
+  if (resync_) {
+    // A new stream starts from the scene's initial poses: send every pose pushed before.
+    for (const auto& [id, pose] : latest_poses_) {
+      const bool listed = std::any_of(poses.begin(), poses.end(),
+                                      [&](const ObjectPose& p) { return p.object_id == id; });
+      if (!listed) detail::to_proto(pose, *update.add_poses());
+    }
+    resync_ = false;
+  }
+  std::shared_ptr<Call> call = call_;
+  in_flight_.push_back({sequence, Clock::now()});
+  ++outstanding_;
+  lock.unlock();
+  std::lock_guard write(write_mutex_);
+  // A failed write means the stream is gone; the reader thread sees that too and answers this
+  // update with an UNAVAILABLE error report.
+  if (!call->finished) call->stream->Write(update);
+  return sequence;
+}
+
+Expected<Report> SessionImpl::next(Clock::time_point deadline) {
+  std::unique_lock lock(mutex_);
+  changed_.wait_until(lock, deadline, [&] {
+    return !ready_.empty() || state_ == State::failed || state_ == State::closed;
+  });
+  if (!ready_.empty()) {
+    Report report = std::move(ready_.front());
+    ready_.pop_front();
+    --outstanding_;
+    changed_.notify_all();
+    return report;
+  }
+  if (state_ == State::failed) return failure_;
+  if (state_ == State::closed)
+    return Status::error(kOutOfRange, "the session is closed and every report was taken");
+  return Status::error(kDeadlineExceeded, "no report arrived in time");
+}
+
+Status SessionImpl::close(Clock::time_point deadline) {
+  std::lock_guard pushing(push_mutex_);
+  std::shared_ptr<Call> call;
+  {
+    std::unique_lock lock(mutex_);
+    changed_.wait_until(lock, deadline, [&] { return state_ != State::reconnecting; });
+    if (state_ == State::failed) return failure_;
+    if (state_ == State::closed) return {};
+    if (state_ == State::reconnecting)
+      return Status::error(kDeadlineExceeded, "still reconnecting");
+    state_ = State::closing;
+    call = call_;
+  }
+  {
+    std::lock_guard write(write_mutex_);
+    if (!call->finished) call->stream->WritesDone();
+  }
+  std::unique_lock lock(mutex_);
+  if (!changed_.wait_until(lock, deadline,
+                           [&] { return state_ == State::closed || state_ == State::failed; })) {
+    call->context.TryCancel();
+    changed_.wait(lock, [&] { return state_ == State::closed || state_ == State::failed; });
+  }
+  return state_ == State::failed ? failure_ : Status{};
+}
+
+}  // namespace
+
+std::unique_ptr<Client> Client::connect(const std::string& target, ClientOptions options) {
+  return std::make_unique<ClientImpl>(target, options);
+}
+
+}  // namespace nearpoint::client

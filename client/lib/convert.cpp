@@ -1,0 +1,198 @@
+#include "convert.hpp"
+
+#include <type_traits>
+
+namespace nearpoint::client::detail {
+namespace {
+
+void to_proto(const Eigen::Vector3d& v, v1::Vector3& out) {
+  out.set_x(v.x());
+  out.set_y(v.y());
+  out.set_z(v.z());
+}
+
+Eigen::Vector3d from_proto(const v1::Vector3& v) {
+  return {v.x(), v.y(), v.z()};
+}
+
+Eigen::Matrix<double, 6, 1> from_proto(const v1::PoseGradient& g) {
+  Eigen::Matrix<double, 6, 1> out;
+  out << g.translation().x(), g.translation().y(), g.translation().z(), g.rotation().x(),
+      g.rotation().y(), g.rotation().z();
+  return out;
+}
+
+PairStatus from_proto(v1::PairStatus status) {
+  switch (status) {
+    case v1::PAIR_STATUS_SEPARATED:
+      return PairStatus::separated;
+    case v1::PAIR_STATUS_INTERSECTING:
+      return PairStatus::intersecting;
+    case v1::PAIR_STATUS_BEYOND_CUTOFF:
+      return PairStatus::beyond_cutoff;
+    case v1::PAIR_STATUS_ITERATION_LIMIT:
+      return PairStatus::iteration_limit;
+    default:
+      return PairStatus::engine_error;
+  }
+}
+
+}  // namespace
+
+void to_proto(const server::PoseInput& pose, v1::Pose& out) {
+  v1::Quaternion& q = *out.mutable_rotation();
+  q.set_w(pose.rotation_wxyz[0]);
+  q.set_x(pose.rotation_wxyz[1]);
+  q.set_y(pose.rotation_wxyz[2]);
+  q.set_z(pose.rotation_wxyz[3]);
+  to_proto(pose.translation, *out.mutable_translation());
+}
+
+void to_proto(const ObjectPose& pose, v1::ObjectPose& out) {
+  out.set_object_id(pose.object_id);
+  to_proto(to_pose_input(pose.rotation, pose.translation), *out.mutable_pose());
+}
+
+void to_proto(const Geometry& geometry, v1::Geometry& out) {
+  out.set_name(geometry.name);
+  for (const Piece& piece : geometry.pieces) {
+    v1::Piece& p = *out.add_pieces();
+    std::visit(
+        [&](const auto& shape) {
+          using S = std::decay_t<decltype(shape)>;
+          if constexpr (std::is_same_v<S, server::PolytopeInput>) {
+            for (const Eigen::Vector3d& v : shape.vertices)
+              to_proto(v, *p.mutable_polytope()->add_vertices());
+          } else if constexpr (std::is_same_v<S, Point>) {
+            p.mutable_point();
+          } else if constexpr (std::is_same_v<S, Segment<double>>) {
+            to_proto(shape.a, *p.mutable_segment()->mutable_a());
+            to_proto(shape.b, *p.mutable_segment()->mutable_b());
+          } else if constexpr (std::is_same_v<S, Box<double>>) {
+            to_proto(shape.half_extents, *p.mutable_box()->mutable_half_extents());
+          } else if constexpr (std::is_same_v<S, Cylinder<double>>) {
+            p.mutable_cylinder()->set_radius(shape.radius);
+            p.mutable_cylinder()->set_half_height(shape.half_height);
+          } else if constexpr (std::is_same_v<S, Cone<double>>) {
+            p.mutable_cone()->set_radius(shape.radius);
+            p.mutable_cone()->set_half_height(shape.half_height);
+          } else if constexpr (std::is_same_v<S, Ellipsoid<double>>) {
+            to_proto(shape.radii, *p.mutable_ellipsoid()->mutable_radii());
+          }
+          // std::monostate: no shape; the server rejects the piece, naming it.
+        },
+        piece.shape);
+    p.set_radius(piece.radius);
+    to_proto(piece.offset, *p.mutable_offset());
+  }
+}
+
+void to_proto(const QueryOptions& options, v1::QueryOptions& out) {
+  if (options.epsilon) out.set_epsilon(*options.epsilon);
+  if (options.near_points) out.set_near_points(*options.near_points);
+  switch (options.penetration) {
+    case PenetrationMode::none:
+      out.set_penetration(v1::PENETRATION_MODE_NONE);
+      break;
+    case PenetrationMode::bound:
+      out.set_penetration(v1::PENETRATION_MODE_BOUND);
+      break;
+    case PenetrationMode::depth:
+      out.set_penetration(v1::PENETRATION_MODE_DEPTH);
+      break;
+    default:
+      break;
+  }
+  if (options.gradient) out.set_gradient(*options.gradient);
+  if (options.distance_cutoff) out.set_distance_cutoff(*options.distance_cutoff);
+  if (options.warm_start) out.set_warm_start(*options.warm_start);
+  if (options.max_iterations)
+    out.set_max_iterations(
+        std::uint32_t(std::min<std::uint64_t>(*options.max_iterations, 0xFFFFFFFFull)));
+}
+
+void to_proto(const Scene& scene, v1::CreateSceneRequest& out) {
+  out.set_name(scene.name);
+  out.set_scene_id(scene.requested_id);
+  for (const SceneObject& object : scene.objects) {
+    v1::SceneObject& o = *out.add_objects();
+    o.set_id(object.id);
+    o.set_geometry_id(object.geometry_id);
+    to_proto(object.pose, *o.mutable_pose());
+    if (object.group) o.set_group(*object.group);
+    if (object.mask) o.set_mask(*object.mask);
+  }
+  v1::PairSelection& selection = *out.mutable_pair_selection();
+  v1::PairList* list = nullptr;
+  switch (scene.pair_selection.mode) {
+    case PairSelection::Mode::all_pairs:
+      selection.mutable_all_pairs();
+      break;
+    case PairSelection::Mode::listed_pairs:
+      list = selection.mutable_listed_pairs();
+      break;
+    case PairSelection::Mode::excluded_pairs:
+      list = selection.mutable_excluded_pairs();
+      break;
+  }
+  if (list != nullptr)
+    for (const auto& [a, b] : scene.pair_selection.pairs) {
+      v1::ObjectPair& pair = *list->add_pairs();
+      pair.set_object_a(a);
+      pair.set_object_b(b);
+    }
+  to_proto(scene.default_options, *out.mutable_default_options());
+}
+
+GeometryInfo from_proto(const v1::GeometryInfo& info) {
+  GeometryInfo out;
+  out.geometry_id = info.geometry_id();
+  out.name = info.name();
+  out.piece_count = info.piece_count();
+  out.vertex_count = info.vertex_count();
+  out.bounding_center = from_proto(info.bounding_center());
+  out.bounding_radius = info.bounding_radius();
+  return out;
+}
+
+Report from_proto(const v1::DistanceReport& report) {
+  Report out;
+  out.sequence = report.sequence();
+  if (report.has_error()) {
+    out.error = Status::error(int(report.error().code()),
+                              report.error().field().empty()
+                                  ? report.error().message()
+                                  : report.error().field() + ": " + report.error().message());
+    if (out.error.code == 0) out.error.code = 2;  // UNKNOWN: an error report without a code
+    out.error_field = report.error().field();
+  }
+  out.pairs.reserve(std::size_t(report.pairs_size()));
+  for (const v1::PairDistance& p : report.pairs()) {
+    PairDistance& pair = out.pairs.emplace_back();
+    pair.object_a = p.object_a();
+    pair.object_b = p.object_b();
+    pair.status = from_proto(p.status());
+    pair.distance = p.distance();
+    pair.distance_lower_bound = p.distance_lower_bound();
+    pair.error_bound = p.error_bound();
+    pair.iterations = p.iterations();
+    pair.piece_pairs_evaluated = p.piece_pairs_evaluated();
+    pair.piece_a = p.piece_a();
+    pair.piece_b = p.piece_b();
+    pair.warm_started = p.warm_started();
+    if (p.has_near_points())
+      pair.near_points = PairDistance::NearPoints{from_proto(p.point_a()), from_proto(p.point_b()),
+                                                  from_proto(p.normal())};
+    if (p.has_penetration_bound()) pair.penetration_bound = p.penetration_bound();
+    if (p.has_gradient())
+      pair.gradient = std::pair(from_proto(p.gradient_a()), from_proto(p.gradient_b()));
+    pair.message = p.message();
+  }
+  out.timing = {report.timing().server_us(), report.timing().queue_us(),
+                report.timing().evaluation_us(), report.timing().geometry_us()};
+  out.coalesced_updates = report.coalesced_updates();
+  out.coalesced_from_sequence = report.coalesced_from_sequence();
+  return out;
+}
+
+}  // namespace nearpoint::client::detail

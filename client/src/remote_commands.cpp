@@ -1,0 +1,514 @@
+#include "remote_commands.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include "demo.hpp"
+#include "local_server.hpp"
+#include "trajectory.hpp"
+
+namespace nearpoint::cli {
+namespace {
+
+using client::Clock;
+
+std::unique_ptr<client::Client> connect(const RemoteOptions& remote) {
+  client::ClientOptions options;
+  options.call_timeout = remote.timeout;
+  return client::Client::connect(remote.target, options);
+}
+
+bool is_mesh_file(const std::filesystem::path& file) {
+  std::string extension = file.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return char(std::tolower(c)); });
+  return extension == ".obj" || extension == ".stl" || extension == ".off" || extension == ".ply";
+}
+
+// Registers a scene file's geometries and creates its scene. Returns the exit code (0 on success).
+int create_scene_from_file(client::Client& client, const std::string& path, std::ostream& err,
+                           client::SceneInfo& created) {
+  formats::SceneFile file;
+  if (std::string error = formats::load_scene_file(path, mesh_loader(), file); !error.empty()) {
+    err << "nearpoint: " << error << "\n";
+    return kExitBadInput;
+  }
+  std::map<std::string, std::string> ids;
+  for (const auto& [name, geometry] : file.geometries) {
+    auto info = client.register_geometry(geometry);
+    if (!info) {
+      err << "nearpoint: " << path << ": registering geometry \"" << name
+          << "\": " << info.status().describe() << "\n";
+      return exit_code_for(info.status());
+    }
+    ids[name] = info->geometry_id;
+  }
+  for (std::size_t i = 0; i < file.scene.objects.size(); ++i)
+    if (!file.geometry_names[i].empty())
+      file.scene.objects[i].geometry_id = ids.at(file.geometry_names[i]);
+  auto scene = client.create_scene(file.scene);
+  if (!scene) {
+    err << "nearpoint: " << path << ": CreateScene: " << scene.status().describe() << "\n";
+    return exit_code_for(scene.status());
+  }
+  created = *scene;
+  return 0;
+}
+
+// A scene argument: an existing file is created first; anything else is a scene id.
+int resolve_scene(client::Client& client, const std::string& scene, std::ostream& err,
+                  std::string& scene_id) {
+  std::error_code ignored;
+  if (std::filesystem::is_regular_file(scene, ignored)) {
+    client::SceneInfo created;
+    if (int code = create_scene_from_file(client, scene, err, created); code != 0) return code;
+    scene_id = created.scene_id;
+    return 0;
+  }
+  scene_id = scene;
+  return 0;
+}
+
+bool options_from_flags(bool near_points, const std::string& penetration, client::QueryOptions& out,
+                        std::ostream& err) {
+  if (near_points) out.near_points = true;
+  if (penetration == "none")
+    out.penetration = client::PenetrationMode::none;
+  else if (penetration == "bound")
+    out.penetration = client::PenetrationMode::bound;
+  else if (penetration == "depth")
+    out.penetration = client::PenetrationMode::depth;
+  else if (!penetration.empty()) {
+    err << "nearpoint: --penetration must be none, bound or depth\n";
+    return false;
+  }
+  return true;
+}
+
+std::string number(double value, int digits = 6) {
+  std::ostringstream text;
+  text << std::setprecision(digits) << value;
+  return text.str();
+}
+
+std::string point(const Eigen::Vector3d& v) {
+  return "(" + number(v.x()) + ", " + number(v.y()) + ", " + number(v.z()) + ")";
+}
+
+void print_pairs(const client::Report& report, std::ostream& out) {
+  for (const client::PairDistance& p : report.pairs) {
+    out << std::left << std::setw(24) << (p.object_a + " - " + p.object_b) << std::setw(16)
+        << client::to_string(p.status);
+    if (p.status == client::PairStatus::beyond_cutoff)
+      out << "distance > " << number(p.distance_lower_bound);
+    else
+      out << "distance " << number(p.distance, 12) << " (± " << number(p.error_bound, 2) << ")";
+    if (p.penetration_bound) out << "  d⁻ " << number(*p.penetration_bound);
+    if (p.near_points)
+      out << "  A " << point(p.near_points->point_a) << "  B " << point(p.near_points->point_b);
+    out << "\n";
+  }
+}
+
+double percentile(std::vector<double>& values, double q) {
+  if (values.empty()) return 0;
+  const std::size_t k =
+      std::min(values.size() - 1, std::size_t(q * double(values.size() - 1) + 0.5));
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
+  return values[k];
+}
+
+client::ObjectPose to_object_pose(const ObjectPose& pose) {
+  const auto& q = pose.rotation_wxyz;
+  return client::ObjectPose(
+      pose.object_id, Eigen::Quaterniond(q[0], q[1], q[2], q[3]),
+      Eigen::Vector3d(pose.translation[0], pose.translation[1], pose.translation[2]));
+}
+
+}  // namespace
+
+// ---- register ----
+
+int run_register(const RegisterOptions& options, std::ostream& out, std::ostream& err) {
+  if (options.files.empty()) {
+    err << "nearpoint register: give at least one FILE\n";
+    return kExitBadInput;
+  }
+  std::vector<client::Geometry> geometries;
+  std::vector<std::filesystem::path> meshes;
+  for (const std::string& name : options.files) {
+    const std::filesystem::path file(name);
+    if (is_mesh_file(file)) {
+      meshes.push_back(file);
+      continue;
+    }
+    Json value;
+    if (std::string error = formats::read_structured_file(file, value); !error.empty()) {
+      err << "nearpoint register: " << error << "\n";
+      return kExitBadInput;
+    }
+    client::Geometry geometry;
+    if (std::string error =
+            formats::parse_geometry(value, "geometry", file.parent_path(), mesh_loader(), geometry);
+        !error.empty()) {
+      err << "nearpoint register: " << name << ": " << error << "\n";
+      return kExitBadInput;
+    }
+    if (geometry.name.empty()) geometry.name = file.stem().string();
+    if (!options.name.empty()) geometry.name = options.name;
+    geometries.push_back(std::move(geometry));
+  }
+  if (!meshes.empty()) {
+    // Several mesh files (a convex decomposition) make one compound geometry.
+    client::Geometry compound;
+    compound.name = options.name.empty() ? meshes.front().stem().string() : options.name;
+    formats::MeshRequest request{meshes, options.scale, options.merge};
+    if (std::string error = mesh_loader()(request, compound.pieces); !error.empty()) {
+      err << "nearpoint register: " << error << "\n";
+      return kExitBadInput;
+    }
+    geometries.push_back(std::move(compound));
+  }
+  auto client = connect(options.remote);
+  for (const client::Geometry& geometry : geometries) {
+    auto info = client->register_geometry(geometry);
+    if (!info) {
+      err << "nearpoint register: " << options.remote.target << ": " << info.status().describe()
+          << "\n";
+      return exit_code_for(info.status());
+    }
+    if (options.remote.json) {
+      out << to_json(*info).dump() << "\n";
+    } else {
+      out << info->geometry_id << "  \"" << info->name << "\": " << info->piece_count
+          << (info->piece_count == 1 ? " piece, " : " pieces, ") << info->vertex_count
+          << " vertices, bounding sphere radius " << number(info->bounding_radius) << " at "
+          << point(info->bounding_center) << "\n";
+    }
+  }
+  return 0;
+}
+
+// ---- scene create ----
+
+int run_scene_create(const SceneCreateOptions& options, std::ostream& out, std::ostream& err) {
+  auto client = connect(options.remote);
+  client::SceneInfo created;
+  if (int code = create_scene_from_file(*client, options.file, err, created); code != 0)
+    return code;
+  if (options.remote.json)
+    out << Json{{"scene_id", created.scene_id}, {"pair_count", created.pair_count}}.dump() << "\n";
+  else
+    out << created.scene_id << ": " << created.pair_count
+        << (created.pair_count == 1 ? " pair" : " pairs") << "\n";
+  return 0;
+}
+
+// ---- query ----
+
+int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostream& err) {
+  std::vector<client::ObjectPose> poses;
+  for (const std::string& text : options.poses) {
+    client::ObjectPose pose;
+    std::string error;
+    if (!parse_pose_argument(text, pose, error)) {
+      err << "nearpoint query: " << error << "\n";
+      return kExitBadInput;
+    }
+    poses.push_back(pose);
+  }
+  client::QueryOptions query_options;
+  if (!options_from_flags(options.near_points, options.penetration, query_options, err))
+    return kExitBadInput;
+  auto client = connect(options.remote);
+  std::string scene_id;
+  if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) return code;
+  auto report = client->query(scene_id, poses, query_options);
+  if (!report) {
+    err << "nearpoint query: " << report.status().describe() << "\n";
+    return exit_code_for(report.status());
+  }
+  if (options.remote.json) {
+    Json json = to_json(*report);
+    json["scene_id"] = scene_id;
+    out << json.dump() << "\n";
+  } else {
+    out << "scene " << scene_id << ": " << report->pairs.size() << " pairs, "
+        << number(report->timing.server_us, 4) << " µs on the server\n";
+    print_pairs(*report, out);
+  }
+  return 0;
+}
+
+// ---- stream ----
+
+int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostream& err) {
+  Trajectory trajectory;
+  if (std::string error; !load_trajectory(options.trajectory, trajectory, error)) {
+    err << "nearpoint stream: " << error << "\n";
+    return kExitBadInput;
+  }
+  client::SessionOptions session_options;
+  if (!options_from_flags(options.near_points, options.penetration, session_options.options, err))
+    return kExitBadInput;
+  auto client = connect(options.remote);
+  std::string scene_id;
+  if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) return code;
+
+  struct PairSummary {
+    double min_distance = std::numeric_limits<double>::infinity();
+    double min_time = 0;
+    std::size_t intersecting_steps = 0;
+    double first_hit = -1;
+  };
+  std::mutex mutex;
+  std::map<std::pair<std::string, std::string>, PairSummary> pairs;
+  std::vector<std::pair<std::string, std::string>> pair_order;
+  std::vector<double> latencies_us;
+  std::size_t reports = 0, errors = 0;
+  Clock::time_point last_progress = Clock::now();
+  const auto started = Clock::now();
+  std::string first_error;
+
+  session_options.max_in_flight = std::max<std::size_t>(1, options.window);
+  session_options.on_report = [&](const client::Report& report) {
+    std::lock_guard lock(mutex);
+    ++reports;
+    const double time = report.sequence >= 1 && report.sequence <= trajectory.steps.size()
+                            ? trajectory.steps[report.sequence - 1].time
+                            : 0;
+    if (options.remote.json) {
+      Json json = to_json(report);
+      json["t"] = time;
+      out << json.dump() << "\n";
+    }
+    if (!report.error.ok()) {
+      ++errors;
+      if (first_error.empty())
+        first_error = "update " + std::to_string(report.sequence) + " (t = " + number(time) +
+                      "): " + report.error.describe();
+      return;
+    }
+    latencies_us.push_back(
+        std::chrono::duration<double, std::micro>(report.received - report.sent).count());
+    for (const client::PairDistance& p : report.pairs) {
+      auto key = std::pair(p.object_a, p.object_b);
+      auto [it, inserted] = pairs.try_emplace(key);
+      if (inserted) pair_order.push_back(key);
+      PairSummary& s = it->second;
+      if (p.status != client::PairStatus::beyond_cutoff && p.distance < s.min_distance) {
+        s.min_distance = p.distance;
+        s.min_time = time;
+      }
+      if (p.status == client::PairStatus::intersecting) {
+        if (s.intersecting_steps++ == 0) s.first_hit = time;
+      }
+    }
+    if (!options.remote.json && options.progress_every > 0 &&
+        std::chrono::duration<double>(report.received - last_progress).count() >=
+            options.progress_every) {
+      last_progress = report.received;
+      err << "\r  " << reports << "/" << trajectory.steps.size() << " reports" << std::flush;
+    }
+  };
+  auto session = client->open_session(scene_id, session_options);
+  if (!session) {
+    err << "nearpoint stream: " << session.status().describe() << "\n";
+    return exit_code_for(session.status());
+  }
+  for (const TrajectoryStep& step : trajectory.steps) {
+    std::vector<client::ObjectPose> poses;
+    for (const ObjectPose& pose : step.poses) poses.push_back(to_object_pose(pose));
+    auto pushed = (*session)->push(poses, Clock::now() + options.remote.timeout);
+    if (!pushed) {
+      err << "nearpoint stream: " << pushed.status().describe() << "\n";
+      return exit_code_for(pushed.status());
+    }
+  }
+  const client::Status closed = (*session)->close(Clock::now() + options.remote.timeout);
+  const double wall = std::chrono::duration<double>(Clock::now() - started).count();
+  std::lock_guard lock(mutex);
+  if (!options.remote.json) {
+    if (options.progress_every > 0) err << "\r" << std::string(40, ' ') << "\r";
+    out << "scene " << scene_id << ": " << reports << " reports for " << trajectory.steps.size()
+        << " updates in " << number(wall, 3) << " s";
+    if ((*session)->reconnects() > 0) out << " (" << (*session)->reconnects() << " reconnects)";
+    out << "; round trip p50 " << number(percentile(latencies_us, 0.5), 4) << " µs, p99 "
+        << number(percentile(latencies_us, 0.99), 4) << " µs\n";
+    out << std::left << std::setw(24) << "pair" << std::setw(16) << "min distance" << std::setw(12)
+        << "at t"
+        << "intersecting\n";
+    for (const auto& key : pair_order) {
+      const PairSummary& s = pairs[key];
+      out << std::left << std::setw(24) << (key.first + " - " + key.second) << std::setw(16)
+          << number(s.min_distance) << std::setw(12) << number(s.min_time);
+      if (s.intersecting_steps == 0)
+        out << "never\n";
+      else
+        out << s.intersecting_steps << " steps, first at t = " << number(s.first_hit) << "\n";
+    }
+  }
+  if (!first_error.empty())
+    err << "nearpoint stream: " << errors << " updates rejected; the first: " << first_error
+        << "\n";
+  if (!closed.ok()) {
+    err << "nearpoint stream: " << closed.describe() << "\n";
+    return exit_code_for(closed);
+  }
+  return errors == 0 ? 0 : kExitServerError;
+}
+
+// ---- load ----
+
+int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream& err) {
+  if (options.streams < 1 || options.streams > 256 || !(options.duration_s > 0) ||
+      options.duration_s > 600) {
+    err << "nearpoint load: --streams must be in [1, 256] and --duration in (0, 600] s\n";
+    return kExitBadInput;
+  }
+  if (options.scene.empty() != options.trajectory.empty()) {
+    err << "nearpoint load: give both SCENE and TRAJECTORY, or neither (the demo scene)\n";
+    return kExitBadInput;
+  }
+  std::vector<std::vector<client::ObjectPose>> path;
+  if (!options.trajectory.empty()) {
+    Trajectory trajectory;
+    if (std::string error; !load_trajectory(options.trajectory, trajectory, error)) {
+      err << "nearpoint load: " << error << "\n";
+      return kExitBadInput;
+    }
+    for (const TrajectoryStep& step : trajectory.steps) {
+      std::vector<client::ObjectPose> poses;
+      for (const ObjectPose& pose : step.poses) poses.push_back(to_object_pose(pose));
+      path.push_back(std::move(poses));
+    }
+    if (path.empty()) {
+      err << "nearpoint load: the trajectory has no steps\n";
+      return kExitBadInput;
+    }
+  } else {
+    constexpr int kSteps = 1000;
+    for (int t = 0; t <= kSteps; ++t) path.push_back({demo_pose(double(t) / kSteps)});
+  }
+
+  auto client = connect(options.remote);
+  std::string scene_id;
+  if (options.scene.empty()) {
+    auto created = create_demo_scene(*client);
+    if (!created) {
+      err << "nearpoint load: " << options.remote.target << ": " << created.status().describe()
+          << "\n";
+      return exit_code_for(created.status());
+    }
+    scene_id = *created;
+  } else if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) {
+    return code;
+  }
+
+  std::mutex mutex;
+  std::vector<double> latencies_us;
+  std::atomic<std::size_t> done{0}, errors{0};
+  std::string first_error;
+  const auto start = Clock::now();
+  const auto stop_at = start + std::chrono::duration_cast<Clock::duration>(
+                                   std::chrono::duration<double>(options.duration_s));
+  std::vector<std::thread> threads;
+  for (int k = 0; k < options.streams; ++k) {
+    threads.emplace_back([&, k] {
+      std::vector<double> local;
+      client::SessionOptions session_options;
+      session_options.max_in_flight = std::max<std::size_t>(1, options.window);
+      session_options.reconnect = false;
+      session_options.on_report = [&](const client::Report& report) {
+        if (!report.error.ok()) {
+          errors.fetch_add(1);
+          std::lock_guard lock(mutex);
+          if (first_error.empty()) first_error = report.error.describe();
+          return;
+        }
+        local.push_back(
+            std::chrono::duration<double, std::micro>(report.received - report.sent).count());
+        done.fetch_add(1, std::memory_order_relaxed);
+      };
+      auto session = client->open_session(scene_id, session_options);
+      if (!session) {
+        errors.fetch_add(1);
+        std::lock_guard lock(mutex);
+        if (first_error.empty()) first_error = session.status().describe();
+        return;
+      }
+      // Streams start at different points of the path, so they do not run in lock step.
+      std::size_t step = std::size_t(k) * path.size() / std::size_t(options.streams);
+      while (Clock::now() < stop_at) {
+        auto pushed =
+            (*session)->push(path[step % path.size()], stop_at + std::chrono::seconds(10));
+        if (!pushed) {
+          errors.fetch_add(1);
+          std::lock_guard lock(mutex);
+          if (first_error.empty()) first_error = pushed.status().describe();
+          break;
+        }
+        ++step;
+      }
+      (void)(*session)->close(Clock::now() + std::chrono::seconds(10));
+      session->reset();  // joins the reader: `local` is complete
+      std::lock_guard lock(mutex);
+      latencies_us.insert(latencies_us.end(), local.begin(), local.end());
+    });
+  }
+  // The progress line, until the streams are done.
+  if (options.progress_every > 0) {
+    while (Clock::now() < stop_at) {
+      std::this_thread::sleep_for(
+          std::min(std::chrono::duration_cast<Clock::duration>(
+                       std::chrono::duration<double>(options.progress_every)),
+                   std::chrono::duration_cast<Clock::duration>(stop_at - Clock::now())));
+      const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+      err << "\r  " << number(elapsed, 3) << " s  " << done.load() << " reports  "
+          << number(double(done.load()) / std::max(elapsed, 1e-9), 4) << " updates/s  "
+          << errors.load() << " errors   " << std::flush;
+    }
+    err << "\n";
+  }
+  for (std::thread& t : threads) t.join();
+  const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  const std::size_t count = latencies_us.size();
+  const double p50 = percentile(latencies_us, 0.5), p90 = percentile(latencies_us, 0.9),
+               p99 = percentile(latencies_us, 0.99);
+  const double max = count ? *std::max_element(latencies_us.begin(), latencies_us.end()) : 0;
+  const double rate = double(count) / std::max(options.duration_s, 1e-9);
+  if (options.remote.json) {
+    out << Json{{"scene_id", scene_id},
+                {"streams", options.streams},
+                {"window", options.window},
+                {"duration_s", elapsed},
+                {"reports", count},
+                {"errors", errors.load()},
+                {"updates_per_s", rate},
+                {"latency_us", {{"p50", p50}, {"p90", p90}, {"p99", p99}, {"max", max}}}}
+               .dump()
+        << "\n";
+  } else {
+    out << "scene " << scene_id << ": " << options.streams << " streams × " << options.window
+        << " in flight for " << number(options.duration_s, 3) << " s: " << count << " reports, "
+        << number(rate, 5) << " updates/s\n"
+        << "round-trip latency (push to report): p50 " << number(p50, 4) << " µs, p90 "
+        << number(p90, 4) << " µs, p99 " << number(p99, 4) << " µs, max " << number(max, 4)
+        << " µs\n";
+  }
+  if (errors.load() > 0) {
+    err << "nearpoint load: " << errors.load() << " errors; the first: " << first_error << "\n";
+    return kExitServerError;
+  }
+  return 0;
+}
+
+}  // namespace nearpoint::cli

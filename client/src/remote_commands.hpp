@@ -1,0 +1,66 @@
+// The server-facing verbs of `nearpoint`: register, scene create, query, stream, load. Each
+// takes its options, writes results to `out` (human text, or JSON with --json) and problems to
+// `err`, and returns the exit code (remote_common.hpp). main.cpp declares their command lines.
+#pragma once
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "remote_common.hpp"
+
+namespace nearpoint::cli {
+
+struct RegisterOptions {
+  RemoteOptions remote;
+  /// JSON geometry files (one geometry each) or mesh files (together: one compound geometry).
+  std::vector<std::string> files;
+  std::string name;
+  /// Meshes: one convex hull per file instead of one per mesh part.
+  bool merge = false;
+  double scale = 1.0;
+};
+int run_register(const RegisterOptions& options, std::ostream& out, std::ostream& err);
+
+struct SceneCreateOptions {
+  RemoteOptions remote;
+  std::string file;
+};
+int run_scene_create(const SceneCreateOptions& options, std::ostream& out, std::ostream& err);
+
+struct QueryCommandOptions {
+  RemoteOptions remote;
+  /// A scene id on the server, or a scene file (created first).
+  std::string scene;
+  std::vector<std::string> poses;  // OBJECT=tx,ty,tz[,qw,qx,qy,qz]
+  bool near_points = false;
+  std::string penetration;  // "", none, bound
+};
+int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct StreamCommandOptions {
+  RemoteOptions remote;
+  std::string scene;  // id or scene file
+  std::string trajectory;
+  std::size_t window = 32;
+  bool near_points = false;
+  std::string penetration;
+  /// Seconds between progress lines on `err` (human mode); 0: none.
+  double progress_every = 0.5;
+};
+int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct LoadCommandOptions {
+  RemoteOptions remote;
+  /// Empty: the demo scene and its path (registered here). Otherwise a scene (id or file) and a
+  /// trajectory replayed in a loop.
+  std::string scene, trajectory;
+  std::string nearpointd;  // when target is "local": a nearpointd child
+  int streams = 2;
+  double duration_s = 3;
+  std::size_t window = 1;  // 1: one update in flight per stream (latency); more: throughput
+  double progress_every = 0.5;
+};
+int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream& err);
+
+}  // namespace nearpoint::cli

@@ -1,0 +1,142 @@
+#include "remote_common.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+#ifdef NEARPOINT_WITH_MESH_IMPORT
+#include "nearpoint/client/mesh_import.hpp"
+#endif
+
+namespace nearpoint::cli {
+namespace {
+
+Json vec(const Eigen::Vector3d& v) {
+  return Json::array({v.x(), v.y(), v.z()});
+}
+
+}  // namespace
+
+int exit_code_for(const client::Status& status) {
+  if (status.ok()) return 0;
+  return status.code == client::kUnavailable || status.code == client::kDeadlineExceeded
+             ? kExitUnreachable
+             : kExitServerError;
+}
+
+std::string default_target() {
+  const char* env = std::getenv("NEARPOINT_TARGET");
+  return env != nullptr && *env != '\0' ? env : "127.0.0.1:50051";
+}
+
+bool have_mesh_import() {
+#ifdef NEARPOINT_WITH_MESH_IMPORT
+  return true;
+#else
+  return false;
+#endif
+}
+
+formats::MeshLoader mesh_loader() {
+  return [](const formats::MeshRequest& request,
+            std::vector<server::PieceInput>& pieces) -> std::string {
+#ifdef NEARPOINT_WITH_MESH_IMPORT
+    client::MeshImportOptions options;
+    options.merge_parts = request.merge;
+    options.scale = request.scale;
+    for (const std::filesystem::path& file : request.files) {
+      const client::MeshImport imported = client::import_mesh(file, options);
+      if (!imported.ok()) return imported.error;
+      for (const client::ConvexPiece& piece : imported.pieces)
+        pieces.push_back(client::polytope_piece(piece.vertices));
+    }
+    return {};
+#else
+    (void)request;
+    (void)pieces;
+    return "this nearpoint was built without mesh import (assimp); give the pieces as SHAPEs";
+#endif
+  };
+}
+
+Json to_json(const client::GeometryInfo& info) {
+  Json out;
+  out["geometry_id"] = info.geometry_id;
+  out["name"] = info.name;
+  out["piece_count"] = info.piece_count;
+  out["vertex_count"] = info.vertex_count;
+  out["bounding_center"] = vec(info.bounding_center);
+  out["bounding_radius"] = info.bounding_radius;
+  return out;
+}
+
+Json to_json(const client::Report& report) {
+  Json out;
+  out["sequence"] = report.sequence;
+  if (!report.error.ok()) {
+    out["error"] = {{"code", report.error.code_name()},
+                    {"field", report.error_field},
+                    {"message", report.error.message}};
+    return out;
+  }
+  Json pairs = Json::array();
+  for (const client::PairDistance& p : report.pairs) {
+    Json pair;
+    pair["object_a"] = p.object_a;
+    pair["object_b"] = p.object_b;
+    pair["status"] = client::to_string(p.status);
+    if (p.status == client::PairStatus::beyond_cutoff) {
+      pair["distance_lower_bound"] = p.distance_lower_bound;
+    } else {
+      pair["distance"] = p.distance;
+      pair["error_bound"] = p.error_bound;
+    }
+    pair["iterations"] = p.iterations;
+    pair["warm_started"] = p.warm_started;
+    if (p.near_points) {
+      pair["point_a"] = vec(p.near_points->point_a);
+      pair["point_b"] = vec(p.near_points->point_b);
+      pair["normal"] = vec(p.near_points->normal);
+    }
+    if (p.penetration_bound) pair["penetration_bound"] = *p.penetration_bound;
+    if (!p.message.empty()) pair["message"] = p.message;
+    pairs.push_back(std::move(pair));
+  }
+  out["pairs"] = std::move(pairs);
+  out["server_us"] = report.timing.server_us;
+  out["geometry_us"] = report.timing.geometry_us;
+  if (report.coalesced_updates > 0) out["coalesced_updates"] = report.coalesced_updates;
+  return out;
+}
+
+bool parse_pose_argument(const std::string& text, client::ObjectPose& out, std::string& error) {
+  const auto equals = text.find('=');
+  if (equals == std::string::npos || equals == 0) {
+    error = "--pose " + text + ": expected OBJECT=tx,ty,tz[,qw,qx,qy,qz]";
+    return false;
+  }
+  std::vector<double> numbers;
+  std::istringstream input(text.substr(equals + 1));
+  std::string cell;
+  while (std::getline(input, cell, ',')) {
+    char* end = nullptr;
+    const double value = std::strtod(cell.c_str(), &end);
+    if (cell.empty() || end != cell.c_str() + cell.size() || !std::isfinite(value)) {
+      error = "--pose " + text + ": \"" + cell + "\" is not a finite number";
+      return false;
+    }
+    numbers.push_back(value);
+  }
+  if (numbers.size() != 3 && numbers.size() != 7) {
+    error = "--pose " + text + ": expected 3 numbers (translation) or 7 (and a quaternion w,x,y,z)";
+    return false;
+  }
+  out.object_id = text.substr(0, equals);
+  out.translation = Eigen::Vector3d(numbers[0], numbers[1], numbers[2]);
+  out.rotation = numbers.size() == 7
+                     ? Eigen::Quaterniond(numbers[3], numbers[4], numbers[5], numbers[6])
+                     : Eigen::Quaterniond::Identity();
+  return true;
+}
+
+}  // namespace nearpoint::cli

@@ -1,0 +1,45 @@
+// Shared by the server-facing verbs (register, scene, query, stream, load, demo): exit codes,
+// reports as JSON, mesh loading for geometry and scene files.
+#pragma once
+
+#include <chrono>
+#include <iosfwd>
+#include <string>
+
+#include "json_shapes.hpp"
+#include "nearpoint/client/client.hpp"
+#include "nearpoint/formats/scene_file.hpp"
+
+namespace nearpoint::cli {
+
+/// Exit codes of the server-facing verbs (also in `nearpoint --help` and the README).
+inline constexpr int kExitServerError = 1;  ///< the server answered with an error (message printed)
+inline constexpr int kExitBadInput = 2;     ///< bad command line, unreadable or malformed file
+inline constexpr int kExitUnreachable = 3;  ///< no server (UNAVAILABLE, DEADLINE_EXCEEDED), or
+                                            ///< nearpointd could not be started
+
+/// The exit code for a failed call: 3 when the server could not be reached, else 1.
+int exit_code_for(const client::Status& status);
+
+/// The default --target: $NEARPOINT_TARGET, else 127.0.0.1:50051.
+std::string default_target();
+
+/// Options shared by the server-facing verbs.
+struct RemoteOptions {
+  std::string target = default_target();
+  bool json = false;
+  std::chrono::milliseconds timeout{10000};
+};
+
+/// Mesh files → convex pieces (nearpoint_mesh_import), or an error when built without it.
+formats::MeshLoader mesh_loader();
+/// True when this build can read mesh files.
+bool have_mesh_import();
+
+Json to_json(const client::Report& report);
+Json to_json(const client::GeometryInfo& info);
+
+/// "arm=1,2,3" or "arm=1,2,3,w,x,y,z" (translation, then an optional quaternion).
+bool parse_pose_argument(const std::string& text, client::ObjectPose& out, std::string& error);
+
+}  // namespace nearpoint::cli

@@ -1,0 +1,408 @@
+#include "nearpoint/formats/scene_file.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#ifdef NEARPOINT_WITH_YAML
+#include <yaml-cpp/yaml.h>
+#endif
+
+namespace nearpoint::formats {
+namespace {
+
+std::string quoted(const std::string& path) {
+  return "\"" + path + "\"";
+}
+
+std::string member(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+
+std::string element(const std::string& path, std::size_t index) {
+  return path + "[" + std::to_string(index) + "]";
+}
+
+std::string unknown_key(const std::string& path, const std::string& key, const char* allowed) {
+  return quoted(path) + " has the unknown key " + Json(key).dump() + " (allowed: " + allowed + ")";
+}
+
+std::string read_string(const Json& value, const std::string& path, std::string& out) {
+  if (!value.is_string())
+    return quoted(path) + " must be a string (got " + describe_type(value) + ")";
+  out = value.get<std::string>();
+  return {};
+}
+
+std::string read_bool(const Json& value, const std::string& path, bool& out) {
+  if (!value.is_boolean())
+    return quoted(path) + " must be true or false (got " + describe_type(value) + ")";
+  out = value.get<bool>();
+  return {};
+}
+
+std::string read_uint32(const Json& value, const std::string& path, std::uint32_t& out) {
+  if (!value.is_number_unsigned() && !(value.is_number_integer() && value.get<long long>() >= 0))
+    return quoted(path) + " must be an integer in [0, 4294967295] (got " + value.dump() + ")";
+  const auto n = value.get<unsigned long long>();
+  if (n > 0xFFFFFFFFull) return quoted(path) + " must be at most 4294967295";
+  out = std::uint32_t(n);
+  return {};
+}
+
+std::string read_pieces(const Json& value, const std::string& path,
+                        std::vector<server::PieceInput>& out) {
+  if (!value.is_array() || value.empty())
+    return quoted(path) + " must be a non-empty array of SHAPEs (got " + describe_type(value) + ")";
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    ShapeSpec spec;
+    if (std::string error = parse_shape_spec(value[i], element(path, i), spec); !error.empty())
+      return error;
+    out.push_back(to_piece(spec));
+  }
+  return {};
+}
+
+std::string read_mesh(const Json& value, const std::string& path,
+                      const std::filesystem::path& base_dir, const MeshLoader& meshes,
+                      std::vector<server::PieceInput>& out) {
+  MeshRequest request;
+  for (const auto& [key, part] : value.items()) {
+    const std::string field = member(path, key);
+    if (key == "mesh") {
+      std::vector<std::string> names;
+      if (part.is_string()) {
+        names.push_back(part.get<std::string>());
+      } else if (part.is_array() && !part.empty()) {
+        for (std::size_t i = 0; i < part.size(); ++i) {
+          std::string name;
+          if (std::string error = read_string(part[i], element(field, i), name); !error.empty())
+            return error;
+          names.push_back(name);
+        }
+      } else {
+        return quoted(field) + " must be a file name or a non-empty array of them";
+      }
+      for (const std::string& name : names) {
+        const std::filesystem::path file(name);
+        request.files.push_back(file.is_absolute() ? file : base_dir / file);
+      }
+    } else if (key == "scale") {
+      if (!part.is_number() || !(part.get<double>() > 0) || !std::isfinite(part.get<double>()))
+        return quoted(field) + " must be a positive number";
+      request.scale = part.get<double>();
+    } else if (key == "merge") {
+      if (std::string error = read_bool(part, field, request.merge); !error.empty()) return error;
+    } else if (key != "name") {
+      return unknown_key(path, key, "mesh, scale, merge, name");
+    }
+  }
+  if (!meshes)
+    return quoted(path) +
+           ": mesh files are not read here; register meshes with `nearpoint register` or "
+           "`nearpoint scene create`, or give the pieces as SHAPEs";
+  if (std::string error = meshes(request, out); !error.empty()) return quoted(path) + ": " + error;
+  return {};
+}
+
+bool read_pair_list(const Json& value, const std::string& path,
+                    std::vector<std::pair<std::string, std::string>>& out, std::string& error) {
+  if (!value.is_array()) {
+    error = quoted(path) + " must be an array of [\"a\", \"b\"] pairs";
+    return false;
+  }
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    const Json& pair = value[i];
+    if (!pair.is_array() || pair.size() != 2 || !pair[0].is_string() || !pair[1].is_string()) {
+      error = quoted(element(path, i)) + " must be a pair of object ids [\"a\", \"b\"]";
+      return false;
+    }
+    out.emplace_back(pair[0].get<std::string>(), pair[1].get<std::string>());
+  }
+  return true;
+}
+
+std::string parse_scene_or_throw(const Json& value, const std::filesystem::path& base_dir,
+                                 const MeshLoader& meshes, SceneFile& out) {
+  if (!value.is_object())
+    return "a scene file must hold an object (got " + describe_type(value) + ")";
+  SceneFile file;
+  for (const auto& [key, part] : value.items()) {
+    if (key == "id") {
+      if (std::string error = read_string(part, "id", file.scene.requested_id); !error.empty())
+        return error;
+    } else if (key == "name") {
+      if (std::string error = read_string(part, "name", file.scene.name); !error.empty())
+        return error;
+    } else if (key != "geometries" && key != "objects" && key != "pairs" && key != "options") {
+      return unknown_key("", key, "id, name, geometries, objects, pairs, options");
+    }
+  }
+  if (value.contains("geometries")) {
+    const Json& geometries = value["geometries"];
+    if (!geometries.is_object())
+      return "\"geometries\" must be an object {\"NAME\": GEOMETRY, ...}";
+    for (const auto& [name, geometry] : geometries.items()) {
+      server::GeometryInput input;
+      if (std::string error =
+              parse_geometry(geometry, member("geometries", name), base_dir, meshes, input);
+          !error.empty())
+        return error;
+      if (input.name.empty()) input.name = name;
+      file.geometries.emplace_back(name, std::move(input));
+    }
+  }
+  if (!value.contains("objects") || !value["objects"].is_array() || value["objects"].empty())
+    return "\"objects\" must be a non-empty array of objects";
+  const Json& objects = value["objects"];
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    const Json& object = objects[i];
+    const std::string path = element("objects", i);
+    if (!object.is_object()) return quoted(path) + " must be an object";
+    server::ObjectInput input;
+    std::string geometry_name;
+    for (const auto& [key, part] : object.items()) {
+      const std::string field = member(path, key);
+      std::string error;
+      if (key == "id") {
+        error = read_string(part, field, input.id);
+      } else if (key == "geometry") {
+        error = read_string(part, field, geometry_name);
+      } else if (key == "geometry_id") {
+        error = read_string(part, field, input.geometry_id);
+      } else if (key == "pose") {
+        Vec3<double> translation;
+        error = parse_pose_parts(part, field, input.pose.rotation_wxyz, translation);
+        input.pose.translation = translation;
+      } else if (key == "group" || key == "mask") {
+        std::uint32_t bits = 0;
+        error = read_uint32(part, field, bits);
+        (key == "group" ? input.group : input.mask) = bits;
+      } else {
+        error = unknown_key(path, key, "id, geometry, geometry_id, pose, group, mask");
+      }
+      if (!error.empty()) return error;
+    }
+    if (input.id.empty()) return quoted(member(path, "id")) + " is missing (a non-empty string)";
+    if (geometry_name.empty() == input.geometry_id.empty())
+      return quoted(path) +
+             " must name exactly one of \"geometry\" (a key of \"geometries\") and "
+             "\"geometry_id\" (a geometry already registered on the server)";
+    if (!geometry_name.empty()) {
+      bool known = false;
+      for (const auto& [name, ignored] : file.geometries) known = known || name == geometry_name;
+      if (!known)
+        return quoted(member(path, "geometry")) + ": no geometry " + Json(geometry_name).dump() +
+               " in \"geometries\"";
+    }
+    file.geometry_names.push_back(geometry_name);
+    file.scene.objects.push_back(std::move(input));
+  }
+  if (value.contains("pairs")) {
+    const Json& pairs = value["pairs"];
+    auto& selection = file.scene.pair_selection;
+    std::string error;
+    if (pairs.is_string() && pairs.get<std::string>() == "all") {
+      selection.mode = server::PairSelectionInput::Mode::all_pairs;
+    } else if (pairs.is_object() && pairs.size() == 1 && pairs.contains("listed")) {
+      selection.mode = server::PairSelectionInput::Mode::listed_pairs;
+      if (!read_pair_list(pairs["listed"], "pairs.listed", selection.pairs, error)) return error;
+    } else if (pairs.is_object() && pairs.size() == 1 && pairs.contains("excluded")) {
+      selection.mode = server::PairSelectionInput::Mode::excluded_pairs;
+      if (!read_pair_list(pairs["excluded"], "pairs.excluded", selection.pairs, error))
+        return error;
+    } else {
+      return "\"pairs\" must be \"all\", {\"listed\": [[\"a\",\"b\"], ...]} or "
+             "{\"excluded\": [[\"a\",\"b\"], ...]}";
+    }
+  }
+  if (value.contains("options")) {
+    if (std::string error =
+            parse_query_options(value["options"], "options", file.scene.default_options);
+        !error.empty())
+      return error;
+  }
+  out = std::move(file);
+  return {};
+}
+
+#ifdef NEARPOINT_WITH_YAML
+// YAML → JSON: plain scalars become numbers or booleans when they read as such (YAML 1.2's core
+// schema), quoted scalars stay strings.
+Json yaml_to_json(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Null:
+    case YAML::NodeType::Undefined:
+      return nullptr;
+    case YAML::NodeType::Sequence: {
+      Json array = Json::array();
+      for (const YAML::Node& item : node) array.push_back(yaml_to_json(item));
+      return array;
+    }
+    case YAML::NodeType::Map: {
+      Json object = Json::object();
+      for (const auto& item : node)
+        object[item.first.as<std::string>()] = yaml_to_json(item.second);
+      return object;
+    }
+    case YAML::NodeType::Scalar:
+      break;
+  }
+  const std::string text = node.Scalar();
+  if (node.Tag() == "!") return text;  // quoted
+  if (text == "true" || text == "True" || text == "TRUE") return true;
+  if (text == "false" || text == "False" || text == "FALSE") return false;
+  if (text == "null" || text == "~") return nullptr;
+  const Json number = Json::parse(text, nullptr, false);
+  if (!number.is_discarded() && number.is_number()) return number;
+  return text;
+}
+#endif
+
+}  // namespace
+
+server::PieceInput to_piece(const ShapeSpec& spec) {
+  server::PieceInput piece;
+  std::visit(
+      [&](const auto& geometry) {
+        using G = std::decay_t<decltype(geometry)>;
+        if constexpr (std::is_same_v<G, std::vector<Vec3<double>>>)
+          piece.shape = server::PolytopeInput{geometry};
+        else
+          piece.shape = geometry;
+      },
+      spec.geometry);
+  piece.radius = spec.radius;
+  piece.offset.rotation_wxyz = spec.rotation_wxyz;
+  piece.offset.translation = spec.translation;
+  return piece;
+}
+
+std::string parse_query_options(const Json& value, const std::string& path,
+                                server::QueryOptionsInput& out) {
+  if (!value.is_object()) return quoted(path) + " must be an object";
+  server::QueryOptionsInput options;
+  for (const auto& [key, part] : value.items()) {
+    const std::string field = member(path, key);
+    std::string error;
+    bool flag = false;
+    if (key == "epsilon" || key == "distance_cutoff") {
+      if (!part.is_number()) return quoted(field) + " must be a number";
+      (key == "epsilon" ? options.epsilon : options.distance_cutoff) = part.get<double>();
+    } else if (key == "near_points" || key == "gradient" || key == "warm_start") {
+      if (error = read_bool(part, field, flag); !error.empty()) return error;
+      (key == "near_points" ? options.near_points
+       : key == "gradient"  ? options.gradient
+                            : options.warm_start) = flag;
+    } else if (key == "penetration") {
+      std::string mode;
+      if (error = read_string(part, field, mode); !error.empty()) return error;
+      if (mode == "none")
+        options.penetration = server::PenetrationMode::none;
+      else if (mode == "bound")
+        options.penetration = server::PenetrationMode::bound;
+      else if (mode == "depth")
+        options.penetration = server::PenetrationMode::depth;
+      else
+        return quoted(field) + " must be \"none\", \"bound\" or \"depth\"";
+    } else if (key == "max_iterations") {
+      if (!part.is_number_unsigned()) return quoted(field) + " must be a positive integer";
+      options.max_iterations = part.get<std::uint64_t>();
+    } else {
+      return unknown_key(path, key,
+                         "epsilon, near_points, penetration, gradient, distance_cutoff, "
+                         "warm_start, max_iterations");
+    }
+  }
+  out = options;
+  return {};
+}
+
+std::string parse_geometry(const Json& value, const std::string& path,
+                           const std::filesystem::path& base_dir, const MeshLoader& meshes,
+                           server::GeometryInput& out) {
+  try {
+    server::GeometryInput geometry;
+    std::string error;
+    if (value.is_array()) {
+      error = read_pieces(value, path, geometry.pieces);
+    } else if (looks_like_shape(value)) {
+      ShapeSpec spec;
+      error = parse_shape_spec(value, path, spec);
+      if (error.empty()) geometry.pieces.push_back(to_piece(spec));
+    } else if (value.is_object() && value.contains("mesh")) {
+      error = read_mesh(value, path, base_dir, meshes, geometry.pieces);
+      if (error.empty() && value.contains("name") && value["name"].is_string())
+        geometry.name = value["name"].get<std::string>();
+    } else if (value.is_object() && value.contains("pieces")) {
+      for (const auto& [key, part] : value.items()) {
+        if (key == "name")
+          error = read_string(part, member(path, "name"), geometry.name);
+        else if (key == "pieces")
+          error = read_pieces(part, member(path, "pieces"), geometry.pieces);
+        else
+          error = unknown_key(path, key, "name, pieces");
+        if (!error.empty()) break;
+      }
+    } else {
+      error = quoted(path) +
+              " must be a GEOMETRY: a SHAPE, an array of SHAPEs, {\"pieces\": [SHAPE, ...]} or "
+              "{\"mesh\": FILE}";
+    }
+    if (!error.empty()) return error;
+    out = std::move(geometry);
+    return {};
+  } catch (const std::exception& e) {
+    return quoted(path) + ": " + e.what();
+  }
+}
+
+std::string parse_scene(const Json& value, const std::filesystem::path& base_dir,
+                        const MeshLoader& meshes, SceneFile& out) {
+  try {
+    return parse_scene_or_throw(value, base_dir, meshes, out);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+}
+
+std::string read_structured_file(const std::filesystem::path& file, Json& out) {
+  std::ifstream input(file, std::ios::binary);
+  if (!input) return "cannot open " + file.string() + ": " + std::strerror(errno);
+  std::ostringstream text;
+  text << input.rdbuf();
+  const std::string extension = file.extension().string();
+  if (extension == ".yaml" || extension == ".yml") {
+#ifdef NEARPOINT_WITH_YAML
+    try {
+      out = yaml_to_json(YAML::Load(text.str()));
+      return {};
+    } catch (const YAML::Exception& e) {
+      return file.string() + ": line " + std::to_string(e.mark.line + 1) + ": " + e.msg;
+    }
+#else
+    return file.string() + ": YAML files need nearpoint built with yaml-cpp (libyaml-cpp-dev)";
+#endif
+  }
+  try {
+    out = Json::parse(text.str());
+  } catch (const Json::parse_error& e) {
+    return file.string() + ": not valid JSON: " + e.what();
+  }
+  return {};
+}
+
+std::string load_scene_file(const std::filesystem::path& file, const MeshLoader& meshes,
+                            SceneFile& out) {
+  Json value;
+  if (std::string error = read_structured_file(file, value); !error.empty()) return error;
+  if (std::string error = parse_scene(value, file.parent_path(), meshes, out); !error.empty())
+    return file.string() + ": " + error;
+  return {};
+}
+
+}  // namespace nearpoint::formats

@@ -1,0 +1,29 @@
+#include "scene_file.hpp"
+
+#include <map>
+
+#include "nearpoint/formats/scene_file.hpp"
+
+namespace nearpoint::server {
+
+Expected<SceneInfo> preload_scene_file(SceneService& service, const std::string& path) {
+  formats::SceneFile file;
+  if (std::string error = formats::load_scene_file(path, /*meshes=*/{}, file); !error.empty())
+    return invalid_argument("", error);
+  std::map<std::string, std::string> ids;
+  for (const auto& [name, geometry] : file.geometries) {
+    Expected<GeometryInfo> info = service.register_geometry(geometry);
+    if (!info)
+      return Error{info.error().code, "",
+                   path + ": geometries." + name + ": " + info.error().describe()};
+    ids[name] = info->geometry_id;
+  }
+  for (std::size_t i = 0; i < file.scene.objects.size(); ++i)
+    if (!file.geometry_names[i].empty())
+      file.scene.objects[i].geometry_id = ids.at(file.geometry_names[i]);
+  Expected<SceneInfo> scene = service.create_scene(file.scene);
+  if (!scene) return Error{scene.error().code, "", path + ": " + scene.error().describe()};
+  return scene;
+}
+
+}  // namespace nearpoint::server

@@ -1,0 +1,524 @@
+// nearpoint::client and the server-facing `nearpoint` verbs against real nearpointd processes on
+// 127.0.0.1 (started by LocalServer, the same helper `nearpoint demo` uses). Truths come from the
+// core engine called directly in the test, or from plain geometry.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+#include <stdio.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "demo.hpp"
+#include "local_server.hpp"
+#include "nearpoint/client/client.hpp"
+#include "nearpoint/compound.hpp"
+#include "nearpoint/distance.hpp"
+#include "nearpoint/formats/scene_file.hpp"
+#include "nearpoint/scenes/moving_object.hpp"
+#include "remote_commands.hpp"
+#include "trajectory.hpp"
+
+namespace nearpoint::cli {
+namespace {
+
+using client::Clock;
+using std::chrono::seconds;
+
+// A per-process, per-test path ending in `name` (so that its extension is name's).
+std::filesystem::path temp_file(const std::string& name) {
+  return std::filesystem::temp_directory_path() /
+         (std::to_string(getpid()) + "." +
+          ::testing::UnitTest::GetInstance()->current_test_info()->name() + "." + name);
+}
+
+const std::filesystem::path kSource = NEARPOINT_SOURCE_DIR;
+
+class WithServer : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    server_ = new LocalServer;
+    const std::string error = server_->start(NEARPOINTD_PATH, 0, {"--workers", "2"});
+    ASSERT_EQ(error, "");
+  }
+  static void TearDownTestSuite() {
+    EXPECT_EQ(server_->stop(), 0) << server_->log();
+    delete server_;
+  }
+  RemoteOptions remote(bool json = true) const {
+    RemoteOptions options;
+    options.target = server_->target();
+    options.json = json;
+    return options;
+  }
+  static LocalServer* server_;
+};
+LocalServer* WithServer::server_ = nullptr;
+
+Json parse_json(const std::string& text) {
+  Json value = Json::parse(text, nullptr, false);
+  EXPECT_FALSE(value.is_discarded()) << text;
+  return value;
+}
+
+// ---- the demo ----
+
+// The truth: the engine on the same scene, step by step; contact intervals as step indices.
+struct TruthInterval {
+  int t0, t1;
+};
+std::vector<std::vector<TruthInterval>> engine_intervals(int steps, std::vector<double>& minima) {
+  const scenes::MovingObjectScene scene = scenes::moving_object_scene();
+  std::vector<std::vector<TruthInterval>> out(5);
+  minima.assign(5, 1e300);
+  for (std::size_t k = 0; k < 5; ++k) {
+    bool inside = false;
+    for (int t = 0; t <= steps; ++t) {
+      const auto r = distance(scene.object, scene.pose_at(double(t) / steps), scene.obstacles[k],
+                              scene.obstacle_poses[k]);
+      minima[k] = std::min(minima[k], r.nearest.distance);
+      const bool hit = r.nearest.status == Status::intersecting;
+      if (hit && !inside) out[k].push_back({t, t});
+      if (hit) out[k].back().t1 = t;
+      inside = hit;
+    }
+  }
+  return out;
+}
+
+void expect_demo_matches_engine(const Json& result, int steps) {
+  std::vector<double> minima;
+  const auto truth = engine_intervals(steps, minima);
+  ASSERT_EQ(result["steps"], steps);
+  ASSERT_EQ(result["obstacles"].size(), 5u);
+  int colliding = 0;
+  for (std::size_t k = 0; k < 5; ++k) {
+    const Json& obstacle = result["obstacles"][k];
+    EXPECT_EQ(obstacle["object_id"], "K" + std::to_string(k + 1));
+    EXPECT_NEAR(obstacle["min_distance"].get<double>(), minima[k], 1e-9) << obstacle.dump();
+    const Json& collisions = obstacle["collisions"];
+    ASSERT_EQ(collisions.size(), truth[k].size()) << obstacle.dump();
+    for (std::size_t i = 0; i < truth[k].size(); ++i) {
+      EXPECT_DOUBLE_EQ(collisions[i]["s0"].get<double>(), double(truth[k][i].t0) / steps);
+      EXPECT_DOUBLE_EQ(collisions[i]["s1"].get<double>(), double(truth[k][i].t1) / steps);
+      EXPECT_GT(collisions[i]["max_penetration_bound"].get<double>(), 0);
+    }
+    colliding += truth[k].empty() ? 0 : 1;
+  }
+  // The scene's promise (as in the paper): the object passes through K3 and K5 only.
+  EXPECT_EQ(colliding, 2);
+  EXPECT_FALSE(result["obstacles"][2]["collisions"].empty());
+  EXPECT_FALSE(result["obstacles"][4]["collisions"].empty());
+  EXPECT_TRUE(result["warm_cold_agree"].get<bool>());
+  EXPECT_GT(result["table1"]["warm_geometry_us"].get<double>(), 0);
+  EXPECT_GT(result["table1"]["single_point_geometry_us"].get<double>(), 0);
+}
+
+TEST_F(WithServer, DemoFindsTheCollisionsTheEngineFinds) {
+  DemoOptions options;
+  options.target = server_->target();
+  options.steps = 100;
+  options.json = true;
+  options.plot_path = temp_file("demo.svg").string();
+  std::ostringstream out, err;
+  ASSERT_EQ(run_demo(options, out, err), 0) << err.str();
+  const Json result = parse_json(out.str());
+  expect_demo_matches_engine(result, 100);
+  std::ifstream plot(options.plot_path);
+  std::stringstream svg;
+  svg << plot.rdbuf();
+  std::size_t curves = 0;
+  for (std::size_t at = 0; (at = svg.str().find("<polyline", at)) != std::string::npos; ++at)
+    ++curves;
+  EXPECT_EQ(curves, 5u);
+  std::filesystem::remove(options.plot_path);
+}
+
+// The README's first command: `nearpoint demo` starts its own nearpointd. Through the binary.
+TEST(DemoProcess, TheBinaryStartsItsOwnServerAndReports) {
+  const std::string command = std::string(NEARPOINT_PATH) +
+                              " demo --steps 40 --json --plot - --nearpointd " + NEARPOINTD_PATH +
+                              " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string output;
+  char buffer[4096];
+  while (std::size_t n = fread(buffer, 1, sizeof buffer, pipe)) output.append(buffer, n);
+  const int status = pclose(pipe);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 0) << output;
+  expect_demo_matches_engine(parse_json(output), 40);
+}
+
+TEST(DemoProcess, AnUnreachableTargetExitsWith3) {
+  DemoOptions options;
+  options.target = "127.0.0.1:1";
+  options.steps = 5;
+  options.plot_path = "-";
+  std::ostringstream out, err;
+  EXPECT_EQ(run_demo(options, out, err), kExitUnreachable);
+  EXPECT_NE(err.str().find("UNAVAILABLE"), std::string::npos) << err.str();
+}
+
+// ---- the client library ----
+
+client::Geometry box_geometry(const Eigen::Vector3d& half) {
+  client::Geometry geometry;
+  geometry.name = "box";
+  client::Piece piece;
+  piece.shape = Box<double>{half};
+  geometry.pieces.push_back(piece);
+  return geometry;
+}
+
+TEST_F(WithServer, ErrorsAreValuesCarryingTheServersMessage) {
+  auto client = client::Client::connect(server_->target());
+  client::Geometry bad;
+  bad.pieces.push_back(client::polytope_piece({{0, 0, 0}, {std::nan(""), 0, 0}}));
+  auto registered = client->register_geometry(bad);
+  ASSERT_FALSE(registered.ok());
+  EXPECT_EQ(registered.status().code_name(), "INVALID_ARGUMENT");
+  EXPECT_NE(registered.status().message.find("geometry.pieces[0]"), std::string::npos)
+      << registered.status().message;
+  auto query = client->query("no-such-scene", {});
+  ASSERT_FALSE(query.ok());
+  EXPECT_EQ(query.status().code_name(), "NOT_FOUND");
+}
+
+TEST_F(WithServer, QueryAgreesWithTheEngine) {
+  auto client = client::Client::connect(server_->target());
+  auto a = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
+  client::Geometry capsule;
+  client::Piece rod;
+  rod.shape = Segment<double>{{0, 0, -1}, {0, 0, 1}};
+  rod.radius = 0.25;
+  capsule.pieces.push_back(rod);
+  auto b = client->register_geometry(capsule);
+  ASSERT_TRUE(a.ok() && b.ok());
+  client::Scene scene;
+  scene.objects = {{"box", a->geometry_id, {}, {}, {}}, {"rod", b->geometry_id, {}, {}, {}}};
+  auto created = client->create_scene(scene);
+  ASSERT_TRUE(created.ok()) << created.status().describe();
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
+  const Eigen::Vector3d t(2.0, 0.3, -0.2);
+  auto report = client->query(created->scene_id, {client::ObjectPose("rod", q, t)});
+  ASSERT_TRUE(report.ok()) << report.status().describe();
+  ASSERT_EQ(report->pairs.size(), 1u);
+  const auto truth = distance(
+      Shape<double>(Box<double>{Eigen::Vector3d(0.5, 0.5, 0.5)}), Pose<double>::identity(),
+      Shape<double>::capsule({0, 0, -1}, {0, 0, 1}, 0.25), Pose<double>::from_quaternion(q, t));
+  EXPECT_NEAR(report->pairs[0].distance, truth.distance, 1e-12);
+  EXPECT_EQ(report->pairs[0].status, client::PairStatus::separated);
+}
+
+// Back-pressure: with nothing consumed, push blocks once the window is full (until its deadline).
+TEST_F(WithServer, PushBlocksWhileTheWindowIsFull) {
+  auto client = client::Client::connect(server_->target());
+  auto g = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
+  ASSERT_TRUE(g.ok());
+  client::Scene scene;
+  scene.objects = {{"a", g->geometry_id, {}, {}, {}}, {"b", g->geometry_id, {}, {}, {}}};
+  auto created = client->create_scene(scene);
+  ASSERT_TRUE(created.ok());
+  client::SessionOptions options;
+  options.max_in_flight = 2;
+  auto session = client->open_session(created->scene_id, options);
+  ASSERT_TRUE(session.ok());
+  const client::ObjectPose pose("a", Eigen::Isometry3d(Eigen::Translation3d(3, 0, 0)));
+  ASSERT_TRUE((*session)->push({pose}).ok());
+  ASSERT_TRUE((*session)->push({pose}).ok());
+  const auto before = Clock::now();
+  auto blocked = (*session)->push({pose}, Clock::now() + std::chrono::milliseconds(300));
+  ASSERT_FALSE(blocked.ok());
+  EXPECT_EQ(blocked.status().code, client::kDeadlineExceeded);
+  EXPECT_GE(Clock::now() - before, std::chrono::milliseconds(250));
+  for (std::uint64_t expected = 1; expected <= 2; ++expected) {
+    auto report = (*session)->next(Clock::now() + seconds(10));
+    ASSERT_TRUE(report.ok()) << report.status().describe();
+    EXPECT_EQ(report->sequence, expected);
+    EXPECT_NEAR(report->pairs.at(0).distance, 2.0, 1e-12);
+  }
+  auto third = (*session)->push({pose}, Clock::now() + seconds(10));
+  ASSERT_TRUE(third.ok());
+  EXPECT_EQ(*third, 3u);  // the refused push took no sequence number
+  EXPECT_TRUE((*session)->close(Clock::now() + seconds(10)).ok());
+  EXPECT_EQ((*session)->next(Clock::now() + seconds(10))->sequence, 3u);
+  EXPECT_EQ((*session)->next(Clock::now() + seconds(1)).status().code, client::kOutOfRange);
+}
+
+// Reconnect: the server is killed (no drain) and a new one started on the same port. The session
+// replays the geometries and the scene, re-sends the poses pushed before the drop (the new stream
+// starts from the initial poses), answers updates lost in the drop with UNAVAILABLE, and every
+// pushed update gets exactly one report, in order.
+TEST(SessionReconnect, ReplaysTheSceneOnARestartedServer) {
+  LocalServer first;
+  ASSERT_EQ(first.start(NEARPOINTD_PATH, 0, {"--workers", "1"}), "");
+  const int port = first.port();
+  auto client = client::Client::connect(first.target());
+  auto g = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
+  ASSERT_TRUE(g.ok());
+  client::Scene scene;
+  scene.objects = {{"a", g->geometry_id, {}, {}, {}}, {"b", g->geometry_id, {}, {}, {}}};
+  auto created = client->create_scene(scene);
+  ASSERT_TRUE(created.ok());
+  client::SessionOptions options;
+  options.max_in_flight = 4;
+  options.initial_backoff = std::chrono::milliseconds(20);
+  options.reconnect_timeout = std::chrono::milliseconds(20000);
+  auto session = client->open_session(created->scene_id, options);
+  ASSERT_TRUE(session.ok());
+  // b moves once, up along z; afterwards only a moves along x.
+  ASSERT_TRUE(
+      (*session)
+          ->push({client::ObjectPose("b", Eigen::Isometry3d(Eigen::Translation3d(0, 0, 5)))})
+          .ok());
+  auto report = (*session)->next(Clock::now() + seconds(10));
+  ASSERT_TRUE(report.ok() && report->error.ok());
+  EXPECT_NEAR(report->pairs[0].distance, 4.0, 1e-12);
+
+  first.kill_hard();
+  LocalServer second;
+  ASSERT_EQ(second.start(NEARPOINTD_PATH, port, {"--workers", "1"}), "") << "port " << port;
+
+  std::uint64_t expected_sequence = 2;
+  bool answered_after_restart = false;
+  std::size_t lost = 0;
+  const auto give_up = Clock::now() + seconds(30);
+  while (!answered_after_restart && Clock::now() < give_up) {
+    const client::ObjectPose a("a", Eigen::Isometry3d(Eigen::Translation3d(3, 0, 0)));
+    auto pushed = (*session)->push({a}, Clock::now() + seconds(25));
+    ASSERT_TRUE(pushed.ok()) << pushed.status().describe();
+    auto answer = (*session)->next(Clock::now() + seconds(25));
+    ASSERT_TRUE(answer.ok()) << answer.status().describe();
+    EXPECT_EQ(answer->sequence, expected_sequence++);
+    if (!answer->error.ok()) {
+      EXPECT_EQ(answer->error.code, client::kUnavailable) << answer->error.describe();
+      ++lost;
+      continue;
+    }
+    // a at (3,0,0), b at (0,0,5): both poses count, b's from before the drop.
+    const auto engine =
+        distance(Shape<double>(Box<double>{Eigen::Vector3d(0.5, 0.5, 0.5)}),
+                 Pose<double>::from_quaternion(Eigen::Quaterniond::Identity(), {3, 0, 0}),
+                 Shape<double>(Box<double>{Eigen::Vector3d(0.5, 0.5, 0.5)}),
+                 Pose<double>::from_quaternion(Eigen::Quaterniond::Identity(), {0, 0, 5}));
+    EXPECT_NEAR(answer->pairs.at(0).distance, engine.distance, 1e-12);
+    answered_after_restart = true;
+  }
+  EXPECT_TRUE(answered_after_restart);
+  EXPECT_GE((*session)->reconnects(), 1u);
+  EXPECT_LE(lost, 1u);  // at most the one update in flight at the drop
+  EXPECT_TRUE((*session)->close(Clock::now() + seconds(10)).ok());
+  EXPECT_EQ(second.stop(), 0);
+}
+
+// ---- nearpointd --scene ----
+
+TEST(NearpointdScene, PreloadsTheSceneUnderItsIdAndRefusesTheIdTwice) {
+  const std::filesystem::path file = temp_file("scene.json");
+  std::ofstream(file) << R"({"id": "preloaded", "geometries": {"ball": {"sphere": {}, "radius": 1}},
+    "objects": [{"id": "a", "geometry": "ball"},
+                {"id": "b", "geometry": "ball", "pose": {"translation": [5, 0, 0]}}]})";
+  LocalServer server;
+  ASSERT_EQ(server.start(NEARPOINTD_PATH, 0, {"--scene", file.string()}), "");
+  auto client = client::Client::connect(server.target());
+  auto report = client->query("preloaded", {});
+  ASSERT_TRUE(report.ok()) << report.status().describe();
+  EXPECT_NEAR(report->pairs.at(0).distance, 3.0, 1e-12);
+  auto g = client->register_geometry(box_geometry({1, 1, 1}));
+  ASSERT_TRUE(g.ok());
+  client::Scene again;
+  again.requested_id = "preloaded";
+  again.objects = {{"x", g->geometry_id, {}, {}, {}}};
+  auto duplicate = client->create_scene(again);
+  ASSERT_FALSE(duplicate.ok());
+  EXPECT_EQ(duplicate.status().code_name(), "ALREADY_EXISTS");
+  EXPECT_EQ(server.stop(), 0);
+
+  // A bad scene file stops the start with a message naming the field.
+  std::ofstream(file) << R"({"objects": [{"id": "a", "geometry": "nope"}]})";
+  LocalServer refused;
+  const std::string error = refused.start(NEARPOINTD_PATH, 0, {"--scene", file.string()});
+  EXPECT_NE(error.find("objects[0].geometry"), std::string::npos) << error;
+  std::filesystem::remove(file);
+}
+
+// ---- scene files ----
+
+TEST(SceneFile, ErrorsNameTheField) {
+  struct Case {
+    const char* text;
+    const char* needle;
+  };
+  const Case cases[] = {
+      {R"({"objects": []})", "\"objects\" must be a non-empty array"},
+      {R"({"objects": [{"id": "a", "geometry": "g"}]})",
+       "objects[0].geometry\": no geometry \"g\""},
+      {R"({"geometries": {"g": {"box": [1,1]}}, "objects": [{"id": "a", "geometry": "g"}]})",
+       "geometries.g.box"},
+      {R"({"geometries": {"g": {"box": [1,1,1]}}, "objects": [{"id": "a", "geometry": "g", "colour": 1}]})",
+       "unknown key \"colour\""},
+      {R"({"geometries": {"g": {"box": [1,1,1]}}, "objects": [{"id": "a", "geometry": "g"}], "pairs": "some"})",
+       "\"pairs\" must be"},
+      {R"({"geometries": {"g": {"box": [1,1,1]}}, "objects": [{"id": "a", "geometry": "g", "pose": {"rotation": [2,0,0,0]}}]})",
+       "objects[0].pose"},
+      {R"({"geometries": {"g": {"mesh": "x.obj"}}, "objects": [{"id": "a", "geometry": "g"}]})",
+       "mesh files are not read here"},
+  };
+  for (const Case& c : cases) {
+    formats::SceneFile out;
+    const std::string error = formats::parse_scene(Json::parse(c.text), ".", {}, out);
+    EXPECT_NE(error.find(c.needle), std::string::npos) << "got: " << error << "\nfor: " << c.text;
+  }
+}
+
+TEST(SceneFile, YamlReadsLikeJson) {
+  const std::filesystem::path yaml = temp_file("scene.yaml");
+  std::ofstream(yaml) << "id: cell\ngeometries:\n  g: {box: [1, 1, 1]}\nobjects:\n"
+                         "  - {id: a, geometry: g}\n  - id: b\n    geometry: g\n"
+                         "    pose: {translation: [3, 0, 0.5]}\npairs: all\n"
+                         "options: {near_points: true, penetration: bound}\n";
+  formats::SceneFile file;
+  const std::string error = formats::load_scene_file(yaml, {}, file);
+  std::filesystem::remove(yaml);
+  if (error.find("YAML files need") != std::string::npos) GTEST_SKIP() << error;
+  ASSERT_EQ(error, "");
+  EXPECT_EQ(file.scene.requested_id, "cell");
+  ASSERT_EQ(file.scene.objects.size(), 2u);
+  EXPECT_EQ(file.scene.objects[1].pose.translation, Eigen::Vector3d(3, 0, 0.5));
+  EXPECT_EQ(file.scene.default_options.near_points, true);
+  EXPECT_EQ(file.scene.default_options.penetration, server::PenetrationMode::bound);
+}
+
+// ---- the CLI verbs ----
+
+TEST_F(WithServer, RegisterReadsMeshesAndJsonGeometries) {
+  RegisterOptions options;
+  options.remote = remote();
+  options.files = {(kSource / "tests/data/cube.obj").string()};
+  std::ostringstream out, err;
+  ASSERT_EQ(run_register(options, out, err), 0) << err.str();
+  Json info = parse_json(out.str());
+  EXPECT_EQ(info["piece_count"], 1);
+  EXPECT_EQ(info["vertex_count"], 8);  // the face centres of cube.obj are not hull vertices
+  EXPECT_NEAR(info["bounding_radius"].get<double>(), std::sqrt(3.0), 1e-9);
+
+  // Several files and parts: one compound geometry with a piece per part.
+  options.files = {(kSource / "tests/data/two_parts.obj").string(),
+                   (kSource / "tests/data/tetra_binary.stl").string()};
+  options.name = "combo";
+  out.str("");
+  ASSERT_EQ(run_register(options, out, err), 0) << err.str();
+  info = parse_json(out.str());
+  EXPECT_EQ(info["name"], "combo");
+  EXPECT_EQ(info["piece_count"], 3);
+
+  // A non-convex star prism becomes its convex hull: the 8 tips of its 16 vertices, and a point
+  // beyond the tips' square |x| + |y| <= 2 is (3 - 2)/sqrt(2) from it (farther from the star).
+  options.files = {(kSource / "tests/data/star_prism.obj").string()};
+  options.name.clear();
+  out.str("");
+  ASSERT_EQ(run_register(options, out, err), 0) << err.str();
+  EXPECT_EQ(parse_json(out.str())["vertex_count"], 8);
+  const std::filesystem::path scene = temp_file("star.json");
+  std::ofstream(scene) << R"({"geometries": {"star": {"mesh": ")"
+                       << (kSource / "tests/data/star_prism.obj").string()
+                       << R"("}, "dot": {"sphere": {}}},
+      "objects": [{"id": "star", "geometry": "star"},
+                  {"id": "dot", "geometry": "dot", "pose": {"translation": [1.5, 1.5, 0.5]}}]})";
+  QueryCommandOptions query;
+  query.remote = remote();
+  query.scene = scene.string();
+  out.str("");
+  ASSERT_EQ(run_query(query, out, err), 0) << err.str();
+  EXPECT_NEAR(parse_json(out.str())["pairs"][0]["distance"].get<double>(), 1 / std::sqrt(2.0),
+              1e-12);
+  std::filesystem::remove(scene);
+
+  const std::filesystem::path json = temp_file("geometry.json");
+  std::ofstream(json)
+      << R"({"name": "pin", "pieces": [{"segment": [[0,0,0],[0,0,1]], "radius": 0.1}]})";
+  options.files = {json.string()};
+  options.name.clear();
+  out.str("");
+  ASSERT_EQ(run_register(options, out, err), 0) << err.str();
+  EXPECT_EQ(parse_json(out.str())["name"], "pin");
+  std::ofstream(json) << R"({"pieces": [{"segment": [[0,0,0]]}]})";
+  err.str("");
+  EXPECT_EQ(run_register(options, out, err), kExitBadInput);
+  EXPECT_NE(err.str().find("geometry.pieces[0].segment"), std::string::npos) << err.str();
+  std::filesystem::remove(json);
+}
+
+TEST_F(WithServer, SceneCreateQueryAndStreamAgreeWithGeometry) {
+  // The example scene: the gripper's lowest point is 0.08 below its origin, the table's top at
+  // z = 0.02.
+  std::ostringstream out, err;
+  QueryCommandOptions query;
+  query.remote = remote();
+  query.scene = (kSource / "examples/scene.json").string();  // created on the fly
+  query.poses = {"gripper=0,0,0.3"};
+  ASSERT_EQ(run_query(query, out, err), 0) << err.str();
+  Json report = parse_json(out.str());
+  EXPECT_EQ(report["scene_id"], "cell-1");
+  ASSERT_EQ(report["pairs"].size(), 3u);
+  EXPECT_EQ(report["pairs"][0]["object_b"], "table");
+  EXPECT_NEAR(report["pairs"][0]["distance"].get<double>(), 0.3 - 0.08 - 0.02, 1e-12);
+
+  // The file again: its id is taken.
+  SceneCreateOptions create;
+  create.remote = remote();
+  create.file = query.scene;
+  err.str("");
+  EXPECT_EQ(run_scene_create(create, out, err), kExitServerError);
+  EXPECT_NE(err.str().find("ALREADY_EXISTS"), std::string::npos) << err.str();
+
+  StreamCommandOptions stream;
+  stream.remote = remote();
+  stream.scene = "cell-1";
+  stream.trajectory = (kSource / "examples/trajectory.csv").string();
+  out.str("");
+  ASSERT_EQ(run_stream(stream, out, err), 0) << err.str();
+  Trajectory trajectory;
+  std::string error;
+  ASSERT_TRUE(load_trajectory(stream.trajectory, trajectory, error)) << error;
+  std::istringstream lines(out.str());
+  std::string line;
+  std::size_t count = 0, touching = 0;
+  while (std::getline(lines, line)) {
+    const Json r = parse_json(line);
+    const TrajectoryStep& step = trajectory.steps.at(count++);
+    EXPECT_EQ(r["sequence"], count);
+    EXPECT_EQ(r["t"], step.time);
+    // The gripper turns about z only, so its lowest point stays 0.08 below its origin.
+    const double expected = std::max(0.0, step.poses[0].translation[2] - 0.08 - 0.02);
+    EXPECT_NEAR(r["pairs"][0]["distance"].get<double>(), expected, 1e-12) << line;
+    touching += r["pairs"][0]["status"] == "intersecting";
+  }
+  EXPECT_EQ(count, trajectory.steps.size());
+  EXPECT_GT(touching, 0u);
+}
+
+TEST_F(WithServer, LoadRunsBoundedAndReportsPercentiles) {
+  LoadCommandOptions options;
+  options.remote = remote();
+  options.streams = 2;
+  options.duration_s = 0.4;
+  options.progress_every = 0.1;
+  std::ostringstream out, err;
+  const auto start = Clock::now();
+  ASSERT_EQ(run_load(options, out, err), 0) << err.str();
+  EXPECT_LT(Clock::now() - start, seconds(20));
+  const Json result = parse_json(out.str());
+  EXPECT_GT(result["reports"].get<int>(), 10);
+  EXPECT_EQ(result["errors"], 0);
+  EXPECT_LE(result["latency_us"]["p50"].get<double>(), result["latency_us"]["p99"].get<double>());
+  EXPECT_LE(result["latency_us"]["p99"].get<double>(), result["latency_us"]["max"].get<double>());
+  EXPECT_NE(err.str().find("updates/s"), std::string::npos);  // the progress line
+}
+
+}  // namespace
+}  // namespace nearpoint::cli
