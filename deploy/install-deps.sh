@@ -17,6 +17,8 @@ packages=(
   libgtest-dev libgmock-dev libcgal-dev libgmp-dev libmpfr-dev
   # server: gRPC (nearpointd, its protos, reflection and health checking)
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
+  # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged)
+  cyclonedds-dev cyclonedds-tools
 )
 for arg in "$@"; do
   case "$arg" in
