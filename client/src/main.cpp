@@ -17,6 +17,9 @@
 
 #include "distance_command.hpp"
 #include "nearpoint/options.hpp"
+#if NEARPOINT_HAVE_DDS
+#include "dds_stream.hpp"
+#endif
 
 #ifndef NEARPOINT_VERSION
 #define NEARPOINT_VERSION "unknown"
@@ -130,6 +133,93 @@ void add_distance_subcommand(CLI::App& app, int& exit_code) {
   command->callback([file, &exit_code] { exit_code = distance_main(*file); });
 }
 
+// `nearpoint stream --dds`: the DDS transport's half of the `stream` verb (the gRPC half joins it
+// when the gRPC client lands).
+void add_stream_subcommand(CLI::App& app, int& exit_code) {
+  CLI::App* command =
+      app.add_subcommand("stream", "Replay a trajectory to nearpointd and print each report");
+  struct Arguments {
+    bool dds = false;
+    std::string trajectory;
+#if NEARPOINT_HAVE_DDS
+    nearpoint::cli::DdsStreamOptions options;
+    std::string flow_control = "block";
+    long long match_timeout_ms = 10000;
+    long long report_timeout_ms = 10000;
+#endif
+  };
+  auto args = std::make_shared<Arguments>();
+  command->add_option("TRAJECTORY", args->trajectory,
+                      "JSON Lines ({\"t\": s, \"poses\": {\"OBJ\": {\"rotation\": [w,x,y,z], "
+                      "\"translation\": [x,y,z]}}}) or .csv (t,object,tx,ty,tz,qw,qx,qy,qz)")
+      ->required();
+  command->add_flag("--dds", args->dds, "Stream over DDS (nearpointd --dds) instead of gRPC");
+#if NEARPOINT_HAVE_DDS
+  nearpoint::cli::DdsStreamOptions& options = args->options;
+  command->add_option("--scene", options.scene_id, "Scene id on the server")->required();
+  command->add_option("--domain", options.dds.domain_id, "DDS domain id")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 230));
+  command->add_option("--prefix", options.dds.topic_prefix,
+                      "DDS topic prefix (as nearpointd --dds-prefix)")
+      ->capture_default_str();
+  command->add_option("--client-id", options.client_id,
+                      "Echoed in this client's reports (default nearpoint-cli-PID)");
+  command->add_option("--window", options.window,
+                      "Updates published ahead of their reports (1: lock step)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  command->add_option("--flow-control", args->flow_control,
+                      "block: every update its own report; coalesce: merge updates that arrive "
+                      "while the server is busy")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"block", "coalesce"}));
+  command->add_flag("--near-points", options.near_points, "Ask for near points and normals");
+  command->add_option("--match-timeout-ms", args->match_timeout_ms,
+                      "How long to wait for the server to be matched on the topics")
+      ->capture_default_str();
+  command->add_option("--report-timeout-ms", args->report_timeout_ms,
+                      "How long to wait for the next report")
+      ->capture_default_str();
+  command->add_flag("--dds-allow-default-config", options.dds.allow_default_config,
+                    "Run without CYCLONEDDS_URI (Cyclone's defaults: external interface, "
+                    "multicast)");
+#endif
+  command->footer(R"(
+Publishes one update per trajectory step (sequence numbers 1, 2, ...) and prints one JSON line
+per report. Checks that every update is answered once and in order; a summary goes to stderr.
+Exit status: 0 all answered; 1 rejected updates or missing / out-of-order reports; 2 cannot run.
+DDS needs CYCLONEDDS_URI, e.g. file://$PWD/deploy/cyclonedds-loopback.xml (loopback only).
+
+Example:
+  nearpoint stream --dds --scene scene-1 examples/trajectory.jsonl
+)");
+  command->callback([args, &exit_code] {
+    if (!args->dds) {
+      std::cerr << "nearpoint stream: only --dds is available in this build\n";
+      exit_code = kExitUsage;
+      return;
+    }
+#if NEARPOINT_HAVE_DDS
+    nearpoint::cli::Trajectory trajectory;
+    std::string error;
+    if (!nearpoint::cli::load_trajectory(args->trajectory, trajectory, error)) {
+      std::cerr << "nearpoint stream: " << error << '\n';
+      exit_code = kExitUsage;
+      return;
+    }
+    args->options.flow_control = args->flow_control == "coalesce" ? 2 : 0;
+    args->options.match_timeout = std::chrono::milliseconds(args->match_timeout_ms);
+    args->options.report_timeout = std::chrono::milliseconds(args->report_timeout_ms);
+    exit_code = nearpoint::cli::run_dds_stream(trajectory, args->options, std::cout, std::cerr);
+#else
+    std::cerr << "nearpoint stream --dds: this nearpoint was built without DDS "
+                 "(NEARPOINT_WITH_DDS=OFF)\n";
+    exit_code = kExitUsage;
+#endif
+  });
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -151,6 +241,7 @@ Example:
 )");
     int exit_code = kExitOk;
     add_distance_subcommand(app, exit_code);
+    add_stream_subcommand(app, exit_code);
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

@@ -27,6 +27,9 @@ using Guid = std::array<std::uint8_t, 16>;
 constexpr std::uint32_t kMaxDomainId = 230;
 /// Samples taken per dds_take call.
 constexpr std::int32_t kTakeBatch = 32;
+/// How long a new stream's first evaluation waits for the report writer to discover a reader of
+/// the client's participant (see StreamState::ready).
+constexpr auto kReaderMatchWait = std::chrono::seconds(2);
 
 /// Cyclone serialises strings through char*; the sample only borrows ours for dds_write.
 char* borrow(const std::string& text) {
@@ -181,8 +184,18 @@ struct StreamState {
   /// `client_id` is the one of the update being evaluated (read by the pool thread while
   /// `evaluating`, written only while not).
   Addressee to;
+  /// The DDS participant of the stream's writer: its reports are for a reader there.
+  Guid participant{};
   std::deque<Waiting> waiting;
+  /// Reports are volatile: one written before our writer has discovered the client's reader is
+  /// lost to it. Discovery runs separately in each direction, so a client that waited for its
+  /// own matched statuses may still be unknown to our writer for a moment. A new stream therefore
+  /// starts evaluating only once our writer has matched a reader of the client's participant, or
+  /// after kReaderMatchWait (a client that does not read reports).
+  bool ready = false;
+  Clock::time_point ready_deadline;
   bool evaluating = false;
+  bool announced = false;
   /// The writer is no longer matched: erase once everything taken has been answered.
   bool closing = false;
   std::uint64_t updates = 0;
@@ -226,8 +239,8 @@ struct DdsBridge::Impl {
   void run() {
     std::array<dds_attach_t, 4> triggered{};
     for (;;) {
-      const dds_return_t woken =
-          dds_waitset_wait(waitset, triggered.data(), triggered.size(), DDS_INFINITY);
+      const dds_return_t woken = dds_waitset_wait(waitset, triggered.data(), triggered.size(),
+                                                  time_until_next_deadline());
       if (woken < 0) {
         log_error("dds_waitset_failed").kv("message", dds::describe("dds_waitset_wait", woken));
         return;
@@ -238,6 +251,70 @@ struct DdsBridge::Impl {
       }
       reconcile_writers();
       take_updates();
+      // Reading the writer's matched status resets it, so that its condition stops triggering.
+      dds_publication_matched_status_t publication{};
+      dds_get_publication_matched_status(writer, &publication);
+      check_readiness();
+    }
+  }
+
+  /// The waitset's timeout: until the earliest deadline of a stream not yet ready.
+  dds_duration_t time_until_next_deadline() {
+    std::lock_guard lock(mutex);
+    std::optional<Clock::time_point> earliest;
+    for (const auto& [key, stream] : streams)
+      if (!stream->ready && (!earliest || stream->ready_deadline < *earliest))
+        earliest = stream->ready_deadline;
+    if (!earliest) return DDS_INFINITY;
+    const auto left = *earliest - Clock::now();
+    return std::max<dds_duration_t>(
+        0, std::chrono::duration_cast<std::chrono::nanoseconds>(left).count() + 1000);
+  }
+
+  /// The participants of the readers our report writer has matched. Requires `mutex` (only to
+  /// keep the DDS calls off the pool threads' way; they do not call back).
+  std::vector<Guid> reader_participants() const {
+    std::vector<dds_instance_handle_t> handles(16);
+    dds_return_t count = dds_get_matched_subscriptions(writer, handles.data(), handles.size());
+    if (count > dds_return_t(handles.size())) {
+      handles.resize(std::size_t(count) + 16);
+      count = dds_get_matched_subscriptions(writer, handles.data(), handles.size());
+    }
+    std::vector<Guid> out;
+    for (dds_return_t i = 0; i < std::min<dds_return_t>(count, dds_return_t(handles.size()));
+         ++i) {
+      dds_builtintopic_endpoint_t* endpoint =
+          dds_get_matched_subscription_data(writer, handles[std::size_t(i)]);
+      if (!endpoint) continue;
+      Guid& guid = out.emplace_back();
+      std::memcpy(guid.data(), endpoint->participant_key.v, guid.size());
+      dds_builtintopic_free_endpoint(endpoint);
+    }
+    return out;
+  }
+
+  /// Marks streams ready whose client reader our writer now knows, or whose wait is over, and
+  /// starts their evaluations.
+  void check_readiness() {
+    std::lock_guard lock(mutex);
+    bool any = false;
+    for (const auto& [key, stream] : streams) any = any || !stream->ready;
+    if (!any) return;
+    const std::vector<Guid> readers = reader_participants();
+    const Clock::time_point now = Clock::now();
+    for (const auto& [key, stream] : streams) {
+      if (stream->ready) continue;
+      const bool matched =
+          std::find(readers.begin(), readers.end(), stream->participant) != readers.end();
+      if (!matched && now < stream->ready_deadline) continue;
+      stream->ready = true;
+      if (!matched)
+        log_warn("dds_no_reader_for_stream")
+            .kv("stream", stream->number)
+            .kv("scene", stream->to.scene_id)
+            .kv("message", "no reader of the client's participant after the wait; reports are "
+                           "written anyway");
+      pump(*stream);
     }
   }
 
@@ -313,6 +390,8 @@ struct DdsBridge::Impl {
       }
       Addressee to{input.scene_id, client_id, {}};
       std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
+      Guid participant{};
+      std::memcpy(participant.data(), endpoint->participant_key.v, participant.size());
       dds_builtintopic_free_endpoint(endpoint);
       Expected<std::unique_ptr<PoseStream>> opened = scenes.open_stream();
       if (!opened) return reject(nullptr, std::move(to), input.sequence, opened.error());
@@ -321,13 +400,12 @@ struct DdsBridge::Impl {
       state->number = next_stream_number++;
       state->stream = std::move(opened.value());
       state->to = std::move(to);
+      state->participant = participant;
+      const std::vector<Guid> readers = reader_participants();
+      state->ready = std::find(readers.begin(), readers.end(), participant) != readers.end();
+      state->ready_deadline = received + kReaderMatchWait;
       found = streams.emplace(key, std::move(state)).first;
       stats.open_streams = streams.size();
-      log_info("dds_stream_open")
-          .kv("stream", found->second->number)
-          .kv("scene", input.scene_id)
-          .kv("client", client_id)
-          .kv("writer", dds::guid_hex(found->second->to.writer_guid.data()));
     }
     StreamState& stream = *found->second;
     ++stream.updates;
@@ -343,6 +421,16 @@ struct DdsBridge::Impl {
         stats.open_streams = streams.size();
       }
       return error;
+    }
+    if (!stream.announced) {
+      // Logged once bound, so that samples for unknown scenes do not log a stream each.
+      stream.announced = true;
+      log_info("dds_stream_open")
+          .kv("stream", stream.number)
+          .kv("scene", stream.to.scene_id)
+          .kv("client", client_id)
+          .kv("writer", dds::guid_hex(stream.to.writer_guid.data()))
+          .kv("reader_matched", stream.ready ? "yes" : "not_yet");
     }
     Waiting next{std::move(prepared.value()), std::move(client_id)};
     // DDS cannot hold the publisher back: beyond the limit the newest update absorbs the one
@@ -378,7 +466,7 @@ struct DdsBridge::Impl {
 
   /// Starts the stream's next evaluation if none is running. Requires `mutex`.
   void pump(StreamState& stream) {
-    if (stream.evaluating || stream.waiting.empty()) return;
+    if (!stream.ready || stream.evaluating || stream.waiting.empty()) return;
     Waiting next = std::move(stream.waiting.front());
     stream.waiting.pop_front();
     stream.evaluating = true;
@@ -478,6 +566,7 @@ struct DdsBridge::Impl {
   }
 
   void log_closed(const StreamState& stream) {
+    if (!stream.announced) return;
     log_info("dds_stream_closed")
         .kv("stream", stream.number)
         .kv("scene", stream.to.scene_id)
@@ -540,12 +629,17 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
           impl.reader, DDS_DATA_AVAILABLE_STATUS | DDS_SUBSCRIPTION_MATCHED_STATUS);
       rc < 0)
     return fail("dds_set_status_mask", rc);
+  if (const dds_return_t rc = dds_set_status_mask(impl.writer, DDS_PUBLICATION_MATCHED_STATUS);
+      rc < 0)
+    return fail("dds_set_status_mask(writer)", rc);
   impl.guard = dds_create_guardcondition(impl.participant);
   if (impl.guard < 0) return fail("dds_create_guardcondition", impl.guard);
   impl.waitset = dds_create_waitset(impl.participant);
   if (impl.waitset < 0) return fail("dds_create_waitset", impl.waitset);
   if (const dds_return_t rc = dds_waitset_attach(impl.waitset, impl.reader, impl.reader); rc < 0)
     return fail("dds_waitset_attach(reader)", rc);
+  if (const dds_return_t rc = dds_waitset_attach(impl.waitset, impl.writer, impl.writer); rc < 0)
+    return fail("dds_waitset_attach(writer)", rc);
   if (const dds_return_t rc = dds_waitset_attach(impl.waitset, impl.guard, impl.guard); rc < 0)
     return fail("dds_waitset_attach(guard)", rc);
 
@@ -573,6 +667,10 @@ void DdsBridge::shutdown() {
   if (impl.thread.joinable()) impl.thread.join();
   // Answer every update already taken (at most --max-in-flight per stream), then end.
   std::unique_lock lock(impl.mutex);
+  for (const auto& [key, stream] : impl.streams) {
+    stream->ready = true;
+    impl.pump(*stream);
+  }
   impl.idle.wait(lock, [&] { return impl.evaluating == 0; });
   for (const auto& [key, stream] : impl.streams) impl.log_closed(*stream);
   impl.streams.clear();
