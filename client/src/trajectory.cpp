@@ -5,7 +5,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
-#include <set>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -13,159 +12,201 @@
 namespace nearpoint::cli {
 namespace {
 
-using Json = nlohmann::json;
+using Json = nlohmann::ordered_json;
 
-std::string at_line(const std::string& path, std::size_t line) {
-  return path + ":" + std::to_string(line) + ": ";
+// The server accepts quaternions within 1e-4 of unit length; rejecting the same ones here names
+// the line, where the server could only name the update's sequence number.
+constexpr double kUnitTolerance = 1e-4;
+
+std::string at_line(const std::string& name, long line) {
+  return name + ":" + std::to_string(line) + ": ";
 }
 
-bool ends_with(const std::string& text, const std::string& suffix) {
-  return text.size() >= suffix.size() &&
-         text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-/// Reads a JSON array of `N` finite numbers into `out`; an error message otherwise.
-template <std::size_t N>
-std::string read_numbers(const Json& value, std::array<double, N>& out) {
-  if (!value.is_array() || value.size() != N)
-    return "must be an array of " + std::to_string(N) + " numbers";
-  for (std::size_t i = 0; i < N; ++i) {
-    if (!value[i].is_number()) return "element " + std::to_string(i) + " is not a number";
-    out[i] = value[i].get<double>();
-    if (!std::isfinite(out[i])) return "element " + std::to_string(i) + " is not finite";
-  }
-  return {};
-}
-
-/// Appends `pose` to `step` unless its object is already there.
-std::string add_pose(TrajectoryStep& step, ObjectPose pose) {
-  for (const ObjectPose& existing : step.poses)
-    if (existing.object_id == pose.object_id)
-      return "object '" + pose.object_id + "' is given twice at t = " + std::to_string(step.time);
-  step.poses.push_back(std::move(pose));
-  return {};
-}
-
-bool load_json_lines(std::istream& in, const std::string& path, Trajectory& out,
-                     std::string& error) {
-  std::string text;
-  for (std::size_t line = 1; std::getline(in, text); ++line) {
-    if (text.find_first_not_of(" \t\r") == std::string::npos) continue;
-    const std::string where = at_line(path, line);
-    Json value = Json::parse(text, nullptr, /*allow_exceptions=*/false);
-    if (value.is_discarded()) return error = where + "not valid JSON", false;
-    if (!value.is_object()) return error = where + "must be a JSON object", false;
-    for (const auto& [key, unused] : value.items())
-      if (key != "t" && key != "poses")
-        return error = where + "unknown key \"" + key + "\" (expected \"t\" and \"poses\")",
-               false;
-    TrajectoryStep step;
-    const auto time = value.find("t");
-    if (time == value.end() || !time->is_number())
-      return error = where + "\"t\" must be a number (seconds)", false;
-    step.time = time->get<double>();
-    if (!std::isfinite(step.time)) return error = where + "\"t\" is not finite", false;
-    const auto poses = value.find("poses");
-    if (poses == value.end() || !poses->is_object())
-      return error = where + "\"poses\" must be an object: {\"OBJECT\": {\"rotation\": ..., "
-                             "\"translation\": ...}}",
-             false;
-    for (const auto& [object, pose_value] : poses->items()) {
-      const std::string field = where + "\"poses\".\"" + object + "\"";
-      if (!pose_value.is_object()) return error = field + ": must be an object", false;
-      ObjectPose pose;
-      pose.object_id = object;
-      for (const auto& [key, part] : pose_value.items()) {
-        std::string problem;
-        if (key == "rotation")
-          problem = read_numbers(part, pose.rotation_wxyz);
-        else if (key == "translation")
-          problem = read_numbers(part, pose.translation);
-        else
-          problem = "unknown key (expected \"rotation\" and \"translation\")";
-        if (!problem.empty()) return error = field + ".\"" + key + "\": " + problem, false;
-      }
-      step.poses.push_back(std::move(pose));
-    }
-    if (!out.steps.empty() && step.time < out.steps.back().time)
-      return error = where + "\"t\" goes backwards", false;
-    out.steps.push_back(std::move(step));
+bool check_rotation(const std::array<double, 4>& q, std::string& why) {
+  const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  if (!(std::abs(norm - 1) <= kUnitTolerance)) {
+    std::ostringstream text;
+    text << "rotation quaternion is not of unit length (|q| = " << norm
+         << "; accepted within 1e-4 of 1)";
+    why = text.str();
+    return false;
   }
   return true;
 }
 
-/// Splits a CSV row at commas (no quoting: every cell is a name or a number).
-std::vector<std::string> split_row(const std::string& row) {
-  std::vector<std::string> cells;
-  std::stringstream in(row);
-  std::string cell;
-  while (std::getline(in, cell, ',')) {
-    const auto begin = cell.find_first_not_of(" \t\r");
-    const auto end = cell.find_last_not_of(" \t\r");
-    cells.push_back(begin == std::string::npos ? std::string() : cell.substr(begin, end - begin + 1));
+template <std::size_t N>
+bool read_array(const Json& value, const char* what, std::array<double, N>& out, std::string& why) {
+  if (!value.is_array() || value.size() != N) {
+    why = std::string("\"") + what + "\" must be an array of " + std::to_string(N) + " numbers";
+    return false;
   }
-  if (!row.empty() && row.back() == ',') cells.emplace_back();
+  for (std::size_t i = 0; i < N; ++i) {
+    if (!value[i].is_number()) {
+      why = std::string("\"") + what + "[" + std::to_string(i) + "]\" must be a number";
+      return false;
+    }
+    out[i] = value[i].get<double>();
+  }
+  return true;
+}
+
+bool parse_json_lines(const std::string& text, const std::string& name, Trajectory& out,
+                      std::string& error) {
+  std::istringstream input(text);
+  std::string line;
+  long number = 0;
+  Trajectory result;
+  while (std::getline(input, line)) {
+    ++number;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    const Json value = Json::parse(line, nullptr, /*allow_exceptions=*/false);
+    const std::string where = at_line(name, number);
+    if (value.is_discarded()) return error = where + "not valid JSON", false;
+    if (!value.is_object()) return error = where + "must be a JSON object", false;
+    TrajectoryStep step;
+    step.time = double(result.steps.size());
+    for (const auto& [key, member] : value.items()) {
+      if (key == "t") {
+        if (!member.is_number()) return error = where + "\"t\" must be a number", false;
+        step.time = member.get<double>();
+      } else if (key != "poses") {
+        return error = where + "unknown key \"" + key + "\" (a step has \"t\" and \"poses\")",
+               false;
+      }
+    }
+    if (!value.contains("poses") || !value["poses"].is_object())
+      return error = where + "\"poses\" must be an object {\"OBJECT\": POSE, ...}", false;
+    for (const auto& [object, pose] : value["poses"].items()) {
+      ObjectPose entry;
+      entry.object_id = object;
+      const std::string field = "poses." + object;
+      if (!pose.is_object())
+        return error = where + "\"" + field +
+                       "\" must be {\"rotation\": [w,x,y,z], "
+                       "\"translation\": [x,y,z]}",
+               false;
+      std::string why;
+      for (const auto& [key, part] : pose.items()) {
+        bool ok = true;
+        if (key == "rotation")
+          ok = read_array(part, (field + ".rotation").c_str(), entry.rotation_wxyz, why) &&
+               check_rotation(entry.rotation_wxyz, why);
+        else if (key == "translation")
+          ok = read_array(part, (field + ".translation").c_str(), entry.translation, why);
+        else
+          return error = where + "\"" + field + "\" has the unknown key \"" + key + "\"", false;
+        if (!ok) return error = where + why, false;
+      }
+      step.poses.push_back(std::move(entry));
+    }
+    if (!result.steps.empty() && step.time < result.steps.back().time)
+      return error = where + "\"t\" decreases (times must not decrease)", false;
+    result.steps.push_back(std::move(step));
+  }
+  out = std::move(result);
+  return true;
+}
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> cells;
+  std::string cell;
+  std::istringstream input(line);
+  while (std::getline(input, cell, ',')) {
+    const auto first = cell.find_first_not_of(" \t\r");
+    const auto last = cell.find_last_not_of(" \t\r");
+    cells.push_back(first == std::string::npos ? "" : cell.substr(first, last - first + 1));
+  }
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
   return cells;
 }
 
-bool load_csv(std::istream& in, const std::string& path, Trajectory& out, std::string& error) {
-  static const std::vector<std::string> kHeader = {"t",  "object", "tx", "ty", "tz",
-                                                   "qw", "qx",     "qy", "qz"};
-  std::string text;
-  std::size_t line = 0;
+bool parse_number(const std::string& cell, double& out) {
+  if (cell.empty()) return false;
+  errno = 0;
+  char* end = nullptr;
+  out = std::strtod(cell.c_str(), &end);
+  return errno == 0 && end == cell.c_str() + cell.size() && std::isfinite(out);
+}
+
+bool parse_csv(const std::string& text, const std::string& name, Trajectory& out,
+               std::string& error) {
+  static const char* const kColumns[] = {"t", "tx", "ty", "tz", "qw", "qx", "qy", "qz"};
+  std::istringstream input(text);
+  std::string line;
+  long number = 0;
   bool header_seen = false;
-  while (std::getline(in, text)) {
-    ++line;
-    if (text.find_first_not_of(" \t\r") == std::string::npos) continue;
-    const std::string where = at_line(path, line);
-    const std::vector<std::string> cells = split_row(text);
+  Trajectory result;
+  while (std::getline(input, line)) {
+    ++number;
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    const std::vector<std::string> cells = split_csv(line);
+    const std::string where = at_line(name, number);
     if (!header_seen) {
-      if (cells != kHeader)
+      const std::vector<std::string> expected = {"t",  "object", "tx", "ty", "tz",
+                                                 "qw", "qx",     "qy", "qz"};
+      if (cells != expected)
         return error = where + "the header must be t,object,tx,ty,tz,qw,qx,qy,qz", false;
       header_seen = true;
       continue;
     }
-    if (cells.size() != kHeader.size())
-      return error = where + "has " + std::to_string(cells.size()) + " cells; expected 9", false;
-    std::array<double, 9> numbers{};
-    for (std::size_t i = 0; i < cells.size(); ++i) {
+    if (cells.size() != 9)
+      return error = where + "expected 9 columns t,object,tx,ty,tz,qw,qx,qy,qz (got " +
+                     std::to_string(cells.size()) + ")",
+             false;
+    double values[8];
+    for (std::size_t i = 0, column = 0; i < 9; ++i) {
       if (i == 1) continue;
-      const char* begin = cells[i].c_str();
-      char* end = nullptr;
-      errno = 0;
-      numbers[i] = std::strtod(begin, &end);
-      if (cells[i].empty() || end != begin + cells[i].size() || errno == ERANGE)
-        return error = where + kHeader[i] + ": '" + cells[i] + "' is not a number", false;
-      if (!std::isfinite(numbers[i])) return error = where + kHeader[i] + ": is not finite", false;
+      if (!parse_number(cells[i], values[column]))
+        return error = where + "column \"" + kColumns[column] +
+                       "\" must be a finite number (got \"" + cells[i] + "\")",
+               false;
+      ++column;
     }
-    if (cells[1].empty()) return error = where + "object: is empty", false;
+    if (cells[1].empty()) return error = where + "column \"object\" is empty", false;
     ObjectPose pose;
     pose.object_id = cells[1];
-    pose.translation = {numbers[2], numbers[3], numbers[4]};
-    pose.rotation_wxyz = {numbers[5], numbers[6], numbers[7], numbers[8]};
-    const double time = numbers[0];
-    if (out.steps.empty() || time != out.steps.back().time) {
-      if (!out.steps.empty() && time < out.steps.back().time)
-        return error = where + "t goes backwards", false;
-      out.steps.push_back(TrajectoryStep{time, {}});
+    pose.translation = {values[1], values[2], values[3]};
+    pose.rotation_wxyz = {values[4], values[5], values[6], values[7]};
+    if (std::string why; !check_rotation(pose.rotation_wxyz, why))
+      return error = where + why, false;
+    const double t = values[0];
+    if (!result.steps.empty() && t < result.steps.back().time)
+      return error = where + "t decreases (times must not decrease)", false;
+    if (result.steps.empty() || t != result.steps.back().time) {
+      result.steps.push_back(TrajectoryStep{t, {}});
+    } else {
+      for (const ObjectPose& earlier : result.steps.back().poses)
+        if (earlier.object_id == pose.object_id)
+          return error =
+                     where + "object \"" + pose.object_id + "\" appears twice at t = " + cells[0],
+                 false;
     }
-    if (std::string problem = add_pose(out.steps.back(), std::move(pose)); !problem.empty())
-      return error = where + problem, false;
+    result.steps.back().poses.push_back(std::move(pose));
   }
-  if (!header_seen) return error = path + ": empty (no header t,object,tx,ty,tz,qw,qx,qy,qz)", false;
+  if (!header_seen)
+    return error = name + ": empty file (expected the CSV header or JSON Lines)", false;
+  out = std::move(result);
   return true;
 }
 
 }  // namespace
 
+bool parse_trajectory(const std::string& text, const std::string& name, Trajectory& out,
+                      std::string& error) {
+  const auto first = text.find_first_not_of(" \t\r\n");
+  if (first == std::string::npos) return error = name + ": the trajectory is empty", false;
+  if (text[first] == '{') return parse_json_lines(text, name, out, error);
+  return parse_csv(text, name, out, error);
+}
+
 bool load_trajectory(const std::string& path, Trajectory& out, std::string& error) {
-  out.steps.clear();
-  std::ifstream in(path);
-  if (!in) return error = path + ": cannot open: " + std::strerror(errno), false;
-  const bool ok = ends_with(path, ".csv") ? load_csv(in, path, out, error)
-                                          : load_json_lines(in, path, out, error);
-  if (ok && in.bad()) return error = path + ": read error", false;
-  return ok;
+  std::ifstream input(path, std::ios::binary);
+  if (!input) return error = "cannot open " + path + ": " + std::strerror(errno), false;
+  std::ostringstream text;
+  text << input.rdbuf();
+  if (input.bad()) return error = "cannot read " + path, false;
+  return parse_trajectory(text.str(), path, out, error);
 }
 
 }  // namespace nearpoint::cli

@@ -1,11 +1,15 @@
-// Trajectories for `nearpoint stream`: the poses of scene objects over time, read from a file.
+// Trajectory files for `nearpoint stream` (and any other client that replays poses over time):
+// a sequence of steps, each a time and the poses of the objects that move at that step.
 //
-//   JSON Lines, one step per line (blank lines skipped; "rotation" and "translation" optional):
+// Two formats, chosen by content (a first non-blank line starting with '{' is JSON Lines):
+//   JSON Lines, one step per line:
 //     {"t": 0.0, "poses": {"OBJ": {"rotation": [w,x,y,z], "translation": [x,y,z]}, ...}}
-//   CSV: the header t,object,tx,ty,tz,qw,qx,qy,qz, then one row per object pose; consecutive
-//     rows with equal t form one step.
-// The format is chosen by the extension: .csv is CSV, anything else JSON Lines. Units: seconds,
-// metres; rotation a unit quaternion (w, x, y, z), geometry frame -> world frame.
+//     "rotation" and "translation" are each optional (identity / zero); "t" is optional and then
+//     the line's index. Blank lines are skipped.
+//   CSV with the header  t,object,tx,ty,tz,qw,qx,qy,qz  (columns in that order); consecutive rows
+//     with equal t form one step. Blank lines and lines starting with '#' are skipped.
+// Units: seconds for t (any monotone parameter works), metres; quaternions (w, x, y, z), checked
+// for unit length within 1e-4 as the server does. Times must not decrease.
 #pragma once
 
 #include <array>
@@ -14,12 +18,14 @@
 
 namespace nearpoint::cli {
 
+/// One object's pose at one step: geometry frame → world frame.
 struct ObjectPose {
   std::string object_id;
   std::array<double, 4> rotation_wxyz{1, 0, 0, 0};
   std::array<double, 3> translation{0, 0, 0};
 };
 
+/// The poses that change at time `time`; objects not listed keep their previous pose.
 struct TrajectoryStep {
   double time = 0;
   std::vector<ObjectPose> poses;
@@ -29,9 +35,13 @@ struct Trajectory {
   std::vector<TrajectoryStep> steps;
 };
 
-/// Reads `path` into `out`. Returns false and a message naming the line on malformed input
-/// (not JSON, a missing or non-numeric field, a non-finite number, a wrong array length, a
-/// time going backwards, an object listed twice in one step).
+// JSON Lines: {"t": 0.0, "poses": {"OBJ": {"rotation": [w,x,y,z], "translation": [x,y,z]}, ...}}
+// CSV: header t,object,tx,ty,tz,qw,qx,qy,qz; rows with equal t form one step.
+// Returns false and a message naming the line on malformed input.
 bool load_trajectory(const std::string& path, Trajectory& out, std::string& error);
+
+/// The same from text already in memory; `name` stands for the file in messages.
+bool parse_trajectory(const std::string& text, const std::string& name, Trajectory& out,
+                      std::string& error);
 
 }  // namespace nearpoint::cli
