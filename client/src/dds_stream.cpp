@@ -18,7 +18,8 @@ using Json = nlohmann::ordered_json;
 using Clock = std::chrono::steady_clock;
 
 dds_duration_t to_dds(Clock::duration d) {
-  return std::max<dds_duration_t>(0, std::chrono::duration_cast<std::chrono::nanoseconds>(d).count());
+  return std::max<dds_duration_t>(0,
+                                  std::chrono::duration_cast<std::chrono::nanoseconds>(d).count());
 }
 
 const char* pair_status_name(std::uint8_t status) {
@@ -96,8 +97,7 @@ Json report_json(const DistanceReportSample& report) {
   }
   out["pairs"] = std::move(pairs);
   out["coalesced_updates"] = report.coalesced_updates;
-  if (report.coalesced_updates > 0)
-    out["coalesced_from_sequence"] = report.coalesced_from_sequence;
+  if (report.coalesced_updates > 0) out["coalesced_from_sequence"] = report.coalesced_from_sequence;
   out["server_us"] = report.timing.server_us;
   return out;
 }
@@ -132,9 +132,9 @@ std::unique_ptr<DdsPoseClient> DdsPoseClient::create(const Config& config, std::
     return fail("dds_create_participant", code);
   }
   const dds::QosPtr qos = dds::stream_qos();
-  const dds_entity_t update_topic = dds_create_topic(
-      self->participant_, &nearpoint_msg_dds__PoseUpdate__desc,
-      dds::pose_updates_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  const dds_entity_t update_topic =
+      dds_create_topic(self->participant_, &nearpoint_msg_dds__PoseUpdate__desc,
+                       dds::pose_updates_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
   if (update_topic < 0) return fail("dds_create_topic(pose_updates)", update_topic);
   const dds_entity_t report_topic = dds_create_topic(
       self->participant_, &nearpoint_msg_dds__DistanceReport__desc,
@@ -318,8 +318,8 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
           if (it->first >= merged_from) {
             ++coalesced;
           } else {
-            err << prefix << "no report for sequence " << it->first << " before report "
-                << sequence << " (missing)\n";
+            err << prefix << "no report for sequence " << it->first << " before report " << sequence
+                << " (missing)\n";
             ++problems;
           }
           it = outstanding.erase(it);

@@ -81,9 +81,9 @@ struct DdsStreamOptions {
 };
 
 /// Exit codes of `nearpoint stream --dds`.
-inline constexpr int kStreamOk = 0;            ///< every update answered, in order, none rejected
-inline constexpr int kStreamIncomplete = 1;    ///< rejected updates, or reports missing/out of order
-inline constexpr int kStreamCannotRun = 2;     ///< no configuration, no server matched, DDS failed
+inline constexpr int kStreamOk = 0;          ///< every update answered, in order, none rejected
+inline constexpr int kStreamIncomplete = 1;  ///< rejected updates, or reports missing/out of order
+inline constexpr int kStreamCannotRun = 2;   ///< no configuration, no server matched, DDS failed
 
 /// Publishes one PoseUpdate_ per trajectory step (sequence numbers 1, 2, …) and writes one JSON
 /// line per report to `out`:

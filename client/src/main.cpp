@@ -149,9 +149,10 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
 #endif
   };
   auto args = std::make_shared<Arguments>();
-  command->add_option("TRAJECTORY", args->trajectory,
-                      "JSON Lines ({\"t\": s, \"poses\": {\"OBJ\": {\"rotation\": [w,x,y,z], "
-                      "\"translation\": [x,y,z]}}}) or .csv (t,object,tx,ty,tz,qw,qx,qy,qz)")
+  command
+      ->add_option("TRAJECTORY", args->trajectory,
+                   "JSON Lines ({\"t\": s, \"poses\": {\"OBJ\": {\"rotation\": [w,x,y,z], "
+                   "\"translation\": [x,y,z]}}}) or .csv (t,object,tx,ty,tz,qw,qx,qy,qz)")
       ->required();
   command->add_flag("--dds", args->dds, "Stream over DDS (nearpointd --dds) instead of gRPC");
 #if NEARPOINT_HAVE_DDS
@@ -160,26 +161,31 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
   command->add_option("--domain", options.dds.domain_id, "DDS domain id")
       ->capture_default_str()
       ->check(CLI::Range(0, 230));
-  command->add_option("--prefix", options.dds.topic_prefix,
-                      "DDS topic prefix (as nearpointd --dds-prefix)")
+  command
+      ->add_option("--prefix", options.dds.topic_prefix,
+                   "DDS topic prefix (as nearpointd --dds-prefix)")
       ->capture_default_str();
   command->add_option("--client-id", options.client_id,
                       "Echoed in this client's reports (default nearpoint-cli-PID)");
-  command->add_option("--window", options.window,
-                      "Updates published ahead of their reports (1: lock step)")
+  command
+      ->add_option("--window", options.window,
+                   "Updates published ahead of their reports (1: lock step)")
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
-  command->add_option("--flow-control", args->flow_control,
-                      "block: every update its own report; coalesce: merge updates that arrive "
-                      "while the server is busy")
+  command
+      ->add_option("--flow-control", args->flow_control,
+                   "block: every update its own report; coalesce: merge updates that arrive "
+                   "while the server is busy")
       ->capture_default_str()
       ->check(CLI::IsMember({"block", "coalesce"}));
   command->add_flag("--near-points", options.near_points, "Ask for near points and normals");
-  command->add_option("--match-timeout-ms", args->match_timeout_ms,
-                      "How long to wait for the server to be matched on the topics")
+  command
+      ->add_option("--match-timeout-ms", args->match_timeout_ms,
+                   "How long to wait for the server to be matched on the topics")
       ->capture_default_str();
-  command->add_option("--report-timeout-ms", args->report_timeout_ms,
-                      "How long to wait for the next report")
+  command
+      ->add_option("--report-timeout-ms", args->report_timeout_ms,
+                   "How long to wait for the next report")
       ->capture_default_str();
   command->add_flag("--dds-allow-default-config", options.dds.allow_default_config,
                     "Run without CYCLONEDDS_URI (Cyclone's defaults: external interface, "

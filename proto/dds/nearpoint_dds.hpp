@@ -2,7 +2,8 @@
 // and the rule that Cyclone DDS never runs without a configuration here.
 //
 // Topics (ROS 2 convention: a ROS 2 topic /nearpoint/pose_updates is the DDS topic
-// rt/nearpoint/pose_updates, and type nearpoint/msg/PoseUpdate is nearpoint::msg::dds_::PoseUpdate_):
+// rt/nearpoint/pose_updates, and type nearpoint/msg/PoseUpdate is
+// nearpoint::msg::dds_::PoseUpdate_):
 //   <prefix>pose_updates      nearpoint::msg::dds_::PoseUpdate_       client -> server
 //   <prefix>distance_reports  nearpoint::msg::dds_::DistanceReport_   server -> client
 // with <prefix> = "rt/nearpoint/" by default.

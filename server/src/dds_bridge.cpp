@@ -239,8 +239,8 @@ struct DdsBridge::Impl {
   void run() {
     std::array<dds_attach_t, 4> triggered{};
     for (;;) {
-      const dds_return_t woken = dds_waitset_wait(waitset, triggered.data(), triggered.size(),
-                                                  time_until_next_deadline());
+      const dds_return_t woken =
+          dds_waitset_wait(waitset, triggered.data(), triggered.size(), time_until_next_deadline());
       if (woken < 0) {
         log_error("dds_waitset_failed").kv("message", dds::describe("dds_waitset_wait", woken));
         return;
@@ -281,8 +281,7 @@ struct DdsBridge::Impl {
       count = dds_get_matched_subscriptions(writer, handles.data(), handles.size());
     }
     std::vector<Guid> out;
-    for (dds_return_t i = 0; i < std::min<dds_return_t>(count, dds_return_t(handles.size()));
-         ++i) {
+    for (dds_return_t i = 0; i < std::min<dds_return_t>(count, dds_return_t(handles.size())); ++i) {
       dds_builtintopic_endpoint_t* endpoint =
           dds_get_matched_subscription_data(writer, handles[std::size_t(i)]);
       if (!endpoint) continue;
@@ -312,8 +311,9 @@ struct DdsBridge::Impl {
         log_warn("dds_no_reader_for_stream")
             .kv("stream", stream->number)
             .kv("scene", stream->to.scene_id)
-            .kv("message", "no reader of the client's participant after the wait; reports are "
-                           "written anyway");
+            .kv("message",
+                "no reader of the client's participant after the wait; reports are "
+                "written anyway");
       pump(*stream);
     }
   }
@@ -370,7 +370,8 @@ struct DdsBridge::Impl {
 
   /// Validates one update and queues it on its stream; returns the error report to write when
   /// it is rejected. Cheap: no geometry.
-  std::optional<PendingError> accept(const UpdateSample& sample, dds_instance_handle_t publication) {
+  std::optional<PendingError> accept(const UpdateSample& sample,
+                                     dds_instance_handle_t publication) {
     const Clock::time_point received = Clock::now();
     PoseUpdateInput input = to_input(sample);
     std::string client_id = own(sample.client_id);
@@ -412,8 +413,8 @@ struct DdsBridge::Impl {
     Expected<PreparedUpdate> prepared = stream.stream->prepare(input, received);
     if (!prepared) {
       Addressee to{stream.to.scene_id, client_id, stream.to.writer_guid};
-      std::optional<PendingError> error = reject(&stream, std::move(to), input.sequence,
-                                                 prepared.error());
+      std::optional<PendingError> error =
+          reject(&stream, std::move(to), input.sequence, prepared.error());
       // A stream whose first update was refused holds nothing (no scene, no caches): forget it,
       // so that samples for unknown scenes cannot pile up streams.
       if (!stream.stream->bound() && !stream.evaluating && stream.waiting.empty()) {
@@ -585,13 +586,12 @@ DdsBridge::~DdsBridge() {
 
 Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
                                                       const DdsConfig& config) {
-  if (std::string problem = dds::check_configuration(config.allow_default_config);
-      !problem.empty())
+  if (std::string problem = dds::check_configuration(config.allow_default_config); !problem.empty())
     return Error{ErrorCode::failed_precondition, "CYCLONEDDS_URI", problem};
   if (config.domain_id > kMaxDomainId)
-    return invalid_argument("dds.domain",
-                            text("is ", config.domain_id, "; Cyclone DDS's port mapping allows 0-",
-                                 kMaxDomainId));
+    return invalid_argument(
+        "dds.domain",
+        text("is ", config.domain_id, "; Cyclone DDS's port mapping allows 0-", kMaxDomainId));
   if (std::string problem = dds::check_topic_prefix(config.topic_prefix); !problem.empty())
     return invalid_argument("dds.prefix", problem);
 

@@ -185,8 +185,9 @@ int main(int argc, char** argv) {
 #if !NEARPOINT_HAVE_GRPC
   if (!bridge) {
     nearpoint::server::log_error("start_failed")
-        .kv("message", "this nearpointd was built without gRPC (NEARPOINT_WITH_GRPC=OFF): pass "
-                       "--dds to serve pose streams over DDS");
+        .kv("message",
+            "this nearpointd was built without gRPC (NEARPOINT_WITH_GRPC=OFF): pass "
+            "--dds to serve pose streams over DDS");
     return 2;
   }
 #endif
