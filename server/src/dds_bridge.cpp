@@ -169,10 +169,12 @@ struct StreamKey {
   auto operator<=>(const StreamKey&) const = default;
 };
 
-/// An accepted update waiting for its evaluation.
+/// What a stream answers next, in arrival order: an accepted update waiting for its evaluation,
+/// or the error report of a rejected one.
 struct Waiting {
   PreparedUpdate update;
   std::string client_id;
+  std::optional<PendingError> error;
 };
 
 /// One writer's stream on one scene. Lives in Impl::streams; erased only while no evaluation
@@ -187,6 +189,8 @@ struct StreamState {
   /// The DDS participant of the stream's writer: its reports are for a reader there.
   Guid participant{};
   std::deque<Waiting> waiting;
+  /// Accepted updates in `waiting` (the rest are error reports).
+  std::size_t waiting_updates = 0;
   /// Reports are volatile: one written before our writer has discovered the client's reader is
   /// lost to it. Discovery runs separately in each direction, so a client that waited for its
   /// own matched statuses may still be unknown to our writer for a moment. A new stream therefore
@@ -293,7 +297,7 @@ struct DdsBridge::Impl {
   }
 
   /// Marks streams ready whose client reader our writer now knows, or whose wait is over, and
-  /// starts their evaluations.
+  /// starts their answers.
   void check_readiness() {
     std::lock_guard lock(mutex);
     bool any = false;
@@ -301,21 +305,31 @@ struct DdsBridge::Impl {
     if (!any) return;
     const std::vector<Guid> readers = reader_participants();
     const Clock::time_point now = Clock::now();
-    for (const auto& [key, stream] : streams) {
-      if (stream->ready) continue;
+    for (auto it = streams.begin(); it != streams.end();) {
+      StreamState& stream = *it->second;
       const bool matched =
-          std::find(readers.begin(), readers.end(), stream->participant) != readers.end();
-      if (!matched && now < stream->ready_deadline) continue;
-      stream->ready = true;
+          std::find(readers.begin(), readers.end(), stream.participant) != readers.end();
+      if (stream.ready || (!matched && now < stream.ready_deadline)) {
+        ++it;
+        continue;
+      }
+      stream.ready = true;
       if (!matched)
         log_warn("dds_no_reader_for_stream")
-            .kv("stream", stream->number)
-            .kv("scene", stream->to.scene_id)
+            .kv("stream", stream.number)
+            .kv("scene", stream.to.scene_id)
             .kv("message",
                 "no reader of the client's participant after the wait; reports are "
                 "written anyway");
-      pump(*stream);
+      pump(stream);
+      if (stream.closing && !stream.evaluating && stream.waiting.empty()) {
+        log_closed(stream);
+        it = streams.erase(it);
+      } else {
+        ++it;
+      }
     }
+    stats.open_streams = streams.size();
   }
 
   /// Ends the streams of writers that are no longer matched (deleted, or lost by liveliness).
@@ -412,16 +426,15 @@ struct DdsBridge::Impl {
     ++stream.updates;
     Expected<PreparedUpdate> prepared = stream.stream->prepare(input, received);
     if (!prepared) {
+      // The error report is queued behind the stream's earlier answers, so that a stream's
+      // reports, errors included, come in the order its updates were taken. (A stream whose
+      // scene is unknown stays open, unbound and without caches, until its writer goes.)
       Addressee to{stream.to.scene_id, client_id, stream.to.writer_guid};
-      std::optional<PendingError> error =
-          reject(&stream, std::move(to), input.sequence, prepared.error());
-      // A stream whose first update was refused holds nothing (no scene, no caches): forget it,
-      // so that samples for unknown scenes cannot pile up streams.
-      if (!stream.stream->bound() && !stream.evaluating && stream.waiting.empty()) {
-        streams.erase(found);
-        stats.open_streams = streams.size();
-      }
-      return error;
+      Waiting entry;
+      entry.error = reject(&stream, std::move(to), input.sequence, prepared.error());
+      stream.waiting.push_back(std::move(entry));
+      pump(stream);
+      return std::nullopt;
     }
     if (!stream.announced) {
       // Logged once bound, so that samples for unknown scenes do not log a stream each.
@@ -433,19 +446,23 @@ struct DdsBridge::Impl {
           .kv("writer", dds::guid_hex(stream.to.writer_guid.data()))
           .kv("reader_matched", stream.ready ? "yes" : "not_yet");
     }
-    Waiting next{std::move(prepared.value()), std::move(client_id)};
-    // DDS cannot hold the publisher back: beyond the limit the newest update absorbs the one
-    // waiting before it (its poses already include the older one's), and its report says so.
+    Waiting next{std::move(prepared.value()), std::move(client_id), std::nullopt};
+    // DDS cannot hold the publisher back: beyond the limit the newest update absorbs the newest
+    // one waiting (its poses already include the older one's) and takes its place at the back,
+    // and its report says so.
     const std::size_t limit =
         stream.stream->flow_control() == FlowControl::coalesce ? 1 : max_waiting;
-    if (!stream.waiting.empty() && stream.waiting.size() >= limit) {
-      PoseStream::coalesce(next.update, stream.waiting.back().update);
-      stream.waiting.back() = std::move(next);
+    if (stream.waiting_updates >= limit) {
+      const auto older = std::find_if(stream.waiting.rbegin(), stream.waiting.rend(),
+                                      [](const Waiting& w) { return !w.error; });
+      PoseStream::coalesce(next.update, older->update);
+      stream.waiting.erase(std::next(older).base());
+      --stream.waiting_updates;
       ++stream.coalesced;
       ++stats.updates_coalesced;
-    } else {
-      stream.waiting.push_back(std::move(next));
     }
+    stream.waiting.push_back(std::move(next));
+    ++stream.waiting_updates;
     pump(stream);
     return std::nullopt;
   }
@@ -465,11 +482,19 @@ struct DdsBridge::Impl {
     return PendingError{std::move(to), sequence, error};
   }
 
-  /// Starts the stream's next evaluation if none is running. Requires `mutex`.
+  /// Writes the stream's error reports that are due and starts its next evaluation, if none is
+  /// running. Requires `mutex` (error reports are written under it, which keeps them in order
+  /// with the evaluations' reports).
   void pump(StreamState& stream) {
+    while (stream.ready && !stream.evaluating && !stream.waiting.empty() &&
+           stream.waiting.front().error) {
+      write_error_locked(*stream.waiting.front().error);
+      stream.waiting.pop_front();
+    }
     if (!stream.ready || stream.evaluating || stream.waiting.empty()) return;
     Waiting next = std::move(stream.waiting.front());
     stream.waiting.pop_front();
+    --stream.waiting_updates;
     stream.evaluating = true;
     stream.to.client_id = std::move(next.client_id);
     ++evaluating;
@@ -547,6 +572,12 @@ struct DdsBridge::Impl {
   }
 
   void write_error(const PendingError& pending) {
+    std::lock_guard lock(mutex);
+    write_error_locked(pending);
+  }
+
+  /// Requires `mutex`.
+  void write_error_locked(const PendingError& pending) {
     ReportSample sample{};
     address(pending.to, sample);
     sample.sequence_number = pending.sequence;
@@ -555,7 +586,6 @@ struct DdsBridge::Impl {
     sample.message = borrow(pending.error.message);
     sample.pairs._release = false;
     const dds_return_t written = dds_write(writer, &sample);
-    std::lock_guard lock(mutex);
     if (written < 0) {
       ++stats.write_failures;
       log_warn("dds_write_failed")

@@ -7,13 +7,14 @@
 // each such pair owns a PoseStream, so warm-start caches, sequence numbers and "objects not
 // listed keep their previous pose" are per client and per scene — two robots sharing a scene
 // never disturb each other's caches, and a client may stream to several scenes with one writer.
-// A stream ends when its writer is no longer matched (deleted, or lost by liveliness).
+// A stream ends when its writer is no longer matched (deleted, or lost by liveliness); streams
+// count against --max-streams like gRPC streams.
 //
 // Semantics, as on gRPC's StreamPoses: every accepted update yields exactly one report with its
 // sequence number, in order per stream; a rejected update (unknown scene, NaN pose, bad option,
 // sequence not increasing) yields a report with a non-zero status naming the field and the
-// sequence number, and the stream goes on. Error reports are written at once, so one can
-// overtake the report of an earlier update still being evaluated.
+// sequence number, and the stream goes on. A stream's reports, error reports included, are
+// written in the order its updates were taken.
 //
 // Overload. DDS cannot hold a publisher back the way HTTP/2 flow control does (keep-last
 // writers overwrite, they do not block), so a stream never queues more than --max-in-flight

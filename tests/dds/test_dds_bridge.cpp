@@ -202,7 +202,9 @@ TEST(DdsBridge, StreamAnswersEveryUpdateWithTheCoresDistances) {
     }
   }
   EXPECT_GT(warm, kUpdates) << "the stream's caches warm-start its later updates";
+  server.bridge->shutdown();  // the counters are final once every evaluation has ended
   EXPECT_EQ(server.bridge->stats().reports_written, std::uint64_t(kUpdates));
+  EXPECT_EQ(server.bridge->stats().updates_taken, std::uint64_t(kUpdates));
 }
 
 // Bad samples are answered with an error report on the report topic naming the sequence number
@@ -259,6 +261,7 @@ TEST(DdsBridge, BadSamplesGetErrorReportsAndTheStreamGoesOn) {
       EXPECT_FALSE(reports[0].message.empty());
     }
   }
+  server.bridge->shutdown();
   EXPECT_EQ(server.bridge->stats().updates_rejected, 7u);
 }
 
