@@ -14,7 +14,8 @@ namespace bench_scene {
 
 using Vec3 = Eigen::Vector3d;
 
-inline std::vector<Vec3> polygon_prism(int sides, double bottom_radius, double top_radius, double half) {
+inline std::vector<Vec3> polygon_prism(int sides, double bottom_radius, double top_radius,
+                                       double half) {
   std::vector<Vec3> out;
   for (int k = 0; k < sides; ++k) {
     const double angle = 2 * std::numbers::pi * k / sides;

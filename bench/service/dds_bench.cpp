@@ -10,8 +10,8 @@
 // robot would reach it), on 127.0.0.1:0 and the DDS domain given. Bounded: --updates round trips
 // per row and --max-seconds per row. Needs CYCLONEDDS_URI (loopback configuration).
 //
-//   CYCLONEDDS_URI=file://$PWD/deploy/cyclonedds-loopback.xml \
-//     nearpoint_dds_bench [--updates 2000] [--max-seconds 20] [--workers 2] [--domain 150]
+//   export CYCLONEDDS_URI=file://$PWD/deploy/cyclonedds-loopback.xml
+//   nearpoint_dds_bench [--updates 2000] [--max-seconds 20] [--workers 2] [--domain 150]
 #include <grpcpp/grpcpp.h>
 
 #include <algorithm>
@@ -359,9 +359,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string prefix = "rt/nearpoint_bench_" + std::to_string(getpid()) + "/";
-  const std::filesystem::path port_file =
-      std::filesystem::temp_directory_path() /
-      ("nearpoint_dds_bench_port_" + std::to_string(getpid()));
+  const std::filesystem::path port_file = std::filesystem::temp_directory_path() /
+                                          ("nearpoint_dds_bench_port_" + std::to_string(getpid()));
 
   ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--port-file",
                        port_file.string(), "--workers", std::to_string(workers), "--dds",
@@ -413,12 +412,13 @@ int main(int argc, char** argv) {
     if (!stub->CreateScene(&context, create, &scene).ok()) return 1;
   }
 
-  const auto row_budget = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(max_seconds));
+  const auto row_budget =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(max_seconds));
   std::vector<Row> rows;
   rows.push_back(measure_ping_pong(domain, prefix, updates, Clock::now() + row_budget));
   rows.push_back(measure_grpc_echo(channel, updates, Clock::now() + row_budget));
-  rows.push_back(measure_grpc_stream(channel, scene.scene_id(), updates, Clock::now() + row_budget));
+  rows.push_back(
+      measure_grpc_stream(channel, scene.scene_id(), updates, Clock::now() + row_budget));
   rows.push_back(
       measure_dds_stream(domain, prefix, scene.scene_id(), updates, Clock::now() + row_budget));
 
