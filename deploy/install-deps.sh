@@ -22,6 +22,8 @@ packages=(
   # Python client (client/python): Debian's /usr/bin/python3 with the runtimes matching the
   # protoc 3.21 / grpc_python_plugin 1.51 above, which generate its modules
   python3-grpcio python3-protobuf
+  # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged)
+  cyclonedds-dev cyclonedds-tools
 )
 for arg in "$@"; do
   case "$arg" in

@@ -21,6 +21,9 @@
 #include "remote_commands.hpp"
 #endif
 #include "nearpoint/options.hpp"
+#if NEARPOINT_HAVE_DDS
+#include "dds_stream.hpp"
+#endif
 
 #ifndef NEARPOINT_VERSION
 #define NEARPOINT_VERSION "unknown"
@@ -134,6 +137,73 @@ void add_distance_subcommand(CLI::App& app, int& exit_code) {
   command->callback([file, &exit_code] { exit_code = distance_main(*file); });
 }
 
+#if NEARPOINT_HAVE_DDS
+// The DDS transport's options of `nearpoint stream --dds` (nearpointd --dds on the other side).
+struct DdsStreamArguments {
+  nearpoint::cli::DdsStreamOptions options;
+  std::string flow_control = "block";
+  long long match_timeout_ms = 10000;
+  long long report_timeout_ms = 10000;
+};
+
+void add_dds_stream_options(CLI::App& command, DdsStreamArguments& args) {
+  nearpoint::cli::DdsStreamOptions& options = args.options;
+  command.add_option("--domain", options.dds.domain_id, "--dds: DDS domain id")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 230));
+  command
+      .add_option("--prefix", options.dds.topic_prefix,
+                  "--dds: topic prefix (as nearpointd --dds-prefix)")
+      ->capture_default_str();
+  command.add_option("--client-id", options.client_id,
+                     "--dds: echoed in this client's reports (default nearpoint-cli-PID)");
+  command
+      .add_option("--flow-control", args.flow_control,
+                  "--dds: block (every update its own report) or coalesce (merge updates that "
+                  "arrive while the server is busy)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"block", "coalesce"}));
+  command
+      .add_option("--match-timeout-ms", args.match_timeout_ms,
+                  "--dds: how long to wait for the server to be matched on the topics")
+      ->capture_default_str();
+  command
+      .add_option("--report-timeout-ms", args.report_timeout_ms,
+                  "--dds: how long to wait for the next report")
+      ->capture_default_str();
+  command.add_flag("--dds-allow-default-config", options.dds.allow_default_config,
+                   "--dds: run without CYCLONEDDS_URI (Cyclone's defaults: external interface, "
+                   "multicast)");
+}
+
+int run_dds_stream_command(DdsStreamArguments& args, const std::string& scene,
+                           const std::string& trajectory_path, std::size_t window,
+                           bool near_points) {
+  nearpoint::cli::Trajectory trajectory;
+  std::string error;
+  if (!nearpoint::cli::load_trajectory(trajectory_path, trajectory, error)) {
+    std::cerr << "nearpoint stream: " << error << '\n';
+    return kExitUsage;
+  }
+  args.options.scene_id = scene;
+  args.options.window = window;
+  args.options.near_points = near_points;
+  args.options.flow_control = args.flow_control == "coalesce" ? 2 : 0;
+  args.options.match_timeout = std::chrono::milliseconds(args.match_timeout_ms);
+  args.options.report_timeout = std::chrono::milliseconds(args.report_timeout_ms);
+  return nearpoint::cli::run_dds_stream(trajectory, args.options, std::cout, std::cerr);
+}
+
+constexpr const char* kDdsStreamHelp = R"(
+With --dds the updates go over DDS to `nearpointd --dds` (SCENE must be a scene id on the server,
+e.g. one preloaded with `nearpointd --scene FILE`): one JSON line per report, a check that every
+update is answered once and in order, and a summary on stderr. DDS needs CYCLONEDDS_URI, e.g.
+file://$PWD/deploy/cyclonedds-loopback.xml (loopback only). Exit status with --dds: 0 all
+answered; 1 rejected updates or missing / out-of-order reports; 2 cannot run.
+  nearpoint stream --dds scene-1 examples/dds_trajectory.jsonl
+)";
+#endif
+
 #ifdef NEARPOINT_WITH_REMOTE
 
 using nearpoint::cli::RemoteOptions;
@@ -246,6 +316,10 @@ Examples:
 
 void add_stream_subcommand(CLI::App& app, int& exit_code) {
   auto options = std::make_shared<nearpoint::cli::StreamCommandOptions>();
+#if NEARPOINT_HAVE_DDS
+  auto dds = std::make_shared<DdsStreamArguments>();
+  auto use_dds = std::make_shared<bool>(false);
+#endif
   CLI::App* command = app.add_subcommand(
       "stream", "Replay a trajectory as a pose stream; print reports or a summary");
   command
@@ -262,6 +336,10 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
   command->add_flag("--near-points", options->near_points, "Report near points and normals");
   command->add_option("--penetration", options->penetration, "none | bound");
   add_remote_options(*command, options->remote);
+#if NEARPOINT_HAVE_DDS
+  command->add_flag("--dds", *use_dds, "Stream over DDS (nearpointd --dds) instead of gRPC");
+  add_dds_stream_options(*command, *dds);
+#endif
   command->footer(std::string(R"(
 TRAJECTORY, one of:
   CSV with the header t,object,tx,ty,tz,qw,qx,qy,qz; rows with equal t form one update
@@ -276,10 +354,25 @@ silently.
 
 Example:
   nearpoint stream examples/scene.json examples/trajectory.csv
-)") + kRemoteExitCodes);
+)") + kRemoteExitCodes
+#if NEARPOINT_HAVE_DDS
+                  + kDdsStreamHelp
+#endif
+  );
+#if NEARPOINT_HAVE_DDS
+  command->callback([options, dds, use_dds, &exit_code] {
+    if (*use_dds) {
+      exit_code = run_dds_stream_command(*dds, options->scene, options->trajectory, options->window,
+                                         options->near_points);
+      return;
+    }
+    exit_code = nearpoint::cli::run_stream(*options, std::cout, std::cerr);
+  });
+#else
   command->callback([options, &exit_code] {
     exit_code = nearpoint::cli::run_stream(*options, std::cout, std::cerr);
   });
+#endif
 }
 
 void add_load_subcommand(CLI::App& app, int& exit_code) {
@@ -348,6 +441,36 @@ Example:
 
 #endif  // NEARPOINT_WITH_REMOTE
 
+#if !defined(NEARPOINT_WITH_REMOTE) && NEARPOINT_HAVE_DDS
+// A build without the gRPC client: `stream` speaks DDS only.
+void add_stream_subcommand(CLI::App& app, int& exit_code) {
+  struct Arguments {
+    DdsStreamArguments dds;
+    bool use_dds = false;
+    std::string scene, trajectory;
+    std::size_t window = 1;
+    bool near_points = false;
+  };
+  auto args = std::make_shared<Arguments>();
+  CLI::App* command =
+      app.add_subcommand("stream", "Replay a trajectory to nearpointd --dds; print each report");
+  command->add_option("SCENE", args->scene, "Scene id on the server")->required();
+  command->add_option("TRAJECTORY", args->trajectory, "Poses over time: CSV or JSON Lines")
+      ->required();
+  command->add_flag("--dds", args->use_dds, "Stream over DDS (the only transport of this build)");
+  command->add_option("--window", args->window, "Updates published ahead of their reports")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  command->add_flag("--near-points", args->near_points, "Ask for near points and normals");
+  add_dds_stream_options(*command, args->dds);
+  command->footer(kDdsStreamHelp);
+  command->callback([args, &exit_code] {
+    exit_code = run_dds_stream_command(args->dds, args->scene, args->trajectory, args->window,
+                                       args->near_points);
+  });
+}
+#endif
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -382,6 +505,8 @@ Examples:
     add_stream_subcommand(app, exit_code);
     add_load_subcommand(app, exit_code);
     add_demo_subcommand(app, exit_code);
+#elif NEARPOINT_HAVE_DDS
+    add_stream_subcommand(app, exit_code);
 #endif
     try {
       app.parse(argc, argv);

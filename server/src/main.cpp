@@ -1,9 +1,11 @@
-// nearpointd: the nearpoint distance server.
+// nearpointd: the nearpoint distance server, over gRPC and/or DDS (whichever the build has).
 //
 //   nearpointd [--listen 127.0.0.1:50051] [--workers N] [--port-file PATH] [limits…]
+//   nearpointd --dds [--dds-domain 0] [--dds-prefix rt/nearpoint/]   (needs CYCLONEDDS_URI)
 //   nearpointd --config nearpointd.toml
 //   nearpointd --scene cell.json [--scene other.yaml]   (preloads scenes under their ids)
 //
+// Both transports serve one SceneService: a scene created over gRPC is streamed to over DDS.
 // Logs one key=value line per event to stderr. SIGTERM or SIGINT: graceful shutdown (stop
 // accepting, drain streams), exit status 0. Exit status 1: could not start; 2: bad flags.
 #include <signal.h>
@@ -12,18 +14,24 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <thread>
 
 #include "nearpoint/server/log.hpp"
+#include "nearpoint/server/scene_service.hpp"
 #include "nearpoint/server/server.hpp"
 #include "scene_file.hpp"
+#if NEARPOINT_HAVE_DDS
+#include "dds_bridge.hpp"
+#endif
 
 namespace {
 
-using nearpoint::server::GrpcServer;
 using nearpoint::server::LogLevel;
+using nearpoint::server::SceneService;
 using nearpoint::server::ServerConfig;
 
+#if NEARPOINT_HAVE_GRPC
 /// Writes the port atomically (temporary file, then rename), so a reader never sees a partial
 /// number.
 bool write_port_file(const std::string& path, int port) {
@@ -36,6 +44,7 @@ bool write_port_file(const std::string& path, int port) {
   std::filesystem::rename(temporary, path, error);
   return !error;
 }
+#endif
 
 }  // namespace
 
@@ -48,18 +57,36 @@ int main(int argc, char** argv) {
   std::vector<std::string> scene_files;
   auto& limits = config.limits;
 
-  CLI::App app{"nearpointd: distances between registered geometries, over gRPC"};
+  CLI::App app{"nearpointd: distances between registered geometries, over gRPC and DDS"};
   app.set_config("--config", "", "Read these options from a TOML or INI file");
-  app.add_option("--listen", config.listen, "host:port to listen on (port 0: any free port)")
-      ->capture_default_str();
   app.add_option("--workers", config.workers, "Geometry worker threads (0: one per core)")
       ->capture_default_str()
       ->check(CLI::Range(0, 1024));
+#if NEARPOINT_HAVE_GRPC
+  app.add_option("--listen", config.listen, "host:port to listen on (port 0: any free port)")
+      ->capture_default_str();
   app.add_option("--port-file", port_file, "Write the bound port to this file once listening");
   app.add_option("--max-message-bytes", config.max_message_bytes,
                  "Largest gRPC message received or sent")
       ->capture_default_str()
       ->check(CLI::Range(std::size_t(1024), std::size_t(INT32_MAX)));
+#endif
+#if NEARPOINT_HAVE_DDS
+  bool dds = false;
+  nearpoint::server::DdsConfig dds_config;
+  app.add_flag("--dds", dds,
+               "Serve pose streams over DDS too (Cyclone DDS; needs CYCLONEDDS_URI, e.g. "
+               "file://$PWD/deploy/cyclonedds-loopback.xml)");
+  app.add_option("--dds-domain", dds_config.domain_id, "DDS domain id")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 230));
+  app.add_option("--dds-prefix", dds_config.topic_prefix,
+                 "Topic prefix: <prefix>pose_updates and <prefix>distance_reports")
+      ->capture_default_str();
+  app.add_flag("--dds-allow-default-config", dds_config.allow_default_config,
+               "Start DDS without CYCLONEDDS_URI (Cyclone's defaults use the external network "
+               "interface and multicast)");
+#endif
   app.add_option("--max-geometries", limits.max_geometries, "Stored geometries")
       ->capture_default_str();
   app.add_option("--max-pieces-per-geometry", limits.max_pieces_per_geometry,
@@ -92,9 +119,11 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0LL, 600'000LL));
   app.add_option("--scene", scene_files,
                  "Preload a scene file (JSON or YAML, as for `nearpoint scene create`) under the "
-                 "id it requests; repeatable")
+                 "id it requests; repeatable (how a DDS-only client gets its scene)")
       ->check(CLI::ExistingFile);
+#if NEARPOINT_HAVE_GRPC
   app.add_flag("--no-diagnostics", no_diagnostics, "Do not serve nearpoint.v1.Diagnostics (Echo)");
+#endif
   app.add_option("--log-level", log_level, "debug, info, warn or error")
       ->capture_default_str()
       ->check(CLI::IsMember({"debug", "info", "warn", "error"}));
@@ -118,21 +147,14 @@ int main(int argc, char** argv) {
   sigaddset(&shutdown_signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &shutdown_signals, nullptr);
 
-  auto started = GrpcServer::start(config);
-  if (!started) {
-    nearpoint::server::log_error("start_failed")
-        .kv("listen", config.listen)
-        .kv("message", started.error().message);
-    return 1;
-  }
-  GrpcServer& server = *started.value();
+  auto scenes = std::make_shared<SceneService>(config.limits, config.workers);
+  // Preloaded scenes exist before any transport serves, so a client's first update finds them.
   for (const std::string& file : scene_files) {
-    auto preloaded = nearpoint::server::preload_scene_file(server.scenes(), file);
+    auto preloaded = nearpoint::server::preload_scene_file(*scenes, file);
     if (!preloaded) {
       nearpoint::server::log_error("start_failed")
           .kv("scene_file", file)
           .kv("message", preloaded.error().describe());
-      server.shutdown();
       return 1;
     }
     nearpoint::server::log_info("scene_loaded")
@@ -140,6 +162,16 @@ int main(int argc, char** argv) {
         .kv("scene_id", preloaded->scene_id)
         .kv("pairs", preloaded->pair_count);
   }
+
+#if NEARPOINT_HAVE_GRPC
+  auto started = nearpoint::server::GrpcServer::start(config, scenes);
+  if (!started) {
+    nearpoint::server::log_error("start_failed")
+        .kv("listen", config.listen)
+        .kv("message", started.error().message);
+    return 1;
+  }
+  nearpoint::server::GrpcServer& server = *started.value();
   if (!port_file.empty() && !write_port_file(port_file, server.port())) {
     nearpoint::server::log_error("start_failed")
         .kv("port_file", port_file)
@@ -150,15 +182,48 @@ int main(int argc, char** argv) {
   nearpoint::server::log_info("listening")
       .kv("listen", config.listen)
       .kv("port", server.port())
-      .kv("workers", server.scenes().worker_count())
+      .kv("workers", scenes->worker_count())
       .kv("max_streams", limits.max_streams)
       .kv("max_in_flight", limits.max_in_flight_per_stream)
       .kv("max_message_bytes", config.max_message_bytes);
+#endif
+#if NEARPOINT_HAVE_DDS
+  std::unique_ptr<nearpoint::server::DdsBridge> bridge;
+  if (dds) {
+    auto bridged = nearpoint::server::DdsBridge::start(*scenes, dds_config);
+    if (!bridged) {
+      nearpoint::server::log_error("start_failed")
+          .kv("transport", "dds")
+          .kv("field", bridged.error().field)
+          .kv("message", bridged.error().message);
+#if NEARPOINT_HAVE_GRPC
+      server.shutdown();
+#endif
+      return 1;
+    }
+    bridge = std::move(bridged.value());
+  }
+#if !NEARPOINT_HAVE_GRPC
+  if (!bridge) {
+    nearpoint::server::log_error("start_failed")
+        .kv("message",
+            "this nearpointd was built without gRPC (NEARPOINT_WITH_GRPC=OFF): pass "
+            "--dds to serve pose streams over DDS");
+    return 2;
+  }
+#endif
+#endif
 
   int signal_number = 0;
   sigwait(&shutdown_signals, &signal_number);
   nearpoint::server::log_info("signal").kv("signal",
                                            signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
+  // DDS first: it answers the updates it has taken while the gRPC streams are still served.
+#if NEARPOINT_HAVE_DDS
+  if (bridge) bridge->shutdown();
+#endif
+#if NEARPOINT_HAVE_GRPC
   server.shutdown();
+#endif
   return 0;
 }

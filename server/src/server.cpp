@@ -15,7 +15,7 @@ struct GrpcServer::Impl {
   ServerConfig config;
   // Destroyed in reverse order: the gRPC server first (no call can reach the services any more),
   // then the services, then the scene service (whose pool finishes any queued work).
-  std::unique_ptr<SceneService> scenes;
+  std::shared_ptr<SceneService> scenes;
   std::unique_ptr<DistanceServiceImpl> distance;
   std::unique_ptr<DiagnosticsServiceImpl> diagnostics;
   std::unique_ptr<grpc::Server> server;
@@ -30,11 +30,13 @@ GrpcServer::~GrpcServer() {
   shutdown();
 }
 
-Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& config) {
+Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& config,
+                                                        std::shared_ptr<SceneService> scenes) {
   std::unique_ptr<GrpcServer> self(new GrpcServer());
   Impl& impl = *self->impl_;
   impl.config = config;
-  impl.scenes = std::make_unique<SceneService>(config.limits, config.workers);
+  impl.scenes =
+      scenes ? std::move(scenes) : std::make_shared<SceneService>(config.limits, config.workers);
   impl.distance = std::make_unique<DistanceServiceImpl>(*impl.scenes);
   if (config.diagnostics) impl.diagnostics = std::make_unique<DiagnosticsServiceImpl>();
 

@@ -1,5 +1,6 @@
 // nearpointd's gRPC server: the DistanceService and Diagnostics services over one SceneService,
-// plus health checking and reflection. Used by main() and, in-process, by the tests and the
+// plus health checking and reflection. ServerConfig's `workers` and `limits` describe the
+// SceneService and apply to every transport. Used by main() and, in-process, by the tests and the
 // service benchmark.
 #pragma once
 
@@ -32,7 +33,10 @@ struct ServerConfig {
 class GrpcServer {
  public:
   /// Binds and starts serving, or says why it could not (the address is in use, malformed …).
-  static Expected<std::unique_ptr<GrpcServer>> start(const ServerConfig& config);
+  /// Serves `scenes` when given (shared with other transports, e.g. the DDS bridge); otherwise a
+  /// SceneService of its own built from `config.limits` and `config.workers`.
+  static Expected<std::unique_ptr<GrpcServer>> start(const ServerConfig& config,
+                                                     std::shared_ptr<SceneService> scenes = {});
   /// Shuts down (see shutdown()) if still running.
   ~GrpcServer();
 

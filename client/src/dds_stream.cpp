@@ -1,0 +1,364 @@
+#include "dds_stream.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstring>
+#include <deque>
+#include <map>
+#include <ostream>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace nearpoint::cli {
+namespace {
+
+using Json = nlohmann::ordered_json;
+using Clock = std::chrono::steady_clock;
+
+dds_duration_t to_dds(Clock::duration d) {
+  return std::max<dds_duration_t>(0,
+                                  std::chrono::duration_cast<std::chrono::nanoseconds>(d).count());
+}
+
+const char* pair_status_name(std::uint8_t status) {
+  switch (status) {
+    case 1:
+      return "separated";
+    case 2:
+      return "intersecting";
+    case 3:
+      return "beyond_cutoff";
+    case 4:
+      return "iteration_limit";
+    case 5:
+      return "engine_error";
+    default:
+      return "unknown";
+  }
+}
+
+/// The wire status of a rejected update (gRPC's codes) by name, as the server logs it.
+const char* error_code_name(std::uint32_t code) {
+  switch (code) {
+    case 3:
+      return "invalid_argument";
+    case 5:
+      return "not_found";
+    case 8:
+      return "resource_exhausted";
+    case 9:
+      return "failed_precondition";
+    case 13:
+      return "internal";
+    case 14:
+      return "unavailable";
+    default:
+      return "unknown";
+  }
+}
+
+Json vec(const nearpoint_msg_dds__Vector3_& v) {
+  return Json::array({v.x, v.y, v.z});
+}
+
+Json report_json(const DistanceReportSample& report) {
+  Json out;
+  out["sequence"] = report.sequence_number;
+  if (report.status != 0) {
+    out["status"] = "error";
+    out["code"] = error_code_name(report.status);
+    out["field"] = report.error_field ? report.error_field : "";
+    out["message"] = report.message ? report.message : "";
+    return out;
+  }
+  out["status"] = "ok";
+  Json pairs = Json::array();
+  for (std::uint32_t i = 0; i < report.pairs._length; ++i) {
+    const nearpoint_msg_dds__PairDistance_& p = report.pairs._buffer[i];
+    Json pair;
+    pair["object_a"] = p.object_a ? p.object_a : "";
+    pair["object_b"] = p.object_b ? p.object_b : "";
+    pair["status"] = pair_status_name(p.status);
+    pair["distance"] = p.distance;
+    pair["distance_lower_bound"] = p.distance_lower_bound;
+    pair["error_bound"] = p.error_bound;
+    pair["iterations"] = p.iterations;
+    pair["warm_started"] = p.warm_started;
+    if (p.has_near_points) {
+      pair["point_a"] = vec(p.point_a);
+      pair["point_b"] = vec(p.point_b);
+      pair["normal"] = vec(p.normal);
+    }
+    if (p.has_penetration_bound) pair["penetration_bound"] = p.penetration_bound;
+    if (p.message && *p.message) pair["message"] = p.message;
+    pairs.push_back(std::move(pair));
+  }
+  out["pairs"] = std::move(pairs);
+  out["coalesced_updates"] = report.coalesced_updates;
+  if (report.coalesced_updates > 0) out["coalesced_from_sequence"] = report.coalesced_from_sequence;
+  out["server_us"] = report.timing.server_us;
+  return out;
+}
+
+double percentile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  const std::size_t index = std::min(values.size() - 1, std::size_t(q * double(values.size())));
+  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(index), values.end());
+  return values[index];
+}
+
+}  // namespace
+
+// ---- DdsPoseClient ----
+
+std::unique_ptr<DdsPoseClient> DdsPoseClient::create(const Config& config, std::string& error) {
+  if (error = dds::check_configuration(config.allow_default_config); !error.empty()) return nullptr;
+  if (std::string problem = dds::check_topic_prefix(config.topic_prefix); !problem.empty()) {
+    error = "--prefix '" + config.topic_prefix + "' " + problem;
+    return nullptr;
+  }
+  std::unique_ptr<DdsPoseClient> self(new DdsPoseClient());
+  auto fail = [&](const char* what, dds_return_t code) {
+    error = dds::describe(what, code) + " (domain " + std::to_string(config.domain_id) +
+            "; is CYCLONEDDS_URI a readable, valid Cyclone DDS configuration?)";
+    return nullptr;
+  };
+  self->participant_ = dds_create_participant(config.domain_id, nullptr, nullptr);
+  if (self->participant_ < 0) {
+    const dds_return_t code = self->participant_;
+    self->participant_ = 0;
+    return fail("dds_create_participant", code);
+  }
+  const dds::QosPtr qos = dds::stream_qos();
+  const dds_entity_t update_topic =
+      dds_create_topic(self->participant_, &nearpoint_msg_dds__PoseUpdate__desc,
+                       dds::pose_updates_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  if (update_topic < 0) return fail("dds_create_topic(pose_updates)", update_topic);
+  const dds_entity_t report_topic = dds_create_topic(
+      self->participant_, &nearpoint_msg_dds__DistanceReport__desc,
+      dds::distance_reports_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  if (report_topic < 0) return fail("dds_create_topic(distance_reports)", report_topic);
+  self->writer_ = dds_create_writer(self->participant_, update_topic, qos.get(), nullptr);
+  if (self->writer_ < 0) return fail("dds_create_writer", self->writer_);
+  self->reader_ = dds_create_reader(self->participant_, report_topic, qos.get(), nullptr);
+  if (self->reader_ < 0) return fail("dds_create_reader", self->reader_);
+  dds_guid_t guid;
+  if (const dds_return_t rc = dds_get_guid(self->writer_, &guid); rc < 0)
+    return fail("dds_get_guid", rc);
+  std::memcpy(self->writer_guid_.data(), guid.v, self->writer_guid_.size());
+  self->waitset_ = dds_create_waitset(self->participant_);
+  if (self->waitset_ < 0) return fail("dds_create_waitset", self->waitset_);
+  if (const dds_return_t rc = dds_waitset_attach(self->waitset_, self->reader_, 0); rc < 0)
+    return fail("dds_waitset_attach(reader)", rc);
+  if (const dds_return_t rc = dds_waitset_attach(self->waitset_, self->writer_, 0); rc < 0)
+    return fail("dds_waitset_attach(writer)", rc);
+  return self;
+}
+
+DdsPoseClient::~DdsPoseClient() {
+  if (participant_ > 0) dds_delete(participant_);
+}
+
+bool DdsPoseClient::wait_matched(std::chrono::milliseconds timeout, std::string& error) {
+  dds_set_status_mask(writer_, DDS_PUBLICATION_MATCHED_STATUS);
+  dds_set_status_mask(reader_, DDS_SUBSCRIPTION_MATCHED_STATUS);
+  const Clock::time_point deadline = Clock::now() + timeout;
+  bool matched = false;
+  for (;;) {
+    dds_publication_matched_status_t publication{};
+    dds_subscription_matched_status_t subscription{};
+    dds_get_publication_matched_status(writer_, &publication);  // also resets the status
+    dds_get_subscription_matched_status(reader_, &subscription);
+    matched = publication.current_count > 0 && subscription.current_count > 0;
+    const Clock::time_point now = Clock::now();
+    if (matched || now >= deadline) break;
+    dds_waitset_wait(waitset_, nullptr, 0, to_dds(deadline - now));
+  }
+  dds_set_status_mask(writer_, 0);
+  dds_set_status_mask(reader_, DDS_DATA_AVAILABLE_STATUS);
+  if (!matched)
+    error = "no nearpointd matched on the DDS topics within " + std::to_string(timeout.count()) +
+            " ms (is it running with --dds on the same domain and prefix, and CYCLONEDDS_URI "
+            "the same configuration?)";
+  return matched;
+}
+
+bool DdsPoseClient::publish(const PoseUpdateSample& update, std::string& error) {
+  if (const dds_return_t rc = dds_write(writer_, &update); rc < 0) {
+    error = dds::describe("dds_write", rc);
+    return false;
+  }
+  return true;
+}
+
+int DdsPoseClient::take_reports(std::chrono::milliseconds timeout,
+                                const std::function<void(const DistanceReportSample&)>& on_report,
+                                std::string& error) {
+  const Clock::time_point deadline = Clock::now() + timeout;
+  int delivered = 0;
+  for (;;) {
+    constexpr std::size_t kBatch = 32;
+    std::array<void*, kBatch> samples{};
+    std::array<dds_sample_info_t, kBatch> infos{};
+    const dds_return_t taken = dds_take(reader_, samples.data(), infos.data(), kBatch, kBatch);
+    if (taken < 0) {
+      error = dds::describe("dds_take", taken);
+      return -1;
+    }
+    for (dds_return_t i = 0; i < taken; ++i) {
+      if (!infos[std::size_t(i)].valid_data) continue;
+      const auto& report = *static_cast<const DistanceReportSample*>(samples[std::size_t(i)]);
+      // Reports for other clients of the same scene share the topic.
+      if (std::memcmp(report.writer_guid, writer_guid_.data(), writer_guid_.size()) != 0) continue;
+      on_report(report);
+      ++delivered;
+    }
+    if (taken > 0) dds_return_loan(reader_, samples.data(), taken);
+    if (taken == dds_return_t(kBatch)) continue;  // more may be waiting
+    if (delivered > 0) return delivered;
+    const Clock::time_point now = Clock::now();
+    if (now >= deadline) return 0;
+    const dds_return_t woken = dds_waitset_wait(waitset_, nullptr, 0, to_dds(deadline - now));
+    if (woken < 0) {
+      error = dds::describe("dds_waitset_wait", woken);
+      return -1;
+    }
+  }
+}
+
+// ---- nearpoint stream --dds ----
+
+int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options, std::ostream& out,
+                   std::ostream& err) {
+  const char* prefix = "nearpoint stream --dds: ";
+  if (options.scene_id.empty()) {
+    err << prefix << "--scene is required (the scene id on the server)\n";
+    return kStreamCannotRun;
+  }
+  std::string error;
+  std::unique_ptr<DdsPoseClient> client = DdsPoseClient::create(options.dds, error);
+  if (!client) {
+    err << prefix << error << '\n';
+    return kStreamCannotRun;
+  }
+  if (!client->wait_matched(options.match_timeout, error)) {
+    err << prefix << error << '\n';
+    return kStreamCannotRun;
+  }
+  const std::string client_id =
+      options.client_id.empty() ? "nearpoint-cli-" + std::to_string(getpid()) : options.client_id;
+  const std::size_t window = std::max<std::size_t>(1, options.window);
+  const std::size_t total = trajectory.steps.size();
+
+  // Sent and not yet answered, in sequence order, with the time each was published.
+  std::map<std::uint64_t, Clock::time_point> outstanding;
+  std::vector<double> round_trips_us;
+  std::uint64_t next = 0;  // index of the next step to publish
+  std::uint64_t last_ok_sequence = 0;
+  std::size_t reports = 0, rejected = 0, coalesced = 0, problems = 0;
+
+  // The sample borrows these; rebuilt per update.
+  std::vector<nearpoint_msg_dds__ObjectPose_> poses;
+  auto publish_step = [&](std::uint64_t index) {
+    const TrajectoryStep& step = trajectory.steps[index];
+    poses.assign(step.poses.size(), {});
+    for (std::size_t i = 0; i < step.poses.size(); ++i) {
+      const ObjectPose& in = step.poses[i];
+      nearpoint_msg_dds__ObjectPose_& pose = poses[i];
+      pose.object_id = const_cast<char*>(in.object_id.c_str());
+      pose.pose.rotation = {in.rotation_wxyz[0], in.rotation_wxyz[1], in.rotation_wxyz[2],
+                            in.rotation_wxyz[3]};
+      pose.pose.translation = {in.translation[0], in.translation[1], in.translation[2]};
+    }
+    PoseUpdateSample update{};
+    update.scene_id = const_cast<char*>(options.scene_id.c_str());
+    update.client_id = const_cast<char*>(client_id.c_str());
+    update.sequence_number = index + 1;
+    update.poses._buffer = poses.data();
+    update.poses._length = update.poses._maximum = std::uint32_t(poses.size());
+    update.poses._release = false;
+    if (options.near_points) {
+      update.options.has_near_points = true;
+      update.options.near_points = true;
+    }
+    update.flow_control = options.flow_control;
+    outstanding.emplace(update.sequence_number, Clock::now());
+    return client->publish(update, error);
+  };
+
+  auto on_report = [&](const DistanceReportSample& report) {
+    const std::uint64_t sequence = report.sequence_number;
+    Json line = report_json(report);
+    const auto found = outstanding.find(sequence);
+    if (found == outstanding.end()) {
+      err << prefix << "report for sequence " << sequence
+          << ", which is not awaiting an answer (a duplicate, or never sent)\n";
+      ++problems;
+    } else {
+      const double us =
+          std::chrono::duration<double, std::micro>(Clock::now() - found->second).count();
+      line["round_trip_us"] = us;
+      if (report.status != 0) {
+        ++rejected;  // error reports may overtake earlier updates still being evaluated
+        outstanding.erase(found);
+      } else {
+        round_trips_us.push_back(us);
+        if (sequence <= last_ok_sequence) {
+          err << prefix << "report " << sequence << " arrived after report " << last_ok_sequence
+              << " (out of order)\n";
+          ++problems;
+        }
+        last_ok_sequence = std::max(last_ok_sequence, sequence);
+        // Every earlier update still unanswered must have been merged into this one.
+        const std::uint64_t merged_from =
+            report.coalesced_updates > 0 ? report.coalesced_from_sequence : sequence;
+        for (auto it = outstanding.begin(); it != outstanding.end() && it->first < sequence;) {
+          if (it->first >= merged_from) {
+            ++coalesced;
+          } else {
+            err << prefix << "no report for sequence " << it->first << " before report " << sequence
+                << " (missing)\n";
+            ++problems;
+          }
+          it = outstanding.erase(it);
+        }
+        outstanding.erase(sequence);
+      }
+    }
+    ++reports;
+    out << line.dump() << '\n';
+  };
+
+  while (next < total || !outstanding.empty()) {
+    while (next < total && outstanding.size() < window) {
+      if (!publish_step(next)) {
+        err << prefix << error << '\n';
+        return kStreamCannotRun;
+      }
+      ++next;
+    }
+    const int got = client->take_reports(options.report_timeout, on_report, error);
+    if (got < 0) {
+      err << prefix << error << '\n';
+      return kStreamCannotRun;
+    }
+    if (got == 0) {
+      err << prefix << "no report within " << options.report_timeout.count()
+          << " ms; unanswered sequence numbers:";
+      for (const auto& [sequence, sent] : outstanding) err << ' ' << sequence;
+      err << '\n';
+      problems += outstanding.size();
+      break;
+    }
+  }
+  out.flush();
+  err << prefix << total << " updates, " << reports << " reports (" << rejected << " rejected, "
+      << coalesced << " merged into later reports), " << problems << " problems; round trip p50 "
+      << percentile(round_trips_us, 0.5) << " us, p99 " << percentile(round_trips_us, 0.99)
+      << " us\n";
+  return problems == 0 && rejected == 0 ? kStreamOk : kStreamIncomplete;
+}
+
+}  // namespace nearpoint::cli

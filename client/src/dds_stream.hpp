@@ -1,0 +1,101 @@
+// `nearpoint stream --dds`: replays a trajectory to nearpointd's DDS bridge and checks every
+// report. Also the DDS client the tests and the benchmark use (DdsPoseClient).
+//
+// The client publishes nearpoint::msg::dds_::PoseUpdate_ on <prefix>pose_updates and takes
+// nearpoint::msg::dds_::DistanceReport_ from <prefix>distance_reports, keeping only the reports
+// addressed to its own writer (DistanceReport_.writer_guid), with the QoS of
+// proto/dds/nearpoint_dds.hpp. Like the server it refuses to start without CYCLONEDDS_URI.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <iosfwd>
+#include <memory>
+#include <string>
+
+#include "nearpoint_dds.hpp"
+#include "trajectory.hpp"
+
+namespace nearpoint::cli {
+
+using PoseUpdateSample = nearpoint_msg_dds__PoseUpdate_;
+using DistanceReportSample = nearpoint_msg_dds__DistanceReport_;
+
+/// A PoseUpdate_ writer and a DistanceReport_ reader on one participant.
+class DdsPoseClient {
+ public:
+  struct Config {
+    std::uint32_t domain_id = 0;
+    std::string topic_prefix = dds::kDefaultTopicPrefix;
+    /// Start without CYCLONEDDS_URI (Cyclone's defaults: external interface, multicast).
+    bool allow_default_config = false;
+  };
+
+  /// The endpoints, or nullptr and `error` saying why not.
+  static std::unique_ptr<DdsPoseClient> create(const Config& config, std::string& error);
+  ~DdsPoseClient();
+  DdsPoseClient(const DdsPoseClient&) = delete;
+  DdsPoseClient& operator=(const DdsPoseClient&) = delete;
+
+  /// Waits until the writer has matched a reader and the reader a writer on the two topics (the
+  /// server's), so that no early (volatile) update or report is lost. False on timeout.
+  bool wait_matched(std::chrono::milliseconds timeout, std::string& error);
+
+  bool publish(const PoseUpdateSample& update, std::string& error);
+
+  /// Waits up to `timeout` for reports addressed to this client's writer and passes each to
+  /// `on_report` (the sample is valid during the call only). Returns how many were passed (0 on
+  /// timeout), or -1 and `error` when DDS fails.
+  int take_reports(std::chrono::milliseconds timeout,
+                   const std::function<void(const DistanceReportSample&)>& on_report,
+                   std::string& error);
+
+  /// This client's writer GUID, as the server echoes it in DistanceReport_.writer_guid.
+  const std::array<std::uint8_t, 16>& writer_guid() const { return writer_guid_; }
+
+ private:
+  DdsPoseClient() = default;
+  dds_entity_t participant_ = 0;
+  dds_entity_t writer_ = 0;
+  dds_entity_t reader_ = 0;
+  dds_entity_t waitset_ = 0;
+  std::array<std::uint8_t, 16> writer_guid_{};
+};
+
+struct DdsStreamOptions {
+  DdsPoseClient::Config dds;
+  std::string scene_id;
+  /// Echoed in the reports (empty: "nearpoint-cli-<pid>").
+  std::string client_id;
+  /// Updates published before their reports arrive; 1 = lock step (each update waits for its
+  /// report, so round-trip times are meaningful).
+  std::size_t window = 1;
+  /// PoseUpdate_.flow_control: 0 block, 2 coalesce.
+  std::uint8_t flow_control = 0;
+  bool near_points = false;
+  std::chrono::milliseconds match_timeout{10000};
+  /// How long to wait for the next report before giving up on the missing ones.
+  std::chrono::milliseconds report_timeout{10000};
+};
+
+/// Exit codes of `nearpoint stream --dds`.
+inline constexpr int kStreamOk = 0;          ///< every update answered, in order, none rejected
+inline constexpr int kStreamIncomplete = 1;  ///< rejected updates, or reports missing/out of order
+inline constexpr int kStreamCannotRun = 2;   ///< no configuration, no server matched, DDS failed
+
+/// Publishes one PoseUpdate_ per trajectory step (sequence numbers 1, 2, …) and writes one JSON
+/// line per report to `out`:
+///   {"sequence": n, "status": "ok", "pairs": [{"object_a", "object_b", "status", "distance",
+///    "distance_lower_bound", "error_bound", "iterations", "warm_started", ["point_a", "point_b",
+///    "normal"], ["penetration_bound"]}...], "coalesced_updates": k, "coalesced_from_sequence": s,
+///    "server_us": t, "round_trip_us": t}
+///   {"sequence": n, "status": "error", "code": "not_found", "field": "scene_id", "message": "…"}
+/// Checks that every update is answered exactly once — by its report, an error report, or as
+/// merged into a later report (coalesced_from_sequence) — and that reports come in sequence
+/// order; problems and a summary go to `err`.
+int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options, std::ostream& out,
+                   std::ostream& err);
+
+}  // namespace nearpoint::cli

@@ -1,0 +1,730 @@
+#include "dds_bridge.hpp"
+
+#include <algorithm>
+#include <array>
+#include <condition_variable>
+#include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+#include "nearpoint/server/log.hpp"
+#include "nearpoint_dds.hpp"
+
+namespace nearpoint::server {
+namespace {
+
+using UpdateSample = nearpoint_msg_dds__PoseUpdate_;
+using ReportSample = nearpoint_msg_dds__DistanceReport_;
+using PairSample = nearpoint_msg_dds__PairDistance_;
+using Guid = std::array<std::uint8_t, 16>;
+
+/// The highest domain id Cyclone's default port mapping allows (7400 + 250·d + … < 65536).
+constexpr std::uint32_t kMaxDomainId = 230;
+/// Samples taken per dds_take call.
+constexpr std::int32_t kTakeBatch = 32;
+/// How long a new stream's first evaluation waits for the report writer to discover a reader of
+/// the client's participant (see StreamState::ready).
+constexpr auto kReaderMatchWait = std::chrono::seconds(2);
+
+/// Cyclone serialises strings through char*; the sample only borrows ours for dds_write.
+char* borrow(const std::string& text) {
+  return const_cast<char*>(text.c_str());
+}
+char* borrow(const char* text) {
+  static char empty[] = "";
+  return text ? const_cast<char*>(text) : empty;
+}
+std::string own(const char* text) {
+  return text ? std::string(text) : std::string();
+}
+
+/// The wire status of a rejected update: gRPC's code for the same error, so that a report means
+/// the same on both transports (nearpoint.v1.ErrorCode).
+std::uint32_t wire_code(ErrorCode code) {
+  switch (code) {
+    case ErrorCode::invalid_argument:
+      return 3;
+    case ErrorCode::not_found:
+      return 5;
+    case ErrorCode::already_exists:
+      return 6;
+    case ErrorCode::resource_exhausted:
+      return 8;
+    case ErrorCode::failed_precondition:
+      return 9;
+    case ErrorCode::internal:
+      return 13;
+    case ErrorCode::unavailable:
+      return 14;
+  }
+  return 13;
+}
+
+/// nearpoint.v1.PairStatus values.
+std::uint8_t wire_status(PairStatus status) {
+  switch (status) {
+    case PairStatus::separated:
+      return 1;
+    case PairStatus::intersecting:
+      return 2;
+    case PairStatus::beyond_cutoff:
+      return 3;
+    case PairStatus::iteration_limit:
+      return 4;
+    case PairStatus::engine_error:
+      return 5;
+  }
+  return 5;
+}
+
+nearpoint_msg_dds__Vector3_ to_sample(const Vec3d& v) {
+  return {v.x(), v.y(), v.z()};
+}
+
+nearpoint_msg_dds__PoseGradient_ to_sample(const Eigen::Matrix<double, 6, 1>& gradient) {
+  return {to_sample(Vec3d(gradient.head<3>())), to_sample(Vec3d(gradient.tail<3>()))};
+}
+
+/// The sample as the scene API's input. Mechanical, like proto_convert: the scene API validates,
+/// so both transports reject the same inputs with the same messages.
+PoseUpdateInput to_input(const UpdateSample& sample) {
+  PoseUpdateInput out;
+  out.scene_id = own(sample.scene_id);
+  out.sequence = sample.sequence_number;
+  out.poses.reserve(sample.poses._length);
+  for (std::uint32_t i = 0; i < sample.poses._length; ++i) {
+    const nearpoint_msg_dds__ObjectPose_& in = sample.poses._buffer[i];
+    ObjectPoseInput& pose = out.poses.emplace_back();
+    pose.object_id = own(in.object_id);
+    const nearpoint_msg_dds__Quaternion_& q = in.pose.rotation;
+    pose.pose.rotation_wxyz = {q.w, q.x, q.y, q.z};
+    const nearpoint_msg_dds__Vector3_& t = in.pose.translation;
+    pose.pose.translation = Vec3d(t.x, t.y, t.z);
+  }
+  const nearpoint_msg_dds__QueryOptions_& options = sample.options;
+  if (options.has_epsilon) out.options.epsilon = options.epsilon;
+  if (options.has_near_points) out.options.near_points = options.near_points;
+  switch (options.penetration) {
+    case 0:
+      out.options.penetration = PenetrationMode::unspecified;
+      break;
+    case 1:
+      out.options.penetration = PenetrationMode::none;
+      break;
+    case 2:
+      out.options.penetration = PenetrationMode::bound;
+      break;
+    case 3:
+      out.options.penetration = PenetrationMode::depth;
+      break;
+    default:
+      out.options.penetration = PenetrationMode::unknown;
+      break;
+  }
+  if (options.has_gradient) out.options.gradient = options.gradient;
+  if (options.has_distance_cutoff) out.options.distance_cutoff = options.distance_cutoff;
+  if (options.has_warm_start) out.options.warm_start = options.warm_start;
+  if (options.has_max_iterations) out.options.max_iterations = options.max_iterations;
+  switch (sample.flow_control) {
+    case 0:
+    case 1:
+      out.flow_control = FlowControl::block;
+      break;
+    case 2:
+      out.flow_control = FlowControl::coalesce;
+      break;
+    default:
+      out.flow_control = FlowControl::unknown;
+      break;
+  }
+  return out;
+}
+
+/// Who a report goes to: the update's scene (the key), its client id and writer.
+struct Addressee {
+  std::string scene_id;
+  std::string client_id;
+  Guid writer_guid{};
+};
+
+void address(const Addressee& to, ReportSample& out) {
+  out.scene_id = borrow(to.scene_id);
+  out.client_id = borrow(to.client_id);
+  std::memcpy(out.writer_guid, to.writer_guid.data(), sizeof out.writer_guid);
+}
+
+/// An error report that is written once the bridge's lock is released.
+struct PendingError {
+  Addressee to;
+  std::uint64_t sequence = 0;
+  Error error;
+};
+
+struct StreamKey {
+  dds_instance_handle_t publication = 0;
+  std::string scene_id;
+  auto operator<=>(const StreamKey&) const = default;
+};
+
+/// What a stream answers next, in arrival order: an accepted update waiting for its evaluation,
+/// or the error report of a rejected one.
+struct Waiting {
+  PreparedUpdate update;
+  std::string client_id;
+  std::optional<PendingError> error;
+};
+
+/// One writer's stream on one scene. Lives in Impl::streams; erased only while no evaluation
+/// references it.
+struct StreamState {
+  StreamKey key;
+  std::uint64_t number = 0;
+  std::unique_ptr<PoseStream> stream;
+  /// `client_id` is the one of the update being evaluated (read by the pool thread while
+  /// `evaluating`, written only while not).
+  Addressee to;
+  /// The DDS participant of the stream's writer: its reports are for a reader there.
+  Guid participant{};
+  std::deque<Waiting> waiting;
+  /// Accepted updates in `waiting` (the rest are error reports).
+  std::size_t waiting_updates = 0;
+  /// Reports are volatile: one written before our writer has discovered the client's reader is
+  /// lost to it. Discovery runs separately in each direction, so a client that waited for its
+  /// own matched statuses may still be unknown to our writer for a moment. A new stream therefore
+  /// starts evaluating only once our writer has matched a reader of the client's participant, or
+  /// after kReaderMatchWait (a client that does not read reports).
+  bool ready = false;
+  Clock::time_point ready_deadline;
+  bool evaluating = false;
+  bool announced = false;
+  /// The writer is no longer matched: erase once everything taken has been answered.
+  bool closing = false;
+  std::uint64_t updates = 0;
+  std::uint64_t rejected = 0;
+  std::uint64_t coalesced = 0;
+  std::uint64_t reports = 0;
+};
+
+}  // namespace
+
+struct DdsBridge::Impl {
+  Impl(SceneService& service, DdsConfig configuration)
+      : scenes(service), config(std::move(configuration)) {}
+
+  SceneService& scenes;
+  DdsConfig config;
+  std::size_t max_waiting = 1;
+
+  dds_entity_t participant = 0;
+  dds_entity_t reader = 0;
+  dds_entity_t writer = 0;
+  dds_entity_t guard = 0;
+  dds_entity_t waitset = 0;
+  std::thread thread;
+
+  mutable std::mutex mutex;
+  std::condition_variable idle;
+  std::map<StreamKey, std::unique_ptr<StreamState>> streams;
+  std::size_t evaluating = 0;
+  std::uint64_t next_stream_number = 1;
+  bool stopping = false;
+  bool shut_down = false;
+  DdsBridgeStats stats;
+
+  ~Impl() {
+    if (participant > 0) dds_delete(participant);
+  }
+
+  // ---- the bridge thread ----
+
+  void run() {
+    std::array<dds_attach_t, 4> triggered{};
+    for (;;) {
+      const dds_return_t woken =
+          dds_waitset_wait(waitset, triggered.data(), triggered.size(), time_until_next_deadline());
+      if (woken < 0) {
+        log_error("dds_waitset_failed").kv("message", dds::describe("dds_waitset_wait", woken));
+        return;
+      }
+      {
+        std::lock_guard lock(mutex);
+        if (stopping) return;
+      }
+      reconcile_writers();
+      take_updates();
+      // Reading the writer's matched status resets it, so that its condition stops triggering.
+      dds_publication_matched_status_t publication{};
+      dds_get_publication_matched_status(writer, &publication);
+      check_readiness();
+    }
+  }
+
+  /// The waitset's timeout: until the earliest deadline of a stream not yet ready.
+  dds_duration_t time_until_next_deadline() {
+    std::lock_guard lock(mutex);
+    std::optional<Clock::time_point> earliest;
+    for (const auto& [key, stream] : streams)
+      if (!stream->ready && (!earliest || stream->ready_deadline < *earliest))
+        earliest = stream->ready_deadline;
+    if (!earliest) return DDS_INFINITY;
+    const auto left = *earliest - Clock::now();
+    return std::max<dds_duration_t>(
+        0, std::chrono::duration_cast<std::chrono::nanoseconds>(left).count() + 1000);
+  }
+
+  /// The participants of the readers our report writer has matched. Requires `mutex` (only to
+  /// keep the DDS calls off the pool threads' way; they do not call back).
+  std::vector<Guid> reader_participants() const {
+    std::vector<dds_instance_handle_t> handles(16);
+    dds_return_t count = dds_get_matched_subscriptions(writer, handles.data(), handles.size());
+    if (count > dds_return_t(handles.size())) {
+      handles.resize(std::size_t(count) + 16);
+      count = dds_get_matched_subscriptions(writer, handles.data(), handles.size());
+    }
+    std::vector<Guid> out;
+    for (dds_return_t i = 0; i < std::min<dds_return_t>(count, dds_return_t(handles.size())); ++i) {
+      dds_builtintopic_endpoint_t* endpoint =
+          dds_get_matched_subscription_data(writer, handles[std::size_t(i)]);
+      if (!endpoint) continue;
+      Guid& guid = out.emplace_back();
+      std::memcpy(guid.data(), endpoint->participant_key.v, guid.size());
+      dds_builtintopic_free_endpoint(endpoint);
+    }
+    return out;
+  }
+
+  /// Marks streams ready whose client reader our writer now knows, or whose wait is over, and
+  /// starts their answers.
+  void check_readiness() {
+    std::lock_guard lock(mutex);
+    bool any = false;
+    for (const auto& [key, stream] : streams) any = any || !stream->ready;
+    if (!any) return;
+    const std::vector<Guid> readers = reader_participants();
+    const Clock::time_point now = Clock::now();
+    for (auto it = streams.begin(); it != streams.end();) {
+      StreamState& stream = *it->second;
+      const bool matched =
+          std::find(readers.begin(), readers.end(), stream.participant) != readers.end();
+      if (stream.ready || (!matched && now < stream.ready_deadline)) {
+        ++it;
+        continue;
+      }
+      stream.ready = true;
+      if (!matched)
+        log_warn("dds_no_reader_for_stream")
+            .kv("stream", stream.number)
+            .kv("scene", stream.to.scene_id)
+            .kv("message",
+                "no reader of the client's participant after the wait; reports are "
+                "written anyway");
+      pump(stream);
+      if (stream.closing && !stream.evaluating && stream.waiting.empty()) {
+        log_closed(stream);
+        it = streams.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    stats.open_streams = streams.size();
+  }
+
+  /// Ends the streams of writers that are no longer matched (deleted, or lost by liveliness).
+  void reconcile_writers() {
+    dds_subscription_matched_status_t status{};
+    if (dds_get_subscription_matched_status(reader, &status) < 0) return;
+    if (status.current_count_change == 0 && status.total_count_change == 0) return;
+    std::vector<dds_instance_handle_t> matched(std::size_t(status.current_count) + 8);
+    dds_return_t count = dds_get_matched_publications(reader, matched.data(), matched.size());
+    if (count < 0) return;
+    matched.resize(std::min<std::size_t>(matched.size(), std::size_t(count)));
+    std::sort(matched.begin(), matched.end());
+    std::lock_guard lock(mutex);
+    for (auto it = streams.begin(); it != streams.end();) {
+      StreamState& stream = *it->second;
+      if (!std::binary_search(matched.begin(), matched.end(), it->first.publication))
+        stream.closing = true;
+      if (stream.closing && !stream.evaluating && stream.waiting.empty()) {
+        log_closed(stream);
+        it = streams.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    stats.open_streams = streams.size();
+  }
+
+  void take_updates() {
+    for (;;) {
+      std::array<void*, kTakeBatch> samples{};
+      std::array<dds_sample_info_t, kTakeBatch> infos{};
+      const dds_return_t taken =
+          dds_take(reader, samples.data(), infos.data(), samples.size(), kTakeBatch);
+      if (taken < 0) {
+        log_error("dds_take_failed").kv("message", dds::describe("dds_take", taken));
+        return;
+      }
+      std::vector<PendingError> errors;
+      for (dds_return_t i = 0; i < taken; ++i) {
+        // Samples without data announce instance state changes (a writer unregistering).
+        if (!infos[std::size_t(i)].valid_data) continue;
+        if (std::optional<PendingError> error =
+                accept(*static_cast<const UpdateSample*>(samples[std::size_t(i)]),
+                       infos[std::size_t(i)].publication_handle))
+          errors.push_back(std::move(*error));
+      }
+      dds_return_loan(reader, samples.data(), taken);
+      for (const PendingError& error : errors) write_error(error);
+      if (taken < kTakeBatch) return;
+    }
+  }
+
+  /// Validates one update and queues it on its stream; returns the error report to write when
+  /// it is rejected. Cheap: no geometry.
+  std::optional<PendingError> accept(const UpdateSample& sample,
+                                     dds_instance_handle_t publication) {
+    const Clock::time_point received = Clock::now();
+    PoseUpdateInput input = to_input(sample);
+    std::string client_id = own(sample.client_id);
+    std::lock_guard lock(mutex);
+    ++stats.updates_taken;
+    const StreamKey key{publication, input.scene_id};
+    auto found = streams.find(key);
+    if (found == streams.end()) {
+      // The writer's GUID addresses the reports; a writer no longer matched has gone (its
+      // samples arrived just before its deletion was seen) and cannot be answered.
+      dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, publication);
+      if (!endpoint) {
+        log_warn("dds_update_from_unmatched_writer")
+            .kv("scene", input.scene_id)
+            .kv("sequence", input.sequence);
+        return std::nullopt;
+      }
+      Addressee to{input.scene_id, client_id, {}};
+      std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
+      Guid participant{};
+      std::memcpy(participant.data(), endpoint->participant_key.v, participant.size());
+      dds_builtintopic_free_endpoint(endpoint);
+      Expected<std::unique_ptr<PoseStream>> opened = scenes.open_stream();
+      if (!opened) return reject(nullptr, std::move(to), input.sequence, opened.error());
+      auto state = std::make_unique<StreamState>();
+      state->key = key;
+      state->number = next_stream_number++;
+      state->stream = std::move(opened.value());
+      state->to = std::move(to);
+      state->participant = participant;
+      const std::vector<Guid> readers = reader_participants();
+      state->ready = std::find(readers.begin(), readers.end(), participant) != readers.end();
+      state->ready_deadline = received + kReaderMatchWait;
+      found = streams.emplace(key, std::move(state)).first;
+      stats.open_streams = streams.size();
+    }
+    StreamState& stream = *found->second;
+    ++stream.updates;
+    Expected<PreparedUpdate> prepared = stream.stream->prepare(input, received);
+    if (!prepared) {
+      // The error report is queued behind the stream's earlier answers, so that a stream's
+      // reports, errors included, come in the order its updates were taken. (A stream whose
+      // scene is unknown stays open, unbound and without caches, until its writer goes.)
+      Addressee to{stream.to.scene_id, client_id, stream.to.writer_guid};
+      Waiting entry;
+      entry.error = reject(&stream, std::move(to), input.sequence, prepared.error());
+      stream.waiting.push_back(std::move(entry));
+      pump(stream);
+      return std::nullopt;
+    }
+    if (!stream.announced) {
+      // Logged once bound, so that samples for unknown scenes do not log a stream each.
+      stream.announced = true;
+      log_info("dds_stream_open")
+          .kv("stream", stream.number)
+          .kv("scene", stream.to.scene_id)
+          .kv("client", client_id)
+          .kv("writer", dds::guid_hex(stream.to.writer_guid.data()))
+          .kv("reader_matched", stream.ready ? "yes" : "not_yet");
+    }
+    Waiting next{std::move(prepared.value()), std::move(client_id), std::nullopt};
+    // DDS cannot hold the publisher back: beyond the limit the newest update absorbs the newest
+    // one waiting (its poses already include the older one's) and takes its place at the back,
+    // and its report says so.
+    const std::size_t limit =
+        stream.stream->flow_control() == FlowControl::coalesce ? 1 : max_waiting;
+    if (stream.waiting_updates >= limit) {
+      const auto older = std::find_if(stream.waiting.rbegin(), stream.waiting.rend(),
+                                      [](const Waiting& w) { return !w.error; });
+      PoseStream::coalesce(next.update, older->update);
+      stream.waiting.erase(std::next(older).base());
+      --stream.waiting_updates;
+      ++stream.coalesced;
+      ++stats.updates_coalesced;
+    }
+    stream.waiting.push_back(std::move(next));
+    ++stream.waiting_updates;
+    pump(stream);
+    return std::nullopt;
+  }
+
+  /// Counts and logs a rejected update; requires `mutex`.
+  std::optional<PendingError> reject(StreamState* stream, Addressee to, std::uint64_t sequence,
+                                     const Error& error) {
+    ++stats.updates_rejected;
+    if (stream) ++stream->rejected;
+    log_warn("dds_update_rejected")
+        .kv("stream", stream ? stream->number : 0)
+        .kv("scene", to.scene_id)
+        .kv("sequence", sequence)
+        .kv("code", to_string(error.code))
+        .kv("field", error.field)
+        .kv("message", error.message);
+    return PendingError{std::move(to), sequence, error};
+  }
+
+  /// Writes the stream's error reports that are due and starts its next evaluation, if none is
+  /// running. Requires `mutex` (error reports are written under it, which keeps them in order
+  /// with the evaluations' reports).
+  void pump(StreamState& stream) {
+    while (stream.ready && !stream.evaluating && !stream.waiting.empty() &&
+           stream.waiting.front().error) {
+      write_error_locked(*stream.waiting.front().error);
+      stream.waiting.pop_front();
+    }
+    if (!stream.ready || stream.evaluating || stream.waiting.empty()) return;
+    Waiting next = std::move(stream.waiting.front());
+    stream.waiting.pop_front();
+    --stream.waiting_updates;
+    stream.evaluating = true;
+    stream.to.client_id = std::move(next.client_id);
+    ++evaluating;
+    stream.stream->evaluate(std::move(next.update),
+                            [this, &stream](Report report) { on_report(stream, report); });
+  }
+
+  // ---- the worker pool's side ----
+
+  /// An evaluation's report, on a pool thread: written from here (the sample borrows the
+  /// report's strings), then the stream's next update starts.
+  void on_report(StreamState& stream, const Report& report) {
+    std::vector<PairSample> pairs(report.pairs.size());
+    for (std::size_t i = 0; i < report.pairs.size(); ++i) {
+      const PairReport& in = report.pairs[i];
+      PairSample& out = pairs[i];
+      out.object_a = borrow(report.scene->objects[in.object_a].id);
+      out.object_b = borrow(report.scene->objects[in.object_b].id);
+      out.status = wire_status(in.status);
+      out.distance = in.distance;
+      out.distance_lower_bound = in.distance_lower_bound;
+      out.error_bound = in.error_bound;
+      out.iterations = in.iterations;
+      out.piece_pairs_evaluated = in.piece_pairs_evaluated;
+      out.piece_a = in.piece_a;
+      out.piece_b = in.piece_b;
+      out.warm_started = in.warm_started;
+      out.has_near_points = in.has_near_points;
+      out.point_a = to_sample(in.point_a);
+      out.point_b = to_sample(in.point_b);
+      out.normal = to_sample(in.normal);
+      out.has_penetration_bound = in.has_penetration_bound;
+      out.penetration_bound = in.penetration_bound;
+      out.has_gradient = in.has_gradient;
+      out.gradient_a = to_sample(in.gradient_a);
+      out.gradient_b = to_sample(in.gradient_b);
+      out.message = borrow(in.engine_message);
+    }
+    ReportSample sample{};
+    address(stream.to, sample);
+    sample.sequence_number = report.sequence;
+    sample.status = 0;
+    sample.error_field = borrow("");
+    sample.message = borrow("");
+    sample.pairs._buffer = pairs.data();
+    sample.pairs._length = sample.pairs._maximum = std::uint32_t(pairs.size());
+    sample.pairs._release = false;
+    sample.timing = {report.timing.server_us, report.timing.queue_us, report.timing.evaluation_us,
+                     report.timing.geometry_us};
+    sample.coalesced_updates = report.coalesced_updates;
+    sample.coalesced_from_sequence = report.coalesced_from_sequence;
+    const dds_return_t written = dds_write(writer, &sample);
+
+    std::lock_guard lock(mutex);
+    if (written < 0) {
+      ++stats.write_failures;
+      log_warn("dds_write_failed")
+          .kv("stream", stream.number)
+          .kv("sequence", report.sequence)
+          .kv("message", dds::describe("dds_write", written));
+    } else {
+      ++stats.reports_written;
+      ++stream.reports;
+    }
+    stream.evaluating = false;
+    --evaluating;
+    if (stream.closing && stream.waiting.empty()) {
+      log_closed(stream);
+      streams.erase(stream.key);
+      stats.open_streams = streams.size();
+    } else {
+      pump(stream);
+    }
+    if (evaluating == 0) idle.notify_all();
+  }
+
+  void write_error(const PendingError& pending) {
+    std::lock_guard lock(mutex);
+    write_error_locked(pending);
+  }
+
+  /// Requires `mutex`.
+  void write_error_locked(const PendingError& pending) {
+    ReportSample sample{};
+    address(pending.to, sample);
+    sample.sequence_number = pending.sequence;
+    sample.status = wire_code(pending.error.code);
+    sample.error_field = borrow(pending.error.field);
+    sample.message = borrow(pending.error.message);
+    sample.pairs._release = false;
+    const dds_return_t written = dds_write(writer, &sample);
+    if (written < 0) {
+      ++stats.write_failures;
+      log_warn("dds_write_failed")
+          .kv("sequence", pending.sequence)
+          .kv("message", dds::describe("dds_write", written));
+    } else {
+      ++stats.reports_written;
+    }
+  }
+
+  void log_closed(const StreamState& stream) {
+    if (!stream.announced) return;
+    log_info("dds_stream_closed")
+        .kv("stream", stream.number)
+        .kv("scene", stream.to.scene_id)
+        .kv("updates", stream.updates)
+        .kv("rejected", stream.rejected)
+        .kv("coalesced", stream.coalesced)
+        .kv("reports", stream.reports);
+  }
+};
+
+DdsBridge::DdsBridge() = default;
+
+DdsBridge::~DdsBridge() {
+  shutdown();
+}
+
+Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
+                                                      const DdsConfig& config) {
+  if (std::string problem = dds::check_configuration(config.allow_default_config); !problem.empty())
+    return Error{ErrorCode::failed_precondition, "CYCLONEDDS_URI", problem};
+  if (config.domain_id > kMaxDomainId)
+    return invalid_argument(
+        "dds.domain",
+        text("is ", config.domain_id, "; Cyclone DDS's port mapping allows 0-", kMaxDomainId));
+  if (std::string problem = dds::check_topic_prefix(config.topic_prefix); !problem.empty())
+    return invalid_argument("dds.prefix", problem);
+
+  std::unique_ptr<DdsBridge> self(new DdsBridge());
+  self->impl_ = std::make_unique<Impl>(scenes, config);
+  Impl& impl = *self->impl_;
+  impl.max_waiting = std::max<std::size_t>(1, scenes.limits().max_in_flight_per_stream);
+  auto fail = [&](const char* what, dds_return_t code) -> Error {
+    impl.shut_down = true;
+    return Error{ErrorCode::unavailable, "dds",
+                 dds::describe(what, code) + " (domain " + std::to_string(config.domain_id) +
+                     "; is CYCLONEDDS_URI a readable, valid Cyclone DDS configuration?)"};
+  };
+
+  impl.participant = dds_create_participant(config.domain_id, nullptr, nullptr);
+  if (impl.participant < 0) {
+    const dds_return_t code = impl.participant;
+    impl.participant = 0;
+    return fail("dds_create_participant", code);
+  }
+  const dds::QosPtr qos = dds::stream_qos();
+  const dds_entity_t update_topic =
+      dds_create_topic(impl.participant, &nearpoint_msg_dds__PoseUpdate__desc,
+                       dds::pose_updates_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  if (update_topic < 0) return fail("dds_create_topic(pose_updates)", update_topic);
+  const dds_entity_t report_topic = dds_create_topic(
+      impl.participant, &nearpoint_msg_dds__DistanceReport__desc,
+      dds::distance_reports_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  if (report_topic < 0) return fail("dds_create_topic(distance_reports)", report_topic);
+  impl.reader = dds_create_reader(impl.participant, update_topic, qos.get(), nullptr);
+  if (impl.reader < 0) return fail("dds_create_reader", impl.reader);
+  impl.writer = dds_create_writer(impl.participant, report_topic, qos.get(), nullptr);
+  if (impl.writer < 0) return fail("dds_create_writer", impl.writer);
+  if (const dds_return_t rc = dds_set_status_mask(
+          impl.reader, DDS_DATA_AVAILABLE_STATUS | DDS_SUBSCRIPTION_MATCHED_STATUS);
+      rc < 0)
+    return fail("dds_set_status_mask", rc);
+  if (const dds_return_t rc = dds_set_status_mask(impl.writer, DDS_PUBLICATION_MATCHED_STATUS);
+      rc < 0)
+    return fail("dds_set_status_mask(writer)", rc);
+  impl.guard = dds_create_guardcondition(impl.participant);
+  if (impl.guard < 0) return fail("dds_create_guardcondition", impl.guard);
+  impl.waitset = dds_create_waitset(impl.participant);
+  if (impl.waitset < 0) return fail("dds_create_waitset", impl.waitset);
+  if (const dds_return_t rc = dds_waitset_attach(impl.waitset, impl.reader, impl.reader); rc < 0)
+    return fail("dds_waitset_attach(reader)", rc);
+  if (const dds_return_t rc = dds_waitset_attach(impl.waitset, impl.writer, impl.writer); rc < 0)
+    return fail("dds_waitset_attach(writer)", rc);
+  if (const dds_return_t rc = dds_waitset_attach(impl.waitset, impl.guard, impl.guard); rc < 0)
+    return fail("dds_waitset_attach(guard)", rc);
+
+  impl.thread = std::thread([&impl] { impl.run(); });
+  log_info("dds_ready")
+      .kv("domain", config.domain_id)
+      .kv("updates_topic", dds::pose_updates_topic(config.topic_prefix))
+      .kv("reports_topic", dds::distance_reports_topic(config.topic_prefix))
+      .kv("history_depth", dds::kHistoryDepth)
+      .kv("max_in_flight", impl.max_waiting)
+      .kv("config", std::getenv("CYCLONEDDS_URI") ? std::getenv("CYCLONEDDS_URI") : "(default)");
+  return self;
+}
+
+void DdsBridge::shutdown() {
+  if (!impl_) return;
+  Impl& impl = *impl_;
+  {
+    std::lock_guard lock(impl.mutex);
+    if (impl.shut_down) return;
+    impl.shut_down = true;
+    impl.stopping = true;
+  }
+  dds_set_guardcondition(impl.guard, true);
+  if (impl.thread.joinable()) impl.thread.join();
+  // Answer every update already taken (at most --max-in-flight per stream), then end.
+  std::unique_lock lock(impl.mutex);
+  for (const auto& [key, stream] : impl.streams) {
+    stream->ready = true;
+    impl.pump(*stream);
+  }
+  impl.idle.wait(lock, [&] { return impl.evaluating == 0; });
+  for (const auto& [key, stream] : impl.streams) impl.log_closed(*stream);
+  impl.streams.clear();
+  impl.stats.open_streams = 0;
+  log_info("dds_shutdown")
+      .kv("updates", impl.stats.updates_taken)
+      .kv("rejected", impl.stats.updates_rejected)
+      .kv("coalesced", impl.stats.updates_coalesced)
+      .kv("reports", impl.stats.reports_written)
+      .kv("write_failures", impl.stats.write_failures);
+  lock.unlock();
+  dds_delete(impl.participant);
+  impl.participant = 0;
+}
+
+DdsBridgeStats DdsBridge::stats() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->stats;
+}
+
+const DdsConfig& DdsBridge::config() const {
+  return impl_->config;
+}
+
+}  // namespace nearpoint::server

@@ -1,0 +1,83 @@
+// The DDS bridge: nearpointd's second transport, a thin adapter over the scene API exactly as the
+// gRPC service is. It reads nearpoint::msg::dds_::PoseUpdate_ samples on <prefix>pose_updates and
+// answers each with a nearpoint::msg::dds_::DistanceReport_ on <prefix>distance_reports (topic
+// names, QoS and history depth: proto/dds/nearpoint_dds.hpp).
+//
+// Streams. A stream is one DDS writer (its publication handle) publishing for one scene id:
+// each such pair owns a PoseStream, so warm-start caches, sequence numbers and "objects not
+// listed keep their previous pose" are per client and per scene — two robots sharing a scene
+// never disturb each other's caches, and a client may stream to several scenes with one writer.
+// A stream ends when its writer is no longer matched (deleted, or lost by liveliness); streams
+// count against --max-streams like gRPC streams.
+//
+// Semantics, as on gRPC's StreamPoses: every accepted update yields exactly one report with its
+// sequence number, in order per stream; a rejected update (unknown scene, NaN pose, bad option,
+// sequence not increasing) yields a report with a non-zero status naming the field and the
+// sequence number, and the stream goes on. A stream's reports, error reports included, are
+// written in the order its updates were taken.
+//
+// Overload. DDS cannot hold a publisher back the way HTTP/2 flow control does (keep-last
+// writers overwrite, they do not block), so a stream never queues more than --max-in-flight
+// accepted updates: an update arriving when that many wait is merged with the newest waiting one
+// (its poses already include the older one's), and its report says so (coalesced_updates,
+// coalesced_from_sequence). With flow_control = 2 (coalesce) every update arriving while the
+// stream is busy is merged. Nothing is dropped silently by the bridge.
+//
+// Threads. One bridge thread waits on a waitset (data available, writers matched/unmatched,
+// shutdown), takes samples, validates them (PoseStream::prepare: no geometry) and queues them;
+// evaluations run on the SceneService's worker pool, whose thread writes the report.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "nearpoint/server/errors.hpp"
+#include "nearpoint/server/scene_service.hpp"
+
+namespace nearpoint::server {
+
+struct DdsConfig {
+  /// DDS domain id (0–230 with Cyclone's default port mapping).
+  std::uint32_t domain_id = 0;
+  /// Topic names are prefix + "pose_updates" and prefix + "distance_reports".
+  std::string topic_prefix = "rt/nearpoint/";
+  /// Start even when CYCLONEDDS_URI is unset (Cyclone's defaults: the external interface and
+  /// multicast). Off by default: see deploy/cyclonedds-loopback.xml.
+  bool allow_default_config = false;
+};
+
+/// Counters for logs and tests.
+struct DdsBridgeStats {
+  std::uint64_t updates_taken = 0;
+  std::uint64_t updates_rejected = 0;
+  std::uint64_t updates_coalesced = 0;
+  std::uint64_t reports_written = 0;
+  std::uint64_t write_failures = 0;
+  std::size_t open_streams = 0;
+};
+
+class DdsBridge {
+ public:
+  /// Creates the participant, topics, reader and writer and starts the bridge thread, or says
+  /// why it could not (no configuration, bad prefix, Cyclone refused).
+  static Expected<std::unique_ptr<DdsBridge>> start(SceneService& scenes, const DdsConfig& config);
+  /// Shuts down (see shutdown()).
+  ~DdsBridge();
+  DdsBridge(const DdsBridge&) = delete;
+  DdsBridge& operator=(const DdsBridge&) = delete;
+
+  /// Stops taking samples, answers every update already taken, then deletes the DDS entities.
+  /// Idempotent.
+  void shutdown();
+
+  DdsBridgeStats stats() const;
+  const DdsConfig& config() const;
+
+ private:
+  DdsBridge();
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace nearpoint::server

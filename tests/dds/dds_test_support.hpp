@@ -1,0 +1,144 @@
+// Shared pieces of the DDS tests: domain ids, topic prefixes, update samples that own their
+// strings, and a client loop that collects this client's reports.
+//
+// Isolation. ctest runs test cases in parallel and a DDS domain is shared by every process on the
+// machine, so every test case uses its own domain id (the constants below; 101–130 are reserved
+// for DDS tests), and every topic prefix carries the process id, so that another checkout running
+// the same tests at the same time cannot cross-talk either. CYCLONEDDS_URI is set by ctest to
+// deploy/cyclonedds-loopback.xml (tests/CMakeLists.txt): loopback only.
+#pragma once
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "dds_stream.hpp"
+
+namespace nearpoint::dds_testing {
+
+// One domain per test case.
+inline constexpr std::uint32_t kDomainStream = 101;
+inline constexpr std::uint32_t kDomainBadSamples = 102;
+inline constexpr std::uint32_t kDomainOverload = 103;
+inline constexpr std::uint32_t kDomainSharedScene = 104;
+inline constexpr std::uint32_t kDomainNoConfiguration = 105;
+inline constexpr std::uint32_t kDomainEndToEnd = 111;
+inline constexpr std::uint32_t kDomainPreloaded = 112;
+
+inline std::string unique_prefix(const std::string& test) {
+  return "rt/nearpoint_test_" + std::to_string(getpid()) + "_" + test + "/";
+}
+
+/// A PoseUpdate_ sample with storage for everything it points to.
+struct UpdateMessage {
+  struct Pose {
+    std::string object_id;
+    std::array<double, 4> rotation_wxyz{1, 0, 0, 0};
+    std::array<double, 3> translation{0, 0, 0};
+  };
+  std::string scene_id;
+  std::string client_id = "test";
+  std::uint64_t sequence = 0;
+  std::vector<Pose> poses;
+  nearpoint_msg_dds__QueryOptions_ options{};
+  std::uint8_t flow_control = 0;
+
+  /// The sample; valid while this object is alive and unchanged.
+  const cli::PoseUpdateSample& sample() {
+    buffer_.resize(poses.size());
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      buffer_[i].object_id = poses[i].object_id.data();
+      const auto& q = poses[i].rotation_wxyz;
+      buffer_[i].pose.rotation = {q[0], q[1], q[2], q[3]};
+      const auto& t = poses[i].translation;
+      buffer_[i].pose.translation = {t[0], t[1], t[2]};
+    }
+    sample_ = {};
+    sample_.scene_id = scene_id.data();
+    sample_.client_id = client_id.data();
+    sample_.sequence_number = sequence;
+    sample_.poses._buffer = buffer_.data();
+    sample_.poses._length = sample_.poses._maximum = std::uint32_t(buffer_.size());
+    sample_.poses._release = false;
+    sample_.options = options;
+    sample_.flow_control = flow_control;
+    return sample_;
+  }
+
+ private:
+  std::vector<nearpoint_msg_dds__ObjectPose_> buffer_;
+  cli::PoseUpdateSample sample_{};
+};
+
+/// A report copied out of its sample.
+struct ReceivedPair {
+  std::string object_a, object_b;
+  std::uint8_t status = 0;
+  double distance = 0, error_bound = 0, distance_lower_bound = 0;
+  bool warm_started = false;
+};
+struct ReceivedReport {
+  std::uint64_t sequence = 0;
+  std::uint32_t status = 0;
+  std::string client_id, error_field, message;
+  std::vector<ReceivedPair> pairs;
+  std::uint32_t coalesced_updates = 0;
+  std::uint64_t coalesced_from_sequence = 0;
+};
+
+inline ReceivedReport copy_report(const cli::DistanceReportSample& sample) {
+  ReceivedReport out;
+  out.sequence = sample.sequence_number;
+  out.status = sample.status;
+  out.client_id = sample.client_id;
+  out.error_field = sample.error_field;
+  out.message = sample.message;
+  out.coalesced_updates = sample.coalesced_updates;
+  out.coalesced_from_sequence = sample.coalesced_from_sequence;
+  for (std::uint32_t i = 0; i < sample.pairs._length; ++i) {
+    const auto& p = sample.pairs._buffer[i];
+    out.pairs.push_back({p.object_a, p.object_b, p.status, p.distance, p.error_bound,
+                         p.distance_lower_bound, p.warm_started});
+  }
+  return out;
+}
+
+/// Takes this client's reports until `count` have arrived or `timeout` passes without one.
+inline std::vector<ReceivedReport> collect_reports(
+    cli::DdsPoseClient& client, std::size_t count,
+    std::chrono::milliseconds timeout = std::chrono::milliseconds(10000)) {
+  std::vector<ReceivedReport> out;
+  std::string error;
+  while (out.size() < count) {
+    const int got = client.take_reports(
+        timeout, [&](const cli::DistanceReportSample& s) { out.push_back(copy_report(s)); }, error);
+    if (got < 0) ADD_FAILURE() << error;
+    if (got <= 0) break;
+  }
+  return out;
+}
+
+/// A connected client (fails the test if it cannot match the server within 10 s).
+inline std::unique_ptr<cli::DdsPoseClient> connect(std::uint32_t domain,
+                                                   const std::string& prefix) {
+  cli::DdsPoseClient::Config config;
+  config.domain_id = domain;
+  config.topic_prefix = prefix;
+  std::string error;
+  std::unique_ptr<cli::DdsPoseClient> client = cli::DdsPoseClient::create(config, error);
+  if (!client) {
+    ADD_FAILURE() << error;
+    return nullptr;
+  }
+  if (!client->wait_matched(std::chrono::seconds(10), error)) {
+    ADD_FAILURE() << error;
+    return nullptr;
+  }
+  return client;
+}
+
+}  // namespace nearpoint::dds_testing

@@ -1,0 +1,379 @@
+// The DDS bridge in-process: a SceneService with the bridge on a test domain, and a real DDS
+// client (the one `nearpoint stream --dds` uses) publishing samples to it. The answers are checked
+// against the engine's own distance, computed here from the same numbers. Needs no gRPC.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <map>
+#include <numbers>
+#include <random>
+
+#include "dds_bridge.hpp"
+#include "dds_test_support.hpp"
+#include "nearpoint/compound.hpp"
+#include "nearpoint/server/scene_service.hpp"
+
+namespace nearpoint::dds_testing {
+namespace {
+
+using server::DdsBridge;
+using server::DdsConfig;
+using server::GeometryInput;
+using server::PieceInput;
+using server::SceneService;
+using server::ServiceLimits;
+
+/// A geometry in both forms: the scene API's input and the engine's compound.
+struct Geometry {
+  GeometryInput input;
+  Compound<double> local;
+};
+
+Geometry polytope(const std::vector<Vec3<double>>& vertices) {
+  Geometry g;
+  g.input.name = "polytope";
+  PieceInput& piece = g.input.pieces.emplace_back();
+  server::PolytopeInput shape;
+  shape.vertices = vertices;
+  piece.shape = shape;
+  std::vector<Piece<double>> pieces;
+  pieces.push_back({Shape<double>(Polytope<double>(vertices)), Pose<double>{}});
+  g.local = Compound<double>(std::move(pieces));
+  return g;
+}
+
+/// A capsule and a rounded box beside it (two pieces, a primitive, radii and an offset).
+Geometry arm() {
+  Geometry g;
+  g.input.name = "arm";
+  const Vec3<double> a(-0.4, 0, 0), b(0.4, 0, 0), half(0.15, 0.1, 0.2), offset(0.55, 0.1, 0);
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.5, Vec3<double>::UnitZ()));
+  PieceInput& capsule = g.input.pieces.emplace_back();
+  capsule.shape = Segment<double>{a, b};
+  capsule.radius = 0.1;
+  PieceInput& box = g.input.pieces.emplace_back();
+  box.shape = Box<double>{half};
+  box.radius = 0.02;
+  box.offset.rotation_wxyz = {q.w(), q.x(), q.y(), q.z()};
+  box.offset.translation = offset;
+  std::vector<Piece<double>> pieces;
+  pieces.push_back({Shape<double>::capsule(a, b, 0.1), Pose<double>{}});
+  pieces.push_back(
+      {Shape<double>(Box<double>{half}, 0.02), Pose<double>::from_quaternion(q, offset)});
+  g.local = Compound<double>(std::move(pieces));
+  return g;
+}
+
+std::vector<Vec3<double>> random_hull(std::uint64_t seed, int count, double radius) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::vector<Vec3<double>> out;
+  while (int(out.size()) < count) {
+    const Vec3<double> v(unit(rng), unit(rng), unit(rng));
+    if (v.squaredNorm() <= 1) out.push_back(radius * v);
+  }
+  return out;
+}
+
+/// A scene on the service, with the local compounds of its objects.
+struct TestScene {
+  std::string scene_id;
+  std::vector<std::string> ids;
+  std::vector<Compound<double>> local;
+};
+
+TestScene create_scene(SceneService& service, std::vector<Geometry> geometries) {
+  TestScene scene;
+  server::SceneInput input;
+  input.name = "dds-test";
+  for (std::size_t i = 0; i < geometries.size(); ++i) {
+    auto registered = service.register_geometry(geometries[i].input);
+    EXPECT_TRUE(registered.ok()) << registered.error().describe();
+    if (!registered) return scene;
+    server::ObjectInput& object = input.objects.emplace_back();
+    object.id = "object-" + std::to_string(i);
+    object.geometry_id = registered->geometry_id;
+    object.pose.translation = Vec3<double>(2.0 * double(i), 0, 0);
+    scene.ids.push_back(object.id);
+    scene.local.push_back(std::move(geometries[i].local));
+  }
+  auto created = service.create_scene(input);
+  EXPECT_TRUE(created.ok()) << created.error().describe();
+  if (created) scene.scene_id = created->scene_id;
+  return scene;
+}
+
+/// A server-side SceneService with the bridge started on `domain`.
+struct Server {
+  std::unique_ptr<SceneService> scenes;
+  std::unique_ptr<DdsBridge> bridge;
+  std::string prefix;
+};
+
+Server start(std::uint32_t domain, const std::string& test, ServiceLimits limits = {},
+             std::size_t workers = 2) {
+  Server server;
+  server.scenes = std::make_unique<SceneService>(limits, workers);
+  server.prefix = unique_prefix(test);
+  DdsConfig config;
+  config.domain_id = domain;
+  config.topic_prefix = server.prefix;
+  auto started = DdsBridge::start(*server.scenes, config);
+  EXPECT_TRUE(started.ok()) << started.error().describe();
+  if (started) server.bridge = std::move(started.value());
+  return server;
+}
+
+/// Poses of every object at step k: object i circles its start, turning, so pairs come within
+/// reach of each other and move smoothly (warm starts apply).
+std::vector<UpdateMessage::Pose> path_poses(const TestScene& scene, int k) {
+  std::vector<UpdateMessage::Pose> poses;
+  for (std::size_t i = 0; i < scene.ids.size(); ++i) {
+    const double t = 0.05 * k + double(i);
+    const Eigen::Quaterniond q(
+        Eigen::AngleAxisd(0.3 * t, Vec3<double>(1, 0.5 * double(i), 1).normalized()));
+    UpdateMessage::Pose& pose = poses.emplace_back();
+    pose.object_id = scene.ids[i];
+    pose.rotation_wxyz = {q.w(), q.x(), q.y(), q.z()};
+    pose.translation = {1.6 * double(i) + 0.4 * std::cos(t), 0.4 * std::sin(t), 0.1 * double(i)};
+  }
+  return poses;
+}
+
+Pose<double> to_pose(const UpdateMessage::Pose& pose) {
+  const auto& q = pose.rotation_wxyz;
+  return Pose<double>::from_quaternion(
+      Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized(),
+      Vec3<double>(pose.translation[0], pose.translation[1], pose.translation[2]));
+}
+
+// The whole path of a DDS stream: every update answered once, in order, each pair's distance
+// equal to the engine's within the certified bounds, and warm starts used after the first.
+TEST(DdsBridge, StreamAnswersEveryUpdateWithTheCoresDistances) {
+  Server server = start(kDomainStream, "stream");
+  ASSERT_TRUE(server.bridge);
+  const TestScene scene = create_scene(*server.scenes, {polytope(random_hull(7, 40, 0.7)), arm(),
+                                                        polytope(random_hull(8, 12, 0.5))});
+  ASSERT_FALSE(scene.scene_id.empty());
+  auto client = connect(kDomainStream, server.prefix);
+  ASSERT_TRUE(client);
+
+  constexpr int kUpdates = 40;
+  constexpr int kWindow = 4;
+  std::map<std::uint64_t, std::vector<UpdateMessage::Pose>> sent;
+  std::vector<ReceivedReport> reports;
+  std::string error;
+  int next = 1;
+  while (reports.size() < std::size_t(kUpdates)) {
+    while (next <= kUpdates && next - 1 - int(reports.size()) < kWindow) {
+      UpdateMessage update;
+      update.scene_id = scene.scene_id;
+      update.sequence = std::uint64_t(next);
+      update.poses = path_poses(scene, next);
+      sent[update.sequence] = update.poses;
+      ASSERT_TRUE(client->publish(update.sample(), error)) << error;
+      ++next;
+    }
+    const std::size_t before = reports.size();
+    for (ReceivedReport& report : collect_reports(*client, 1)) reports.push_back(std::move(report));
+    ASSERT_GT(reports.size(), before) << "no report after " << before;
+  }
+
+  int warm = 0;
+  for (std::size_t k = 0; k < reports.size(); ++k) {
+    const ReceivedReport& report = reports[k];
+    SCOPED_TRACE("report " + std::to_string(k));
+    ASSERT_EQ(report.sequence, k + 1) << "reports are complete and in sequence order";
+    ASSERT_EQ(report.status, 0u) << report.error_field << ": " << report.message;
+    EXPECT_EQ(report.client_id, "test");
+    EXPECT_EQ(report.coalesced_updates, 0u);
+    ASSERT_EQ(report.pairs.size(), 3u);
+    const auto& poses = sent.at(report.sequence);
+    for (const ReceivedPair& pair : report.pairs) {
+      const std::size_t a = std::size_t(pair.object_a.back() - '0');
+      const std::size_t b = std::size_t(pair.object_b.back() - '0');
+      const auto truth =
+          distance(scene.local[a], to_pose(poses[a]), scene.local[b], to_pose(poses[b])).nearest;
+      EXPECT_NEAR(pair.distance, truth.distance, pair.error_bound + truth.error_bound + 1e-12)
+          << pair.object_a << "/" << pair.object_b;
+      EXPECT_EQ(pair.status == 2, truth.status == Status::intersecting)
+          << pair.object_a << "/" << pair.object_b;
+      warm += pair.warm_started;
+    }
+  }
+  EXPECT_GT(warm, kUpdates) << "the stream's caches warm-start its later updates";
+  server.bridge->shutdown();  // the counters are final once every evaluation has ended
+  EXPECT_EQ(server.bridge->stats().reports_written, std::uint64_t(kUpdates));
+  EXPECT_EQ(server.bridge->stats().updates_taken, std::uint64_t(kUpdates));
+}
+
+// Bad samples are answered with an error report on the report topic naming the sequence number
+// and the field, and the server — and the stream — go on.
+TEST(DdsBridge, BadSamplesGetErrorReportsAndTheStreamGoesOn) {
+  Server server = start(kDomainBadSamples, "bad");
+  ASSERT_TRUE(server.bridge);
+  const TestScene scene = create_scene(*server.scenes, {arm(), polytope(random_hull(3, 20, 0.5))});
+  auto client = connect(kDomainBadSamples, server.prefix);
+  ASSERT_TRUE(client);
+  std::string error;
+
+  struct Case {
+    const char* what;
+    std::uint32_t status;  // 0: accepted
+    const char* field;
+  };
+  const Case cases[] = {
+      {"unknown scene", 5, "scene_id"},
+      {"good", 0, ""},
+      {"NaN translation", 3, "poses[0].pose.translation.x"},
+      {"unknown object", 5, "poses[0].object_id"},
+      {"sequence not increasing", 3, "sequence"},
+      {"quaternion far from unit", 3, "poses[0].pose.rotation"},
+      {"exact depth not supported", 3, "options.penetration"},
+      {"infinite rotation", 3, "poses[0].pose.rotation.w"},
+      {"good again", 0, ""},
+  };
+  std::uint64_t sequence = 0;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    UpdateMessage update;
+    update.scene_id = scene.scene_id;
+    update.sequence = ++sequence;
+    update.poses = path_poses(scene, int(sequence));
+    const std::string what = c.what;
+    if (what == "unknown scene") update.scene_id = "no-such-scene";
+    if (what == "NaN translation") update.poses[0].translation[0] = std::nan("");
+    if (what == "unknown object") update.poses[0].object_id = "ghost";
+    if (what == "sequence not increasing") update.sequence = 2;  // the last accepted one
+    if (what == "quaternion far from unit") update.poses[0].rotation_wxyz = {2, 0, 0, 0};
+    if (what == "exact depth not supported") update.options.penetration = 3;
+    if (what == "infinite rotation") update.poses[0].rotation_wxyz[0] = INFINITY;
+    ASSERT_TRUE(client->publish(update.sample(), error)) << error;
+    const std::vector<ReceivedReport> reports = collect_reports(*client, 1);
+    ASSERT_EQ(reports.size(), 1u) << "every sample is answered, bad ones included";
+    EXPECT_EQ(reports[0].sequence, update.sequence);
+    EXPECT_EQ(reports[0].status, c.status) << reports[0].message;
+    EXPECT_EQ(reports[0].error_field, c.field) << reports[0].message;
+    if (c.status == 0) {
+      EXPECT_EQ(reports[0].pairs.size(), 1u);
+    } else {
+      EXPECT_TRUE(reports[0].pairs.empty());
+      EXPECT_FALSE(reports[0].message.empty());
+    }
+  }
+  server.bridge->shutdown();
+  EXPECT_EQ(server.bridge->stats().updates_rejected, 7u);
+}
+
+// A publisher faster than the server: DDS cannot hold it back, so updates beyond --max-in-flight
+// waiting ones are merged into the newest, and its report says which. Every update is accounted
+// for exactly once, and the reports still come in sequence order.
+TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
+  ServiceLimits limits;
+  limits.max_in_flight_per_stream = 2;
+  Server server = start(kDomainOverload, "overload", limits, /*workers=*/1);
+  ASSERT_TRUE(server.bridge);
+  // Large hulls, cold starts: each update costs milliseconds, far more than publishing one.
+  std::vector<Geometry> geometries;
+  for (int i = 0; i < 6; ++i) geometries.push_back(polytope(random_hull(40 + i, 4000, 0.9)));
+  const TestScene scene = create_scene(*server.scenes, std::move(geometries));
+  auto client = connect(kDomainOverload, server.prefix);
+  ASSERT_TRUE(client);
+
+  constexpr std::uint64_t kUpdates = 30;
+  std::string error;
+  for (std::uint64_t s = 1; s <= kUpdates; ++s) {
+    UpdateMessage update;
+    update.scene_id = scene.scene_id;
+    update.sequence = s;
+    update.poses = path_poses(scene, int(s));
+    update.options.has_warm_start = true;
+    update.options.warm_start = false;
+    ASSERT_TRUE(client->publish(update.sample(), error)) << error;
+  }
+  std::vector<ReceivedReport> reports;
+  std::uint64_t accounted = 0;
+  while (accounted < kUpdates) {
+    std::vector<ReceivedReport> got = collect_reports(*client, 1, std::chrono::seconds(20));
+    ASSERT_FALSE(got.empty()) << "missing reports after sequence " << accounted;
+    for (ReceivedReport& report : got) {
+      ASSERT_EQ(report.status, 0u) << report.message;
+      // This report answers its own update and the merged ones before it: exactly the
+      // sequence numbers after the previous report's.
+      const std::uint64_t first =
+          report.coalesced_updates > 0 ? report.coalesced_from_sequence : report.sequence;
+      EXPECT_EQ(first, accounted + 1) << "report " << report.sequence;
+      EXPECT_EQ(report.sequence - first, report.coalesced_updates) << "report " << report.sequence;
+      accounted = report.sequence;
+      reports.push_back(std::move(report));
+    }
+  }
+  EXPECT_EQ(accounted, kUpdates);
+  EXPECT_LT(reports.size(), kUpdates) << "some updates were merged";
+  EXPECT_GT(server.bridge->stats().updates_coalesced, 0u);
+  // The stream holds at most max_in_flight updates waiting, so at most that many reports (plus
+  // the one being evaluated when the burst arrived) carry no merge.
+  EXPECT_GE(reports.size(), 2u);
+}
+
+// Two clients on one scene are two streams: each gets exactly its own reports, with its own
+// sequence numbers and caches.
+TEST(DdsBridge, ClientsSharingASceneGetTheirOwnReports) {
+  Server server = start(kDomainSharedScene, "shared");
+  ASSERT_TRUE(server.bridge);
+  const TestScene scene = create_scene(*server.scenes, {arm(), polytope(random_hull(5, 30, 0.6))});
+  auto first = connect(kDomainSharedScene, server.prefix);
+  auto second = connect(kDomainSharedScene, server.prefix);
+  ASSERT_TRUE(first && second);
+  std::string error;
+  // Fewer than --max-in-flight (8) per stream, so that none is merged.
+  constexpr std::uint64_t kUpdates = 6;
+  for (std::uint64_t s = 1; s <= kUpdates; ++s) {
+    for (auto* client : {first.get(), second.get()}) {
+      UpdateMessage update;
+      update.scene_id = scene.scene_id;
+      update.client_id = client == first.get() ? "first" : "second";
+      update.sequence = s;  // both streams count from 1: they are independent
+      update.poses = path_poses(scene, int(s) + (client == first.get() ? 0 : 50));
+      ASSERT_TRUE(client->publish(update.sample(), error)) << error;
+    }
+  }
+  for (auto* client : {first.get(), second.get()}) {
+    const std::vector<ReceivedReport> reports = collect_reports(*client, kUpdates);
+    ASSERT_EQ(reports.size(), kUpdates);
+    for (std::uint64_t k = 0; k < kUpdates; ++k) {
+      EXPECT_EQ(reports[k].sequence, k + 1);
+      EXPECT_EQ(reports[k].status, 0u) << reports[k].message;
+      EXPECT_EQ(reports[k].client_id, client == first.get() ? "first" : "second");
+    }
+    // Nothing else addressed to this client is left over.
+    EXPECT_TRUE(collect_reports(*client, 1, std::chrono::milliseconds(200)).empty());
+  }
+  EXPECT_EQ(server.bridge->stats().open_streams, 2u);
+}
+
+// Without CYCLONEDDS_URI, Cyclone would use the external interface and multicast: both ends
+// refuse to start, saying why.
+TEST(DdsBridge, RefusesToStartWithoutAConfiguration) {
+  const char* saved = std::getenv("CYCLONEDDS_URI");
+  ASSERT_NE(saved, nullptr) << "ctest sets CYCLONEDDS_URI for every DDS test";
+  const std::string uri = saved;
+  unsetenv("CYCLONEDDS_URI");
+  SceneService scenes(ServiceLimits{}, 1);
+  DdsConfig config;
+  config.domain_id = kDomainNoConfiguration;
+  auto started = DdsBridge::start(scenes, config);
+  cli::DdsPoseClient::Config client_config;
+  client_config.domain_id = kDomainNoConfiguration;
+  std::string error;
+  auto client = cli::DdsPoseClient::create(client_config, error);
+  setenv("CYCLONEDDS_URI", uri.c_str(), 1);
+  ASSERT_FALSE(started.ok());
+  EXPECT_EQ(started.error().field, "CYCLONEDDS_URI");
+  EXPECT_NE(started.error().message.find("cyclonedds-loopback.xml"), std::string::npos);
+  EXPECT_EQ(client, nullptr);
+  EXPECT_NE(error.find("CYCLONEDDS_URI is not set"), std::string::npos) << error;
+}
+
+}  // namespace
+}  // namespace nearpoint::dds_testing
