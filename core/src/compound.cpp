@@ -29,6 +29,21 @@ Compound<S>::Compound(std::vector<Piece<S>> pieces) : pieces_(std::move(pieces))
   invalid_reason_ = nullptr;
 }
 
+namespace {
+// The gradient refers to the whole objects' poses, so it is formed from the winning pair's near
+// points once the winner is known.
+template <class S>
+void finish_gradient(CompoundResult<S>& out, const DistanceOptions<S>& options,
+                     const Pose<S>& pose_a, const Pose<S>& pose_b) {
+  if (options.gradient && out.nearest.status == Status::separated && !out.nearest.beyond_cutoff()) {
+    distance_gradient(out.nearest.point_a, out.nearest.point_b, out.nearest.normal,
+                      pose_a.translation, pose_b.translation, out.nearest.gradient_a,
+                      out.nearest.gradient_b);
+    out.nearest.has_gradient = true;
+  }
+}
+}  // namespace
+
 template <class S>
 CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Compound<S>& b,
                            const Pose<S>& pose_b, const DistanceOptions<S>& options,
@@ -52,10 +67,19 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
 
   // Lower bound on a piece pair's distance from its bounding spheres (eq. 2–4 need every pair
   // only in principle: a pair whose spheres are farther apart than the best distance cannot win).
-  auto sphere_gap = [&](std::size_t i, std::size_t j) {
+  // The sphere centres go to world frame once per query; for the usual few pieces the gaps are
+  // kept on the stack so the pruning pass below does not recompute them.
+  constexpr std::size_t kStackPairs = 64;
+  const std::size_t pair_count = a.size() * b.size();
+  const bool keep_gaps = pair_count <= kStackPairs;
+  S gaps[kStackPairs];
+  auto compute_gap = [&](std::size_t i, std::size_t j) {
     const Vec3<S> ca = pose_a.apply(a.sphere_center(i));
     const Vec3<S> cb = pose_b.apply(b.sphere_center(j));
     return (cb - ca).norm() - a.sphere_radius(i) - b.sphere_radius(j);
+  };
+  auto sphere_gap = [&](std::size_t i, std::size_t j) {
+    return keep_gaps ? gaps[i * b.size() + j] : compute_gap(i, j);
   };
   auto evaluate = [&](std::size_t i, std::size_t j) {
     SimplexCache* cache = caches.empty() ? nullptr : &caches[i * b.size() + j];
@@ -70,17 +94,26 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   // that prunes the others is tight from the start (and no list needs sorting or allocating).
   std::size_t first_i = 0, first_j = 0;
   S first_gap = std::numeric_limits<S>::infinity();
-  for (std::size_t i = 0; i < a.size(); ++i)
-    for (std::size_t j = 0; j < b.size(); ++j)
-      if (const S gap = sphere_gap(i, j); gap < first_gap || (i == 0 && j == 0)) {
-        first_gap = gap;
-        first_i = i;
-        first_j = j;
+  if (pair_count > 1) {
+    for (std::size_t i = 0; i < a.size(); ++i)
+      for (std::size_t j = 0; j < b.size(); ++j) {
+        const S gap = compute_gap(i, j);
+        if (keep_gaps) gaps[i * b.size() + j] = gap;
+        if (gap < first_gap || (i == 0 && j == 0)) {
+          first_gap = gap;
+          first_i = i;
+          first_j = j;
+        }
       }
+  }
   out.nearest = evaluate(first_i, first_j);
   out.piece_a = int(first_i);
   out.piece_b = int(first_j);
-  if (out.nearest.status == Status::invalid_input) return out;
+  if (out.nearest.status == Status::invalid_input || pair_count == 1) {
+    if (!options.near_points) out.nearest.has_near_points = false;
+    if (out.nearest.status != Status::invalid_input) finish_gradient(out, options, pose_a, pose_b);
+    return out;
+  }
 
   const bool want_penetration = options.penetration_bound;
   for (std::size_t i = 0; i < a.size(); ++i) {
@@ -118,12 +151,7 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   }
 
   if (!options.near_points) out.nearest.has_near_points = false;
-  if (options.gradient && out.nearest.status == Status::separated && !out.nearest.beyond_cutoff()) {
-    distance_gradient(out.nearest.point_a, out.nearest.point_b, out.nearest.normal,
-                      pose_a.translation, pose_b.translation, out.nearest.gradient_a,
-                      out.nearest.gradient_b);
-    out.nearest.has_gradient = true;
-  }
+  finish_gradient(out, options, pose_a, pose_b);
   return out;
 }
 
