@@ -330,7 +330,7 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
       ->required();
   command
       ->add_option("--window", options->window,
-                   "Updates in flight before pushing waits (back-pressure)")
+                   "Updates in flight before pushing waits (back-pressure; with --dds default 1)")
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
   command->add_flag("--near-points", options->near_points, "Report near points and normals");
@@ -360,9 +360,12 @@ Example:
 #endif
   );
 #if NEARPOINT_HAVE_DDS
-  command->callback([options, dds, use_dds, &exit_code] {
+  command->callback([command, options, dds, use_dds, &exit_code] {
     if (*use_dds) {
-      exit_code = run_dds_stream_command(*dds, options->scene, options->trajectory, options->window,
+      // DDS has no back-pressure: updates published beyond the server's in-flight limit are
+      // merged (and reported so). Without an explicit --window, step in lock with the reports.
+      const std::size_t window = command->count("--window") > 0 ? options->window : 1;
+      exit_code = run_dds_stream_command(*dds, options->scene, options->trajectory, window,
                                          options->near_points);
       return;
     }
