@@ -1,5 +1,9 @@
 #include "validation.hpp"
 
+#ifdef NEARPOINT_HAVE_HULL
+#include "nearpoint/hull.hpp"
+#endif
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -59,6 +63,13 @@ Expected<Shape<double>> build_shape(const PieceInput& piece, const std::string& 
       for (std::size_t j = 0; j < polytope.vertices.size(); ++j)
         if (auto error = check_vector(polytope.vertices[j], text(vertices, '[', j, ']')))
           return *error;
+#ifdef NEARPOINT_HAVE_HULL
+      // Large polytopes are stored as their hull with its faces, so that support queries climb
+      // the hull's edges instead of scanning every vertex (the same convex set; vertex indices
+      // are internal to the engine).
+      if (polytope.vertices.size() >= Polytope<double>::kHillClimbThreshold)
+        return Shape<double>(hull_polytope(polytope.vertices), radius);
+#endif
       return Shape<double>(Polytope<double>(polytope.vertices), radius);
     }
     Expected<Shape<double>> operator()(const Point& point) const {

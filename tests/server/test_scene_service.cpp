@@ -220,6 +220,62 @@ TEST(SceneService, LargeScenesAreSplitAcrossWorkersAndStillExact) {
   }
 }
 
+// A large polytope is stored as its hull with faces, so its supports climb the hull's edges; the
+// answers equal the engine's on the plain vertex list, along a path streamed with warm starts.
+TEST(SceneService, LargePolytopesAreStoredAsClimbingHulls) {
+  SceneService service(ServiceLimits{}, 2);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> normal;
+  PolytopeInput sphere;
+  for (int k = 0; k < 800; ++k)
+    sphere.vertices.push_back(Vec3d(normal(rng), normal(rng), normal(rng)).normalized());
+  const Compound<double> plain_sphere(std::vector<Piece<double>>{
+      {Shape<double>(Polytope<double>(sphere.vertices)), Pose<double>{}}});
+  GeometryInput geometry;
+  geometry.pieces.emplace_back().shape = sphere;
+  const std::string ball = service.register_geometry(geometry).value().geometry_id;
+  const std::string box = service.register_geometry(box_input()).value().geometry_id;
+  SceneInput scene;
+  scene.objects = {object("ball", ball), object("box", box)};
+  const SceneInfo info = service.create_scene(scene).value();
+  const auto definition = service.find_scene(info.scene_id)->definition();
+  EXPECT_TRUE(
+      std::get<Polytope<double>>(definition->objects[0].geometry->compound.piece(0).shape.geometry)
+          .climbs());
+  const Compound<double> plain_box(std::vector<Piece<double>>{
+      {Shape<double>(
+           Polytope<double>(std::get<PolytopeInput>(box_input().pieces[0].shape).vertices)),
+       Pose<double>{}}});
+  auto stream = service.open_stream();
+  ASSERT_TRUE(stream.ok());
+  for (std::uint64_t sequence = 1; sequence <= 40; ++sequence) {
+    PoseUpdateInput update;
+    update.scene_id = info.scene_id;
+    update.sequence = sequence;
+    ObjectPoseInput moved;
+    moved.object_id = "box";
+    const double s = double(sequence) / 40;
+    moved.pose.translation = Vec3d(2.5 - 2.5 * s, 0.3 * s, 0.1);
+    const Eigen::Quaterniond turn(Eigen::AngleAxisd(2 * s, Vec3d(1, 2, 3).normalized()));
+    moved.pose.rotation_wxyz = {turn.w(), turn.x(), turn.y(), turn.z()};
+    update.poses.push_back(moved);
+    Expected<PreparedUpdate> prepared = stream.value()->prepare(update, Clock::now());
+    ASSERT_TRUE(prepared.ok());
+    std::promise<Report> done;
+    stream.value()->evaluate(std::move(prepared.value()),
+                             [&](Report report) { done.set_value(std::move(report)); });
+    const Report report = done.get_future().get();
+    ASSERT_EQ(report.pairs.size(), 1u);
+    Pose<double> pose_b;
+    pose_b.rotation = turn.toRotationMatrix();
+    pose_b.translation = moved.pose.translation;
+    const auto truth = distance(plain_sphere, Pose<double>{}, plain_box, pose_b).nearest;
+    EXPECT_NEAR(report.pairs[0].distance, truth.distance,
+                report.pairs[0].error_bound + truth.error_bound)
+        << sequence;
+  }
+}
+
 // Coalescing keeps the newest update and counts everything it absorbed.
 TEST(SceneService, CoalescingCountsTheMergedUpdates) {
   PreparedUpdate first, second, third;
