@@ -164,7 +164,8 @@ struct DdsBridge::Impl {
 
   mutable std::mutex mutex;
   std::condition_variable idle;
-  std::map<StreamKey, std::unique_ptr<StreamState>> streams;
+  using Streams = std::map<StreamKey, std::unique_ptr<StreamState>>;
+  Streams streams;
   std::size_t evaluating = 0;
   std::uint64_t next_stream_number = 1;
   bool stopping = false;
@@ -259,14 +260,18 @@ struct DdsBridge::Impl {
                 "no reader of the client's participant after the wait; reports are "
                 "written anyway");
       pump(stream);
-      if (stream.closing && !stream.evaluating && stream.waiting.empty()) {
-        log_closed(stream);
-        it = streams.erase(it);
-      } else {
-        ++it;
-      }
+      it = erase_if_finished(it);
     }
     stats.open_streams = streams.size();
+  }
+
+  /// Erases the stream at `it` when its writer has gone and everything taken from it has been
+  /// answered; the next stream either way. Requires `mutex`.
+  Streams::iterator erase_if_finished(Streams::iterator it) {
+    const StreamState& stream = *it->second;
+    if (!stream.closing || stream.evaluating || !stream.waiting.empty()) return std::next(it);
+    log_closed(stream);
+    return streams.erase(it);
   }
 
   /// Ends the streams of writers that are no longer matched (deleted, or lost by liveliness).
@@ -281,15 +286,9 @@ struct DdsBridge::Impl {
     std::sort(matched.begin(), matched.end());
     std::lock_guard lock(mutex);
     for (auto it = streams.begin(); it != streams.end();) {
-      StreamState& stream = *it->second;
       if (!std::binary_search(matched.begin(), matched.end(), it->first.publication))
-        stream.closing = true;
-      if (stream.closing && !stream.evaluating && stream.waiting.empty()) {
-        log_closed(stream);
-        it = streams.erase(it);
-      } else {
-        ++it;
-      }
+        it->second->closing = true;
+      it = erase_if_finished(it);
     }
     stats.open_streams = streams.size();
   }
@@ -486,16 +485,7 @@ struct DdsBridge::Impl {
     const dds_return_t written = dds_write(writer, &sample);
 
     std::lock_guard lock(mutex);
-    if (written < 0) {
-      ++stats.write_failures;
-      log_warn("dds_write_failed")
-          .kv("stream", stream.number)
-          .kv("sequence", report.sequence)
-          .kv("message", dds::describe("dds_write", written));
-    } else {
-      ++stats.reports_written;
-      ++stream.reports;
-    }
+    if (count_write(written, report.sequence, &stream)) ++stream.reports;
     stream.evaluating = false;
     --evaluating;
     if (stream.closing && stream.waiting.empty()) {
@@ -522,15 +512,21 @@ struct DdsBridge::Impl {
     sample.error_field = borrow(pending.error.field);
     sample.message = borrow(pending.error.message);
     sample.pairs._release = false;
-    const dds_return_t written = dds_write(writer, &sample);
-    if (written < 0) {
-      ++stats.write_failures;
-      log_warn("dds_write_failed")
-          .kv("sequence", pending.sequence)
-          .kv("message", dds::describe("dds_write", written));
-    } else {
+    count_write(dds_write(writer, &sample), pending.sequence, nullptr);
+  }
+
+  /// Counts a report's dds_write result and logs a failure (naming the stream when the report
+  /// has one); true when written. Requires `mutex`.
+  bool count_write(dds_return_t written, std::uint64_t sequence, const StreamState* stream) {
+    if (written >= 0) {
       ++stats.reports_written;
+      return true;
     }
+    ++stats.write_failures;
+    LogLine warning = log_warn("dds_write_failed");
+    if (stream) warning.kv("stream", stream->number);
+    warning.kv("sequence", sequence).kv("message", dds::describe("dds_write", written));
+    return false;
   }
 
   void log_closed(const StreamState& stream) {
