@@ -27,7 +27,7 @@
 #include <vector>
 
 #include "bench_scene.hpp"
-#include "child_process.hpp"
+#include "common/child_process.hpp"
 #include "dds_ping.h"
 #include "dds_stream.hpp"
 #include "nearpoint_diagnostics.grpc.pb.h"
@@ -39,7 +39,7 @@ namespace v1 = ::nearpoint::v1;
 namespace dds = ::nearpoint::dds;
 using Clock = std::chrono::steady_clock;
 using Vec3 = Eigen::Vector3d;
-using nearpoint::dds_testing::ChildProcess;
+using nearpoint::testkit::ChildProcess;
 
 constexpr std::uint64_t kStopPong = ~std::uint64_t{0};
 
