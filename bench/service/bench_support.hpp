@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <ctime>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -27,6 +28,14 @@ inline double percentile(std::vector<double> values, double q) {
   const std::size_t index = std::min(values.size() - 1, std::size_t(q * double(values.size())));
   std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(index), values.end());
   return values[index];
+}
+
+/// Now, as "2026-01-31 12:00 UTC", for the results' header.
+inline std::string utc_date() {
+  const std::time_t now = std::time(nullptr);
+  char date[32];
+  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
+  return date;
 }
 
 /// The CPU's name from /proc/cpuinfo, for the results' header.

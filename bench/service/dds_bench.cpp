@@ -19,7 +19,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -365,10 +364,7 @@ int main(int argc, char** argv) {
   rows.push_back(
       measure_dds_stream(domain, prefix, scene.scene_id(), updates, Clock::now() + row_budget));
 
-  const std::time_t now = std::time(nullptr);
-  char date[32];
-  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
-  std::printf("nearpoint_dds_bench, %s\n", date);
+  std::printf("nearpoint_dds_bench, %s\n", bench_support::utc_date().c_str());
   std::printf(
       "machine: %s, %u hardware threads; nearpointd (child process) workers: %d; lock-step round "
       "trips, 1 stream, up to %d per row after 50 unmeasured\n\n",

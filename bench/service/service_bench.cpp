@@ -19,8 +19,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
-#include <fstream>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -250,10 +248,7 @@ int main(int argc, char** argv) {
   for (const std::vector<Vec3>& polytope : bench_scene::paper_like_polytopes())
     vertex_total += polytope.size();
 
-  const std::time_t now = std::time(nullptr);
-  char date[32];
-  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
-  std::printf("nearpoint_service_bench, %s\n", date);
+  std::printf("nearpoint_service_bench, %s\n", bench_support::utc_date().c_str());
   std::printf(
       "machine: %s, %u hardware threads; server workers: %zu; client and server share the "
       "machine\n",
