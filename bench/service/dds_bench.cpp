@@ -19,7 +19,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -27,7 +26,8 @@
 #include <vector>
 
 #include "bench_scene.hpp"
-#include "child_process.hpp"
+#include "bench_support.hpp"
+#include "common/child_process.hpp"
 #include "dds_ping.h"
 #include "dds_stream.hpp"
 #include "nearpoint_diagnostics.grpc.pb.h"
@@ -38,21 +38,12 @@ namespace {
 namespace v1 = ::nearpoint::v1;
 namespace dds = ::nearpoint::dds;
 using Clock = std::chrono::steady_clock;
-using Vec3 = Eigen::Vector3d;
-using nearpoint::dds_testing::ChildProcess;
+using bench_support::cpu_model;
+using bench_support::micros;
+using bench_support::percentile;
+using nearpoint::testkit::ChildProcess;
 
 constexpr std::uint64_t kStopPong = ~std::uint64_t{0};
-
-double micros(Clock::duration d) {
-  return std::chrono::duration<double, std::micro>(d).count();
-}
-
-double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  const std::size_t index = std::min(values.size() - 1, std::size_t(q * double(values.size())));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(index), values.end());
-  return values[index];
-}
 
 struct Row {
   const char* transport;
@@ -164,27 +155,6 @@ Row measure_ping_pong(std::uint32_t domain, const std::string& prefix, int updat
 
 // ---- gRPC ----
 
-v1::PoseUpdate grpc_update(const std::string& scene, std::uint64_t sequence, int step) {
-  v1::PoseUpdate update;
-  update.set_scene_id(scene);
-  update.set_sequence(sequence);
-  for (int i = 0; i < 10; ++i) {
-    const auto [q, t] = bench_scene::object_pose(i, step, 0);
-    v1::ObjectPose& pose = *update.add_poses();
-    pose.set_object_id("object-" + std::to_string(i));
-    v1::Quaternion& r = *pose.mutable_pose()->mutable_rotation();
-    r.set_w(q.w());
-    r.set_x(q.x());
-    r.set_y(q.y());
-    r.set_z(q.z());
-    v1::Vector3& v = *pose.mutable_pose()->mutable_translation();
-    v.set_x(t.x());
-    v.set_y(t.y());
-    v.set_z(t.z());
-  }
-  return update;
-}
-
 Row measure_grpc_echo(const std::shared_ptr<grpc::Channel>& channel, int updates,
                       Clock::time_point stop_at) {
   Row row{"gRPC", "echo, empty (floor)", {}, 0, 0, {}};
@@ -216,7 +186,7 @@ Row measure_grpc_stream(const std::shared_ptr<grpc::Channel>& channel, const std
   auto stream = stub->StreamPoses(&context);
   std::vector<v1::PoseUpdate> messages;
   for (int k = 0; k < updates + 50; ++k)
-    messages.push_back(grpc_update(scene, std::uint64_t(k) + 1, k));
+    messages.push_back(bench_support::pose_update(scene, std::uint64_t(k) + 1, k, 0));
   v1::DistanceReport report;
   for (int k = 0; k < updates + 50 && Clock::now() < stop_at; ++k) {
     const Clock::time_point begin = Clock::now();
@@ -313,14 +283,6 @@ Row measure_dds_stream(std::uint32_t domain, const std::string& prefix, const st
   return row;
 }
 
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
-  return "unknown";
-}
-
 int usage(int code) {
   std::fprintf(stderr,
                "usage: nearpoint_dds_bench [--updates N] [--max-seconds S] [--workers W] "
@@ -385,31 +347,11 @@ int main(int argc, char** argv) {
   auto channel =
       grpc::CreateChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials());
   auto stub = v1::DistanceService::NewStub(channel);
-  v1::CreateSceneRequest create;
-  create.set_name("dds-bench");
-  const std::vector<std::vector<Vec3>> polytopes = bench_scene::paper_like_polytopes();
-  for (std::size_t i = 0; i < polytopes.size(); ++i) {
-    v1::RegisterGeometryRequest request;
-    v1::Piece& piece = *request.mutable_geometry()->add_pieces();
-    for (const Vec3& v : polytopes[i]) {
-      v1::Vector3& out = *piece.mutable_polytope()->add_vertices();
-      out.set_x(v.x());
-      out.set_y(v.y());
-      out.set_z(v.z());
-    }
-    v1::RegisterGeometryResponse response;
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    if (!stub->RegisterGeometry(&context, request, &response).ok()) return 1;
-    v1::SceneObject& object = *create.add_objects();
-    object.set_id("object-" + std::to_string(i));
-    object.set_geometry_id(response.geometry().geometry_id());
-  }
   v1::CreateSceneResponse scene;
-  {
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    if (!stub->CreateScene(&context, create, &scene).ok()) return 1;
+  if (const std::string error = bench_support::create_scene(*stub, "dds-bench", scene);
+      !error.empty()) {
+    std::fprintf(stderr, "nearpoint_dds_bench: %s\n", error.c_str());
+    return 1;
   }
 
   const auto row_budget =
@@ -422,10 +364,7 @@ int main(int argc, char** argv) {
   rows.push_back(
       measure_dds_stream(domain, prefix, scene.scene_id(), updates, Clock::now() + row_budget));
 
-  const std::time_t now = std::time(nullptr);
-  char date[32];
-  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
-  std::printf("nearpoint_dds_bench, %s\n", date);
+  std::printf("nearpoint_dds_bench, %s\n", bench_support::utc_date().c_str());
   std::printf(
       "machine: %s, %u hardware threads; nearpointd (child process) workers: %d; lock-step round "
       "trips, 1 stream, up to %d per row after 50 unmeasured\n\n",

@@ -19,8 +19,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
-#include <fstream>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -29,6 +27,7 @@
 #include <vector>
 
 #include "bench_scene.hpp"
+#include "bench_support.hpp"
 #include "nearpoint/server/log.hpp"
 #include "nearpoint/server/server.hpp"
 #include "nearpoint_diagnostics.grpc.pb.h"
@@ -39,30 +38,15 @@ namespace {
 namespace v1 = ::nearpoint::v1;
 using Clock = std::chrono::steady_clock;
 using Vec3 = Eigen::Vector3d;
+using bench_support::cpu_model;
+using bench_support::micros;
+using bench_support::percentile;
 
-void set_vec(const Vec3& v, v1::Vector3& out) {
-  out.set_x(v.x());
-  out.set_y(v.y());
-  out.set_z(v.z());
-}
-
-/// The update of the 10 objects at `step` (bench_scene::object_pose).
+/// The update of the 10 objects at `step`, warm-started or not.
 v1::PoseUpdate make_update(const std::string& scene, std::uint64_t sequence, int step, double phase,
                            bool warm) {
-  v1::PoseUpdate update;
-  update.set_scene_id(scene);
-  update.set_sequence(sequence);
+  v1::PoseUpdate update = bench_support::pose_update(scene, sequence, step, phase);
   update.mutable_options()->set_warm_start(warm);
-  for (int i = 0; i < 10; ++i) {
-    const auto [q, position] = bench_scene::object_pose(i, step, phase);
-    v1::ObjectPose& pose = *update.add_poses();
-    pose.set_object_id("object-" + std::to_string(i));
-    pose.mutable_pose()->mutable_rotation()->set_w(q.w());
-    pose.mutable_pose()->mutable_rotation()->set_x(q.x());
-    pose.mutable_pose()->mutable_rotation()->set_y(q.y());
-    pose.mutable_pose()->mutable_rotation()->set_z(q.z());
-    set_vec(position, *pose.mutable_pose()->mutable_translation());
-  }
   return update;
 }
 
@@ -97,13 +81,6 @@ struct Row {
   std::string error;
 };
 
-double percentile(std::vector<double>& values, double q) {
-  if (values.empty()) return 0;
-  const std::size_t index = std::min(values.size() - 1, std::size_t(q * double(values.size())));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(index), values.end());
-  return values[index];
-}
-
 StreamResult run_stream(const std::shared_ptr<grpc::Channel>& channel, const std::string& scene,
                         Kind kind, int stream_index, int updates, Clock::time_point stop_at) {
   StreamResult result;
@@ -122,8 +99,7 @@ StreamResult run_stream(const std::shared_ptr<grpc::Channel>& channel, const std
         result.failed = true;
         break;
       }
-      result.latency_us.push_back(
-          std::chrono::duration<double, std::micro>(Clock::now() - begin).count());
+      result.latency_us.push_back(micros(Clock::now() - begin));
     }
     stream->WritesDone();
     const grpc::Status status = stream->Finish();
@@ -145,8 +121,7 @@ StreamResult run_stream(const std::shared_ptr<grpc::Channel>& channel, const std
       result.failed = true;
       break;
     }
-    result.latency_us.push_back(
-        std::chrono::duration<double, std::micro>(Clock::now() - begin).count());
+    result.latency_us.push_back(micros(Clock::now() - begin));
     if (report.has_error()) {
       result.error = report.error().field() + ": " + report.error().message();
       break;
@@ -213,14 +188,6 @@ Row run_configuration(const std::shared_ptr<grpc::Channel>& channel, const std::
   return row;
 }
 
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line))
-    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
-  return "unknown";
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -271,42 +238,17 @@ int main(int argc, char** argv) {
                                      grpc::InsecureChannelCredentials());
   auto stub = v1::DistanceService::NewStub(channel);
 
-  v1::CreateSceneRequest create;
-  create.set_name("service-bench");
-  const std::vector<std::vector<Vec3>> polytopes = bench_scene::paper_like_polytopes();
-  std::size_t vertex_total = 0;
-  for (std::size_t i = 0; i < polytopes.size(); ++i) {
-    v1::RegisterGeometryRequest request;
-    request.mutable_geometry()->set_name("polytope-" + std::to_string(polytopes[i].size()));
-    v1::Piece& piece = *request.mutable_geometry()->add_pieces();
-    for (const Vec3& v : polytopes[i]) set_vec(v, *piece.mutable_polytope()->add_vertices());
-    vertex_total += polytopes[i].size();
-    v1::RegisterGeometryResponse response;
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    if (const grpc::Status status = stub->RegisterGeometry(&context, request, &response);
-        !status.ok()) {
-      std::fprintf(stderr, "register: %s\n", status.error_message().c_str());
-      return 1;
-    }
-    v1::SceneObject& object = *create.add_objects();
-    object.set_id("object-" + std::to_string(i));
-    object.set_geometry_id(response.geometry().geometry_id());
-  }
   v1::CreateSceneResponse scene;
-  {
-    grpc::ClientContext context;
-    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(10));
-    if (const grpc::Status status = stub->CreateScene(&context, create, &scene); !status.ok()) {
-      std::fprintf(stderr, "scene: %s\n", status.error_message().c_str());
-      return 1;
-    }
+  if (const std::string error = bench_support::create_scene(*stub, "service-bench", scene);
+      !error.empty()) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    return 1;
   }
+  std::size_t vertex_total = 0;
+  for (const std::vector<Vec3>& polytope : bench_scene::paper_like_polytopes())
+    vertex_total += polytope.size();
 
-  const std::time_t now = std::time(nullptr);
-  char date[32];
-  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
-  std::printf("nearpoint_service_bench, %s\n", date);
+  std::printf("nearpoint_service_bench, %s\n", bench_support::utc_date().c_str());
   std::printf(
       "machine: %s, %u hardware threads; server workers: %zu; client and server share the "
       "machine\n",

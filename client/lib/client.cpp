@@ -201,11 +201,7 @@ class ClientImpl final : public Client {
 
   Expected<GeometryInfo> register_geometry(const Geometry& geometry) override {
     Expected<GeometryInfo> info = register_raw(geometry);
-    if (info) {
-      std::lock_guard lock(registry_mutex_);
-      geometries_[info->geometry_id] = geometry;
-      current_geometry_[info->geometry_id] = info->geometry_id;
-    }
+    if (info) remember(geometries_, info->geometry_id, geometry);
     return info;
   }
 
@@ -240,11 +236,7 @@ class ClientImpl final : public Client {
 
   Expected<SceneInfo> create_scene(const Scene& scene) override {
     Expected<SceneInfo> info = create_raw(scene);
-    if (info) {
-      std::lock_guard lock(registry_mutex_);
-      scenes_[info->scene_id] = scene;
-      current_scene_[info->scene_id] = info->scene_id;
-    }
+    if (info) remember(scenes_, info->scene_id, scene);
     return info;
   }
 
@@ -255,7 +247,7 @@ class ClientImpl final : public Client {
     const grpc::Status status = stub_->DeleteScene(context().get(), request, &response);
     if (status.ok()) {
       std::lock_guard lock(registry_mutex_);
-      scenes_.erase(scene_id);
+      scenes_.originals.erase(scene_id);
     }
     return from_grpc(status);
   }
@@ -300,15 +292,11 @@ class ClientImpl final : public Client {
   v1::DistanceService::Stub& stub() { return *stub_; }
 
   std::string current_scene_id(const std::string& scene_id) const {
-    std::lock_guard lock(registry_mutex_);
-    const auto found = current_scene_.find(scene_id);
-    return found == current_scene_.end() ? scene_id : found->second;
+    return current_id(scenes_, scene_id);
   }
 
   std::string current_geometry_id(const std::string& geometry_id) const {
-    std::lock_guard lock(registry_mutex_);
-    const auto found = current_geometry_.find(geometry_id);
-    return found == current_geometry_.end() ? geometry_id : found->second;
+    return current_id(geometries_, geometry_id);
   }
 
   /// Re-creates `scene_id` (as created by this client) and the geometries it uses, after its
@@ -320,10 +308,10 @@ class ClientImpl final : public Client {
     Scene scene;
     {
       std::lock_guard lock(registry_mutex_);
-      const auto found = scenes_.find(scene_id);
+      const auto found = scenes_.originals.find(scene_id);
       // Not ours (preloaded, or another client's): nothing to replay; the id is all we know.
-      if (found == scenes_.end()) return stale_server_id;
-      if (current_scene_[scene_id] != stale_server_id) return current_scene_[scene_id];
+      if (found == scenes_.originals.end()) return stale_server_id;
+      if (scenes_.current[scene_id] != stale_server_id) return scenes_.current[scene_id];
       scene = found->second;
     }
     // The server may have restarted (ids forgotten) or merely dropped the connection; either
@@ -335,8 +323,8 @@ class ClientImpl final : public Client {
       Geometry geometry;
       {
         std::lock_guard lock(registry_mutex_);
-        const auto found = geometries_.find(object.geometry_id);
-        if (found == geometries_.end()) continue;  // not ours: hope it is still there
+        const auto found = geometries_.originals.find(object.geometry_id);
+        if (found == geometries_.originals.end()) continue;  // not ours: hope it is still there
         geometry = found->second;
       }
       Expected<GeometryInfo> info = register_raw(geometry);
@@ -345,7 +333,7 @@ class ClientImpl final : public Client {
     }
     {
       std::lock_guard lock(registry_mutex_);
-      for (const auto& [original, now] : renamed) current_geometry_[original] = now;
+      for (const auto& [original, now] : renamed) geometries_.current[original] = now;
     }
     Expected<SceneInfo> created = create_raw(scene);
     std::string server_id;
@@ -357,23 +345,42 @@ class ClientImpl final : public Client {
       return created.status();
     }
     std::lock_guard lock(registry_mutex_);
-    current_scene_[scene_id] = server_id;
+    scenes_.current[scene_id] = server_id;
     return server_id;
   }
 
  private:
+  // What this client created of one kind, by the id the server first returned (for replay), and
+  // the id each has on the server now (a replay gives new ones).
+  template <class Value>
+  struct Created {
+    std::map<std::string, Value> originals;
+    std::map<std::string, std::string> current;
+  };
+
+  template <class Value>
+  void remember(Created<Value>& created, const std::string& id, const Value& value) {
+    std::lock_guard lock(registry_mutex_);
+    created.originals[id] = value;
+    created.current[id] = id;
+  }
+
+  /// The server's id now for `id`; `id` itself when this client did not create it.
+  template <class Value>
+  std::string current_id(const Created<Value>& created, const std::string& id) const {
+    std::lock_guard lock(registry_mutex_);
+    const auto found = created.current.find(id);
+    return found == created.current.end() ? id : found->second;
+  }
+
   std::string target_;
   ClientOptions options_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::DistanceService::Stub> stub_;
 
   mutable std::mutex registry_mutex_;
-  // What this client registered and created, by the id first returned, for replay.
-  std::map<std::string, Geometry> geometries_;
-  std::map<std::string, Scene> scenes_;
-  // First id → id on the server now.
-  std::map<std::string, std::string> current_geometry_;
-  std::map<std::string, std::string> current_scene_;
+  Created<Geometry> geometries_;  // guarded by registry_mutex_
+  Created<Scene> scenes_;         // guarded by registry_mutex_
   std::mutex replay_mutex_;
 };
 

@@ -49,15 +49,6 @@ bool mentions_non_finite(std::string_view line) {
   return false;
 }
 
-// A key written by the user, JSON-escaped, for messages.
-std::string user_key(const std::string& key) {
-  constexpr std::size_t kMaxBytes = 60;
-  if (key.size() <= kMaxBytes) return Json(key).dump();
-  std::size_t cut = kMaxBytes;
-  while (cut > 0 && (static_cast<unsigned char>(key[cut]) & 0xC0) == 0x80) --cut;
-  return Json(key.substr(0, cut) + "...").dump();
-}
-
 bool read_bool(const Json& options, const char* key, bool& out) {
   if (!options.contains(key)) return true;
   const Json& value = options[key];

@@ -11,4 +11,5 @@ using formats::kShapeKinds;
 using formats::parse_pose;
 using formats::parse_shape;
 using formats::PlacedShape;
+using formats::user_key;
 }  // namespace nearpoint::cli

@@ -21,15 +21,6 @@ std::string element(std::string_view path, std::size_t index) {
   return std::string(path) + "[" + std::to_string(index) + "]";
 }
 
-// A key written by the user, JSON-escaped and cut to a readable length (at a UTF-8 boundary).
-std::string user_key(const std::string& key) {
-  constexpr std::size_t kMaxBytes = 60;
-  if (key.size() <= kMaxBytes) return Json(key).dump();
-  std::size_t cut = kMaxBytes;
-  while (cut > 0 && (static_cast<unsigned char>(key[cut]) & 0xC0) == 0x80) --cut;
-  return Json(key.substr(0, cut) + "...").dump();
-}
-
 std::string kind_list() {
   std::string out;
   for (const char* kind : kShapeKinds) {
@@ -322,6 +313,14 @@ std::string parse_pose_or_throw(const Json& value, std::string_view path, Pose<d
 }
 
 }  // namespace
+
+std::string user_key(const std::string& key) {
+  constexpr std::size_t kMaxBytes = 60;
+  if (key.size() <= kMaxBytes) return Json(key).dump();
+  std::size_t cut = kMaxBytes;
+  while (cut > 0 && (static_cast<unsigned char>(key[cut]) & 0xC0) == 0x80) --cut;
+  return Json(key.substr(0, cut) + "...").dump();
+}
 
 std::string describe_type(const Json& value) {
   switch (value.type()) {

@@ -14,6 +14,7 @@
 
 #include "nearpoint/server/log.hpp"
 #include "nearpoint_dds.hpp"
+#include "wire_numbers.hpp"
 
 namespace nearpoint::server {
 namespace {
@@ -43,45 +44,6 @@ std::string own(const char* text) {
   return text ? std::string(text) : std::string();
 }
 
-/// The wire status of a rejected update: gRPC's code for the same error, so that a report means
-/// the same on both transports (nearpoint.v1.ErrorCode).
-std::uint32_t wire_code(ErrorCode code) {
-  switch (code) {
-    case ErrorCode::invalid_argument:
-      return 3;
-    case ErrorCode::not_found:
-      return 5;
-    case ErrorCode::already_exists:
-      return 6;
-    case ErrorCode::resource_exhausted:
-      return 8;
-    case ErrorCode::failed_precondition:
-      return 9;
-    case ErrorCode::internal:
-      return 13;
-    case ErrorCode::unavailable:
-      return 14;
-  }
-  return 13;
-}
-
-/// nearpoint.v1.PairStatus values.
-std::uint8_t wire_status(PairStatus status) {
-  switch (status) {
-    case PairStatus::separated:
-      return 1;
-    case PairStatus::intersecting:
-      return 2;
-    case PairStatus::beyond_cutoff:
-      return 3;
-    case PairStatus::iteration_limit:
-      return 4;
-    case PairStatus::engine_error:
-      return 5;
-  }
-  return 5;
-}
-
 nearpoint_msg_dds__Vector3_ to_sample(const Vec3d& v) {
   return {v.x(), v.y(), v.z()};
 }
@@ -109,39 +71,12 @@ PoseUpdateInput to_input(const UpdateSample& sample) {
   const nearpoint_msg_dds__QueryOptions_& options = sample.options;
   if (options.has_epsilon) out.options.epsilon = options.epsilon;
   if (options.has_near_points) out.options.near_points = options.near_points;
-  switch (options.penetration) {
-    case 0:
-      out.options.penetration = PenetrationMode::unspecified;
-      break;
-    case 1:
-      out.options.penetration = PenetrationMode::none;
-      break;
-    case 2:
-      out.options.penetration = PenetrationMode::bound;
-      break;
-    case 3:
-      out.options.penetration = PenetrationMode::depth;
-      break;
-    default:
-      out.options.penetration = PenetrationMode::unknown;
-      break;
-  }
+  out.options.penetration = wire::penetration_mode(options.penetration);
   if (options.has_gradient) out.options.gradient = options.gradient;
   if (options.has_distance_cutoff) out.options.distance_cutoff = options.distance_cutoff;
   if (options.has_warm_start) out.options.warm_start = options.warm_start;
   if (options.has_max_iterations) out.options.max_iterations = options.max_iterations;
-  switch (sample.flow_control) {
-    case 0:
-    case 1:
-      out.flow_control = FlowControl::block;
-      break;
-    case 2:
-      out.flow_control = FlowControl::coalesce;
-      break;
-    default:
-      out.flow_control = FlowControl::unknown;
-      break;
-  }
+  out.flow_control = wire::flow_control(sample.flow_control);
   return out;
 }
 
@@ -229,7 +164,8 @@ struct DdsBridge::Impl {
 
   mutable std::mutex mutex;
   std::condition_variable idle;
-  std::map<StreamKey, std::unique_ptr<StreamState>> streams;
+  using Streams = std::map<StreamKey, std::unique_ptr<StreamState>>;
+  Streams streams;
   std::size_t evaluating = 0;
   std::uint64_t next_stream_number = 1;
   bool stopping = false;
@@ -324,14 +260,18 @@ struct DdsBridge::Impl {
                 "no reader of the client's participant after the wait; reports are "
                 "written anyway");
       pump(stream);
-      if (stream.closing && !stream.evaluating && stream.waiting.empty()) {
-        log_closed(stream);
-        it = streams.erase(it);
-      } else {
-        ++it;
-      }
+      it = erase_if_finished(it);
     }
     stats.open_streams = streams.size();
+  }
+
+  /// Erases the stream at `it` when its writer has gone and everything taken from it has been
+  /// answered; the next stream either way. Requires `mutex`.
+  Streams::iterator erase_if_finished(Streams::iterator it) {
+    const StreamState& stream = *it->second;
+    if (!stream.closing || stream.evaluating || !stream.waiting.empty()) return std::next(it);
+    log_closed(stream);
+    return streams.erase(it);
   }
 
   /// Ends the streams of writers that are no longer matched (deleted, or lost by liveliness).
@@ -346,15 +286,9 @@ struct DdsBridge::Impl {
     std::sort(matched.begin(), matched.end());
     std::lock_guard lock(mutex);
     for (auto it = streams.begin(); it != streams.end();) {
-      StreamState& stream = *it->second;
       if (!std::binary_search(matched.begin(), matched.end(), it->first.publication))
-        stream.closing = true;
-      if (stream.closing && !stream.evaluating && stream.waiting.empty()) {
-        log_closed(stream);
-        it = streams.erase(it);
-      } else {
-        ++it;
-      }
+        it->second->closing = true;
+      it = erase_if_finished(it);
     }
     stats.open_streams = streams.size();
   }
@@ -515,7 +449,7 @@ struct DdsBridge::Impl {
       PairSample& out = pairs[i];
       out.object_a = borrow(report.scene->objects[in.object_a].id);
       out.object_b = borrow(report.scene->objects[in.object_b].id);
-      out.status = wire_status(in.status);
+      out.status = wire::pair_status(in.status);
       out.distance = in.distance;
       out.distance_lower_bound = in.distance_lower_bound;
       out.error_bound = in.error_bound;
@@ -551,16 +485,7 @@ struct DdsBridge::Impl {
     const dds_return_t written = dds_write(writer, &sample);
 
     std::lock_guard lock(mutex);
-    if (written < 0) {
-      ++stats.write_failures;
-      log_warn("dds_write_failed")
-          .kv("stream", stream.number)
-          .kv("sequence", report.sequence)
-          .kv("message", dds::describe("dds_write", written));
-    } else {
-      ++stats.reports_written;
-      ++stream.reports;
-    }
+    if (count_write(written, report.sequence, &stream)) ++stream.reports;
     stream.evaluating = false;
     --evaluating;
     if (stream.closing && stream.waiting.empty()) {
@@ -583,19 +508,25 @@ struct DdsBridge::Impl {
     ReportSample sample{};
     address(pending.to, sample);
     sample.sequence_number = pending.sequence;
-    sample.status = wire_code(pending.error.code);
+    sample.status = wire::status_code(pending.error.code);
     sample.error_field = borrow(pending.error.field);
     sample.message = borrow(pending.error.message);
     sample.pairs._release = false;
-    const dds_return_t written = dds_write(writer, &sample);
-    if (written < 0) {
-      ++stats.write_failures;
-      log_warn("dds_write_failed")
-          .kv("sequence", pending.sequence)
-          .kv("message", dds::describe("dds_write", written));
-    } else {
+    count_write(dds_write(writer, &sample), pending.sequence, nullptr);
+  }
+
+  /// Counts a report's dds_write result and logs a failure (naming the stream when the report
+  /// has one); true when written. Requires `mutex`.
+  bool count_write(dds_return_t written, std::uint64_t sequence, const StreamState* stream) {
+    if (written >= 0) {
       ++stats.reports_written;
+      return true;
     }
+    ++stats.write_failures;
+    LogLine warning = log_warn("dds_write_failed");
+    if (stream) warning.kv("stream", stream->number);
+    warning.kv("sequence", sequence).kv("message", dds::describe("dds_write", written));
+    return false;
   }
 
   void log_closed(const StreamState& stream) {

@@ -1,9 +1,40 @@
 #include "proto_convert.hpp"
 
 #include "nearpoint/server/scene_service.hpp"
+#include "wire_numbers.hpp"
 
 namespace nearpoint::server {
 namespace {
+
+// wire_numbers.hpp writes the proto enums' values as numbers, for the DDS bridge as well; these
+// checks keep it in step with the generated enums and gRPC's codes.
+constexpr bool same(std::int64_t wire_value, std::int64_t generated) {
+  return wire_value == generated;
+}
+static_assert(same(wire::status_code(ErrorCode::invalid_argument),
+                   grpc::StatusCode::INVALID_ARGUMENT));
+static_assert(same(wire::status_code(ErrorCode::not_found), grpc::StatusCode::NOT_FOUND));
+static_assert(same(wire::status_code(ErrorCode::already_exists), grpc::StatusCode::ALREADY_EXISTS));
+static_assert(same(wire::status_code(ErrorCode::resource_exhausted),
+                   grpc::StatusCode::RESOURCE_EXHAUSTED));
+static_assert(same(wire::status_code(ErrorCode::failed_precondition),
+                   grpc::StatusCode::FAILED_PRECONDITION));
+static_assert(same(wire::status_code(ErrorCode::internal), grpc::StatusCode::INTERNAL));
+static_assert(same(wire::status_code(ErrorCode::unavailable), grpc::StatusCode::UNAVAILABLE));
+static_assert(same(wire::pair_status(PairStatus::separated), v1::PAIR_STATUS_SEPARATED));
+static_assert(same(wire::pair_status(PairStatus::intersecting), v1::PAIR_STATUS_INTERSECTING));
+static_assert(same(wire::pair_status(PairStatus::beyond_cutoff), v1::PAIR_STATUS_BEYOND_CUTOFF));
+static_assert(same(wire::pair_status(PairStatus::iteration_limit),
+                   v1::PAIR_STATUS_ITERATION_LIMIT));
+static_assert(same(wire::pair_status(PairStatus::engine_error), v1::PAIR_STATUS_ENGINE_ERROR));
+static_assert(wire::penetration_mode(v1::PENETRATION_MODE_UNSPECIFIED) ==
+              PenetrationMode::unspecified);
+static_assert(wire::penetration_mode(v1::PENETRATION_MODE_NONE) == PenetrationMode::none);
+static_assert(wire::penetration_mode(v1::PENETRATION_MODE_BOUND) == PenetrationMode::bound);
+static_assert(wire::penetration_mode(v1::PENETRATION_MODE_DEPTH) == PenetrationMode::depth);
+static_assert(wire::flow_control(v1::FLOW_CONTROL_UNSPECIFIED) == FlowControl::block);
+static_assert(wire::flow_control(v1::FLOW_CONTROL_BLOCK) == FlowControl::block);
+static_assert(wire::flow_control(v1::FLOW_CONTROL_COALESCE) == FlowControl::coalesce);
 
 Vec3d to_vec(const v1::Vector3& v) {
   return Vec3d(v.x(), v.y(), v.z());
@@ -16,19 +47,7 @@ void set_vec(const Vec3d& v, v1::Vector3& out) {
 }
 
 v1::PairStatus to_proto(PairStatus status) {
-  switch (status) {
-    case PairStatus::separated:
-      return v1::PAIR_STATUS_SEPARATED;
-    case PairStatus::intersecting:
-      return v1::PAIR_STATUS_INTERSECTING;
-    case PairStatus::beyond_cutoff:
-      return v1::PAIR_STATUS_BEYOND_CUTOFF;
-    case PairStatus::iteration_limit:
-      return v1::PAIR_STATUS_ITERATION_LIMIT;
-    case PairStatus::engine_error:
-      return v1::PAIR_STATUS_ENGINE_ERROR;
-  }
-  return v1::PAIR_STATUS_ENGINE_ERROR;
+  return v1::PairStatus(wire::pair_status(status));
 }
 
 void set_gradient(const Eigen::Matrix<double, 6, 1>& gradient, v1::PoseGradient& out) {
@@ -47,31 +66,7 @@ std::vector<ObjectPoseInput> to_pose_inputs(
 }  // namespace
 
 grpc::Status to_grpc_status(const Error& error) {
-  grpc::StatusCode code = grpc::StatusCode::INTERNAL;
-  switch (error.code) {
-    case ErrorCode::invalid_argument:
-      code = grpc::StatusCode::INVALID_ARGUMENT;
-      break;
-    case ErrorCode::not_found:
-      code = grpc::StatusCode::NOT_FOUND;
-      break;
-    case ErrorCode::resource_exhausted:
-      code = grpc::StatusCode::RESOURCE_EXHAUSTED;
-      break;
-    case ErrorCode::failed_precondition:
-      code = grpc::StatusCode::FAILED_PRECONDITION;
-      break;
-    case ErrorCode::unavailable:
-      code = grpc::StatusCode::UNAVAILABLE;
-      break;
-    case ErrorCode::already_exists:
-      code = grpc::StatusCode::ALREADY_EXISTS;
-      break;
-    case ErrorCode::internal:
-      code = grpc::StatusCode::INTERNAL;
-      break;
-  }
-  return grpc::Status(code, error.describe());
+  return grpc::Status(grpc::StatusCode(wire::status_code(error.code)), error.describe());
 }
 
 PoseInput to_input(const v1::Pose& pose) {
@@ -130,23 +125,7 @@ QueryOptionsInput to_input(const v1::QueryOptions& options) {
   QueryOptionsInput out;
   if (options.has_epsilon()) out.epsilon = options.epsilon();
   if (options.has_near_points()) out.near_points = options.near_points();
-  switch (options.penetration()) {
-    case v1::PENETRATION_MODE_UNSPECIFIED:
-      out.penetration = PenetrationMode::unspecified;
-      break;
-    case v1::PENETRATION_MODE_NONE:
-      out.penetration = PenetrationMode::none;
-      break;
-    case v1::PENETRATION_MODE_BOUND:
-      out.penetration = PenetrationMode::bound;
-      break;
-    case v1::PENETRATION_MODE_DEPTH:
-      out.penetration = PenetrationMode::depth;
-      break;
-    default:
-      out.penetration = PenetrationMode::unknown;
-      break;
-  }
+  out.penetration = wire::penetration_mode(options.penetration());
   if (options.has_gradient()) out.gradient = options.gradient();
   if (options.has_distance_cutoff()) out.distance_cutoff = options.distance_cutoff();
   if (options.has_warm_start()) out.warm_start = options.warm_start();
@@ -196,18 +175,7 @@ PoseUpdateInput to_input(const v1::PoseUpdate& update) {
   out.sequence = update.sequence();
   out.poses = to_pose_inputs(update.poses());
   out.options = to_input(update.options());
-  switch (update.flow_control()) {
-    case v1::FLOW_CONTROL_UNSPECIFIED:
-    case v1::FLOW_CONTROL_BLOCK:
-      out.flow_control = FlowControl::block;
-      break;
-    case v1::FLOW_CONTROL_COALESCE:
-      out.flow_control = FlowControl::coalesce;
-      break;
-    default:
-      out.flow_control = FlowControl::unknown;
-      break;
-  }
+  out.flow_control = wire::flow_control(update.flow_control());
   return out;
 }
 

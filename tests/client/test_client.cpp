@@ -174,6 +174,25 @@ client::Geometry box_geometry(const Eigen::Vector3d& half) {
   return geometry;
 }
 
+// Two unit cubes "a" and "b" (one geometry), created through `client`, so that it can replay
+// them; the scene's id, or "" after a failure (reported).
+std::string create_two_cube_scene(client::Client& client) {
+  auto geometry = client.register_geometry(box_geometry({0.5, 0.5, 0.5}));
+  if (!geometry.ok()) {
+    ADD_FAILURE() << geometry.status().describe();
+    return {};
+  }
+  client::Scene scene;
+  scene.objects = {{"a", geometry->geometry_id, {}, {}, {}},
+                   {"b", geometry->geometry_id, {}, {}, {}}};
+  auto created = client.create_scene(scene);
+  if (!created.ok()) {
+    ADD_FAILURE() << created.status().describe();
+    return {};
+  }
+  return created->scene_id;
+}
+
 TEST_F(WithServer, ErrorsAreValuesCarryingTheServersMessage) {
   auto client = client::Client::connect(server_->target());
   client::Geometry bad;
@@ -217,15 +236,11 @@ TEST_F(WithServer, QueryAgreesWithTheEngine) {
 // Back-pressure: with nothing consumed, push blocks once the window is full (until its deadline).
 TEST_F(WithServer, PushBlocksWhileTheWindowIsFull) {
   auto client = client::Client::connect(server_->target());
-  auto g = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
-  ASSERT_TRUE(g.ok());
-  client::Scene scene;
-  scene.objects = {{"a", g->geometry_id, {}, {}, {}}, {"b", g->geometry_id, {}, {}, {}}};
-  auto created = client->create_scene(scene);
-  ASSERT_TRUE(created.ok());
+  const std::string scene_id = create_two_cube_scene(*client);
+  ASSERT_FALSE(scene_id.empty());
   client::SessionOptions options;
   options.max_in_flight = 2;
-  auto session = client->open_session(created->scene_id, options);
+  auto session = client->open_session(scene_id, options);
   ASSERT_TRUE(session.ok());
   const client::ObjectPose pose("a", Eigen::Isometry3d(Eigen::Translation3d(3, 0, 0)));
   ASSERT_TRUE((*session)->push({pose}).ok());
@@ -258,17 +273,13 @@ TEST(SessionReconnect, ReplaysTheSceneOnARestartedServer) {
   ASSERT_EQ(first.start(NEARPOINTD_PATH, 0, {"--workers", "1"}), "");
   const int port = first.port();
   auto client = client::Client::connect(first.target());
-  auto g = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
-  ASSERT_TRUE(g.ok());
-  client::Scene scene;
-  scene.objects = {{"a", g->geometry_id, {}, {}, {}}, {"b", g->geometry_id, {}, {}, {}}};
-  auto created = client->create_scene(scene);
-  ASSERT_TRUE(created.ok());
+  const std::string scene_id = create_two_cube_scene(*client);
+  ASSERT_FALSE(scene_id.empty());
   client::SessionOptions options;
   options.max_in_flight = 4;
   options.initial_backoff = std::chrono::milliseconds(20);
   options.reconnect_timeout = std::chrono::milliseconds(20000);
-  auto session = client->open_session(created->scene_id, options);
+  auto session = client->open_session(scene_id, options);
   ASSERT_TRUE(session.ok());
   // b moves once, up along z; afterwards only a moves along x.
   ASSERT_TRUE(

@@ -6,8 +6,8 @@
 #include <cstdlib>
 #include <map>
 #include <numbers>
-#include <random>
 
+#include "common/random_hull.hpp"
 #include "dds_bridge.hpp"
 #include "dds_test_support.hpp"
 #include "nearpoint/compound.hpp"
@@ -15,6 +15,8 @@
 
 namespace nearpoint::dds_testing {
 namespace {
+
+using testkit::random_hull_vertices;
 
 using server::DdsBridge;
 using server::DdsConfig;
@@ -62,17 +64,6 @@ Geometry arm() {
       {Shape<double>(Box<double>{half}, 0.02), Pose<double>::from_quaternion(q, offset)});
   g.local = Compound<double>(std::move(pieces));
   return g;
-}
-
-std::vector<Vec3<double>> random_hull(std::uint64_t seed, int count, double radius) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> unit(-1, 1);
-  std::vector<Vec3<double>> out;
-  while (int(out.size()) < count) {
-    const Vec3<double> v(unit(rng), unit(rng), unit(rng));
-    if (v.squaredNorm() <= 1) out.push_back(radius * v);
-  }
-  return out;
 }
 
 /// A scene on the service, with the local compounds of its objects.
@@ -152,8 +143,9 @@ Pose<double> to_pose(const UpdateMessage::Pose& pose) {
 TEST(DdsBridge, StreamAnswersEveryUpdateWithTheCoresDistances) {
   Server server = start(kDomainStream, "stream");
   ASSERT_TRUE(server.bridge);
-  const TestScene scene = create_scene(*server.scenes, {polytope(random_hull(7, 40, 0.7)), arm(),
-                                                        polytope(random_hull(8, 12, 0.5))});
+  const TestScene scene =
+      create_scene(*server.scenes, {polytope(random_hull_vertices(7, 40, 0.7)), arm(),
+                                    polytope(random_hull_vertices(8, 12, 0.5))});
   ASSERT_FALSE(scene.scene_id.empty());
   auto client = connect(kDomainStream, server.prefix);
   ASSERT_TRUE(client);
@@ -212,7 +204,8 @@ TEST(DdsBridge, StreamAnswersEveryUpdateWithTheCoresDistances) {
 TEST(DdsBridge, BadSamplesGetErrorReportsAndTheStreamGoesOn) {
   Server server = start(kDomainBadSamples, "bad");
   ASSERT_TRUE(server.bridge);
-  const TestScene scene = create_scene(*server.scenes, {arm(), polytope(random_hull(3, 20, 0.5))});
+  const TestScene scene =
+      create_scene(*server.scenes, {arm(), polytope(random_hull_vertices(3, 20, 0.5))});
   auto client = connect(kDomainBadSamples, server.prefix);
   ASSERT_TRUE(client);
   std::string error;
@@ -275,7 +268,8 @@ TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
   ASSERT_TRUE(server.bridge);
   // Large hulls, cold starts: each update costs milliseconds, far more than publishing one.
   std::vector<Geometry> geometries;
-  for (int i = 0; i < 6; ++i) geometries.push_back(polytope(random_hull(40 + i, 4000, 0.9)));
+  for (int i = 0; i < 6; ++i)
+    geometries.push_back(polytope(random_hull_vertices(40 + i, 4000, 0.9)));
   const TestScene scene = create_scene(*server.scenes, std::move(geometries));
   auto client = connect(kDomainOverload, server.prefix);
   ASSERT_TRUE(client);
@@ -321,7 +315,8 @@ TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
 TEST(DdsBridge, ClientsSharingASceneGetTheirOwnReports) {
   Server server = start(kDomainSharedScene, "shared");
   ASSERT_TRUE(server.bridge);
-  const TestScene scene = create_scene(*server.scenes, {arm(), polytope(random_hull(5, 30, 0.6))});
+  const TestScene scene =
+      create_scene(*server.scenes, {arm(), polytope(random_hull_vertices(5, 30, 0.6))});
   auto first = connect(kDomainSharedScene, server.prefix);
   auto second = connect(kDomainSharedScene, server.prefix);
   ASSERT_TRUE(first && second);

@@ -12,12 +12,14 @@
 
 #include <nlohmann/json.hpp>
 
-#include "child_process.hpp"
+#include "common/child_process.hpp"
 #include "dds_test_support.hpp"
 #include "nearpoint/distance.hpp"
 #include "server/server_test_support.hpp"
 
 namespace nearpoint::dds_testing {
+
+using testkit::ChildProcess;
 namespace {
 
 namespace v1 = ::nearpoint::v1;

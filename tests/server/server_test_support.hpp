@@ -10,10 +10,10 @@
 #include <cmath>
 #include <memory>
 #include <numbers>
-#include <random>
 #include <string>
 #include <vector>
 
+#include "common/random_hull.hpp"
 #include "nearpoint/compound.hpp"
 #include "nearpoint/server/server.hpp"
 #include "nearpoint_diagnostics.grpc.pb.h"
@@ -102,18 +102,7 @@ inline std::vector<Vec3<double>> prism_vertices(int sides, double radius, double
   return out;
 }
 
-/// `count` random points in a ball of radius `radius` (their hull is a random polytope).
-inline std::vector<Vec3<double>> random_hull_vertices(std::uint64_t seed, int count,
-                                                      double radius) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> unit(-1, 1);
-  std::vector<Vec3<double>> out;
-  while (int(out.size()) < count) {
-    const Vec3<double> v(unit(rng), unit(rng), unit(rng));
-    if (v.squaredNorm() <= 1) out.push_back(radius * v);
-  }
-  return out;
-}
+using testkit::random_hull_vertices;
 
 /// A two-piece geometry: a capsule (segment with radius) and a rounded box placed beside it by
 /// a rotated offset — exercises compounds, primitives, radii and offsets together.

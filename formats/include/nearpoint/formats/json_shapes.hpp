@@ -84,4 +84,8 @@ std::string parse_pose(const Json& value, std::string_view path, Pose<double>& o
 /// messages of the form "must be … (got a string)".
 std::string describe_type(const Json& value);
 
+/// A key written by the user, JSON-escaped and cut to 60 bytes (at a UTF-8 boundary, marked
+/// "..."), for messages such as `unknown key "colour"`: a hostile key cannot flood or break them.
+std::string user_key(const std::string& key);
+
 }  // namespace nearpoint::formats

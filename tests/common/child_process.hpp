@@ -1,6 +1,7 @@
 // A child process whose stdout and stderr are collected line by line by reader threads, so a test
 // can wait for a log line (no sleeping) and read a client's output. Waits are bounded; a child
-// still running when the object goes away is killed.
+// still running when the object goes away is killed. Used by the tests that run nearpointd or the
+// nearpoint CLI as real processes, and by nearpoint_dds_bench.
 #pragma once
 
 #include <fcntl.h>
@@ -19,7 +20,7 @@
 
 extern char** environ;
 
-namespace nearpoint::dds_testing {
+namespace nearpoint::testkit {
 
 class ChildProcess {
  public:
@@ -146,4 +147,4 @@ class ChildProcess {
   std::vector<std::thread> readers_;
 };
 
-}  // namespace nearpoint::dds_testing
+}  // namespace nearpoint::testkit

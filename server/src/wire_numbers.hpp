@@ -1,0 +1,84 @@
+// The numbers both transports carry for the scene API's enums. They are the values of
+// nearpoint.v1's enums (proto/nearpoint/v1), which the DDS IDL (proto/dds) repeats as plain
+// integers, so that a report or an option means the same on gRPC and on DDS. Written once here
+// for both adapters; proto_convert.cpp checks at compile time that they match the generated
+// proto enums and grpc::StatusCode.
+#pragma once
+
+#include <cstdint>
+
+#include "nearpoint/server/errors.hpp"
+#include "nearpoint/server/scene_types.hpp"
+
+namespace nearpoint::server::wire {
+
+/// The gRPC status code of `code` (google.rpc.Code numbering): what a rejected update's report
+/// carries on DDS and what the gRPC status carries.
+constexpr std::uint32_t status_code(ErrorCode code) {
+  switch (code) {
+    case ErrorCode::invalid_argument:
+      return 3;
+    case ErrorCode::not_found:
+      return 5;
+    case ErrorCode::already_exists:
+      return 6;
+    case ErrorCode::resource_exhausted:
+      return 8;
+    case ErrorCode::failed_precondition:
+      return 9;
+    case ErrorCode::internal:
+      return 13;
+    case ErrorCode::unavailable:
+      return 14;
+  }
+  return 13;
+}
+
+/// nearpoint.v1.PairStatus.
+constexpr std::uint8_t pair_status(PairStatus status) {
+  switch (status) {
+    case PairStatus::separated:
+      return 1;
+    case PairStatus::intersecting:
+      return 2;
+    case PairStatus::beyond_cutoff:
+      return 3;
+    case PairStatus::iteration_limit:
+      return 4;
+    case PairStatus::engine_error:
+      return 5;
+  }
+  return 5;
+}
+
+/// From nearpoint.v1.PenetrationMode; a value this server does not know is `unknown` (rejected
+/// by validation, naming the field). Signed and wide: proto3 enums are open int32 values.
+constexpr PenetrationMode penetration_mode(std::int64_t value) {
+  switch (value) {
+    case 0:
+      return PenetrationMode::unspecified;
+    case 1:
+      return PenetrationMode::none;
+    case 2:
+      return PenetrationMode::bound;
+    case 3:
+      return PenetrationMode::depth;
+    default:
+      return PenetrationMode::unknown;
+  }
+}
+
+/// From nearpoint.v1.FlowControl: 0 (unspecified) means block; an unknown value is `unknown`.
+constexpr FlowControl flow_control(std::int64_t value) {
+  switch (value) {
+    case 0:
+    case 1:
+      return FlowControl::block;
+    case 2:
+      return FlowControl::coalesce;
+    default:
+      return FlowControl::unknown;
+  }
+}
+
+}  // namespace nearpoint::server::wire
