@@ -43,6 +43,18 @@ Report run_query(SceneService& service, const QueryInput& query) {
   return done.get_future().get();
 }
 
+/// Prepares and evaluates one update on `stream` and waits for its report; an update the stream
+/// refuses fails the test and yields an empty report.
+Report run_update(PoseStream& stream, const PoseUpdateInput& update) {
+  Expected<PreparedUpdate> prepared = stream.prepare(update, Clock::now());
+  EXPECT_TRUE(prepared.ok()) << (prepared.ok() ? "" : prepared.error().describe());
+  if (!prepared.ok()) return Report{};
+  std::promise<Report> done;
+  stream.evaluate(std::move(prepared.value()),
+                  [&](Report report) { done.set_value(std::move(report)); });
+  return done.get_future().get();
+}
+
 std::vector<std::pair<std::string, std::string>> pair_ids(const Report& report) {
   std::vector<std::pair<std::string, std::string>> out;
   for (const PairReport& pair : report.pairs)
@@ -167,12 +179,7 @@ TEST(SceneService, PoseStreamWorksWithoutATransport) {
     moved.object_id = "b";
     moved.pose.translation = Vec3d(1.5 + 0.1 * double(sequence), 0, 0);
     update.poses.push_back(moved);
-    Expected<PreparedUpdate> prepared = stream.value()->prepare(update, Clock::now());
-    ASSERT_TRUE(prepared.ok());
-    std::promise<Report> done;
-    stream.value()->evaluate(std::move(prepared.value()),
-                             [&](Report report) { done.set_value(std::move(report)); });
-    const Report report = done.get_future().get();
+    const Report report = run_update(*stream.value(), update);
     ASSERT_EQ(report.pairs.size(), 1u);
     EXPECT_EQ(report.sequence, sequence);
     EXPECT_NEAR(report.pairs[0].distance, 0.5 + 0.1 * double(sequence), 1e-12);
@@ -259,12 +266,7 @@ TEST(SceneService, LargePolytopesAreStoredAsClimbingHulls) {
     const Eigen::Quaterniond turn(Eigen::AngleAxisd(2 * s, Vec3d(1, 2, 3).normalized()));
     moved.pose.rotation_wxyz = {turn.w(), turn.x(), turn.y(), turn.z()};
     update.poses.push_back(moved);
-    Expected<PreparedUpdate> prepared = stream.value()->prepare(update, Clock::now());
-    ASSERT_TRUE(prepared.ok());
-    std::promise<Report> done;
-    stream.value()->evaluate(std::move(prepared.value()),
-                             [&](Report report) { done.set_value(std::move(report)); });
-    const Report report = done.get_future().get();
+    const Report report = run_update(*stream.value(), update);
     ASSERT_EQ(report.pairs.size(), 1u);
     Pose<double> pose_b;
     pose_b.rotation = turn.toRotationMatrix();
