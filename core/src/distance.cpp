@@ -72,10 +72,17 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   const S radii = radius_a + radius_b;
   const S cutoff = options.distance_cutoff + radii;  // the loop works on the cores
 
+  // Below this core distance the verdict can only be "intersecting" (see the verdict below:
+  // separation needs |ν| − radii above the error bound, which is at least `roundoff`), so a query
+  // that wants no near points, d⁻ or gradient can stop there instead of converging further.
+  const S roundoff = S(8) * eps * diameter;
+  const bool needs_simplex = options.near_points || options.penetration_bound || options.gradient;
+  const S settled_below = needs_simplex ? S(-1) : radii + roundoff;
+
   detail::LoopOutcome<S> loop;
   detail::run_numerical_algorithm(k_set, diameter, epsilon * diameter * diameter,
-                                  std::max(0, options.max_iterations), cutoff, options.subalgorithm,
-                                  cache, loop);
+                                  std::max(0, options.max_iterations), cutoff, settled_below,
+                                  options.subalgorithm, cache, loop);
 
   DistanceResult<S> result;
   const detail::Nearest<S>& nearest = loop.nearest;
@@ -92,7 +99,6 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   // found; and Theorem 1 gives |ν − ν(K)| ≤ √g. Both hold for the computed values up to roundoff
   // in y, ν and the inner products, which the allowance covers (a few ulps of D(K), the largest
   // magnitude in the loop).
-  const S roundoff = S(8) * eps * diameter;
   if (core_distance > 0) {
     const S interval = std::max(S(0), core_distance - loop.lower_bound);
     result.error_bound = std::min(sqrt(loop.gap), interval) + roundoff;
@@ -247,6 +253,8 @@ const char* to_string(Termination termination) {
       return "beyond_cutoff";
     case Termination::iteration_limit:
       return "iteration_limit";
+    case Termination::contact:
+      return "contact";
   }
   return "unknown";
 }

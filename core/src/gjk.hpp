@@ -113,11 +113,12 @@ bool nearest_of_simplex(Subalgorithm method, const Simplex<S>& simplex, const Ve
 }
 
 /// Runs steps 1–6. `diameter` is D(K) of eq. (37) and `d2_tolerance` ε·D(K)² of eq. (35);
-/// `cutoff` is on the core distance.
+/// `cutoff` is on the core distance. An iterate with |ν| ≤ `settled_below` ends the loop
+/// (Termination::contact): the caller's verdict cannot change any more (negative: never).
 template <class S, class K>
 void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max_iterations,
-                             S cutoff, Subalgorithm method, const SimplexCache* cache,
-                             LoopOutcome<S>& out) {
+                             S cutoff, S settled_below, Subalgorithm method,
+                             const SimplexCache* cache, LoopOutcome<S>& out) {
   Simplex<S>& simplex = out.simplex;
   // Johnson's method reads the inner products and Δ's every step; signed volumes never does, and
   // the Backup Procedure rebuilds them on the rare occasions it runs.
@@ -164,6 +165,15 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   S previous_gap = 0;
   S best_lower_bound = 0;
   for (;;) {
+    // Contact settled: ν ∈ K proves d ≤ |ν|, and the distance lies in [L, |ν|] (no support call
+    // needed for that), so the gap |ν|² − L² certifies this iterate.
+    if (nearest.nu_norm2 > 0 && settled_below >= 0 &&
+        nearest.nu_norm2 <= settled_below * settled_below) {
+      out.gap = std::max(S(0), nearest.nu_norm2 - best_lower_bound * best_lower_bound);
+      out.lower_bound = best_lower_bound;
+      out.termination = Termination::contact;
+      break;
+    }
     // Step 3: the stopping rule (35), g(ν_k) ≤ ε·D(K)².
     S gap = 0;
     bool repeated = false;
@@ -249,7 +259,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   using std::sqrt;
   const S slack = S(8) * std::numeric_limits<S>::epsilon() * diameter;
   if (subset_size(nearest.subset) == 3 && nearest.nu_norm2 > 0 &&
-      out.termination != Termination::beyond_cutoff &&
+      out.termination != Termination::beyond_cutoff && out.termination != Termination::contact &&
       sqrt(nearest.nu_norm2) - out.lower_bound > slack) {
     int idx[3], n = 0;
     for (int i = 0; i < 4; ++i)

@@ -404,6 +404,49 @@ TEST(PaperExperiment, WarmStartAgreesWithColdStart) {
   EXPECT_EQ(failures.total(), 0) << failures.report();
 }
 
+// A query that asks for no near points, d⁻ or gradient stops once |ν| is within the roundoff
+// allowance (Termination::contact): the verdict could not change any more. On the touching
+// examples that must give the same verdicts and distances as the converged run, a certified
+// bound, and no more iterations (the exit saves the final support call that would only have
+// confirmed convergence, and the face-normal certificate); separated and intersecting examples
+// never take that exit.
+TEST(PaperExperiment, ContactExitSettlesTouchingPairsEarly) {
+  nearpoint::testkit::PaperExperimentConfig config;
+  config.poses_per_case = 20;
+  const std::vector<PaperExample> examples = nearpoint::testkit::paper_experiment(config);
+  DistanceOptions<double> bare;  // defaults: nothing beyond the distance
+  DistanceOptions<double> full;
+  full.near_points = true;
+  FailureLog failures;
+  int contact_exits = 0, touching = 0, bare_iterations = 0, full_iterations = 0;
+  for (const PaperExample& e : examples) {
+    const Shape<double> a{Polytope<double>(*e.vertices_a)};
+    const Shape<double> b{Polytope<double>(*e.vertices_b)};
+    const DistanceResult<double> quick = nearpoint::distance(a, e.pose_a, b, e.pose_b, bare);
+    const DistanceResult<double> converged = nearpoint::distance(a, e.pose_a, b, e.pose_b, full);
+    const std::string where = describe(e);
+    const bool contact = quick.termination == nearpoint::Termination::contact;
+    if (contact && e.kind != PaperCase::touching) failures.add("contact exit off contact", where);
+    if (!quick.converged()) failures.add("not converged", where);
+    if (quick.status != converged.status) failures.add("verdicts differ", where);
+    if (!(std::abs(quick.distance - e.exact.distance) <=
+          std::max(kDistanceFloor, quick.error_bound)))
+      failures.add("distance off the exact one beyond its bound", where);
+    if (!(quick.error_bound <= 1e-13)) failures.add("bound not tight", where);
+    if (e.kind == PaperCase::touching) {
+      ++touching;
+      contact_exits += contact;
+      bare_iterations += quick.iterations;
+      full_iterations += converged.iterations;
+    }
+  }
+  std::printf("\nContact exit: %d of %d touching examples, iterations %d vs %d converged\n",
+              contact_exits, touching, bare_iterations, full_iterations);
+  EXPECT_GT(contact_exits, touching / 2);
+  EXPECT_LE(bare_iterations, full_iterations);
+  EXPECT_EQ(failures.total(), 0) << failures.report();
+}
+
 // The origin shift (eq. 34) and the relative frame: with both poses moved 10⁶ from the origin,
 // the error must still scale with the shapes' size, not with their distance from the origin.
 // The exact distance is recomputed for the offset (rounded) inputs.

@@ -51,6 +51,11 @@ enum class Termination : unsigned char {
   beyond_cutoff,
   /// `options.max_iterations` was reached first.
   iteration_limit,
+  /// |ν| − r_A − r_B fell within the roundoff allowance of the error bound: the shapes touch to
+  /// within what this precision can tell apart, so the verdict (intersecting, distance 0) is
+  /// settled and further iterations could not change it. Taken only when near points, d⁻ and
+  /// the gradient were not asked for (they need the converged simplex).
+  contact,
 };
 
 const char* to_string(Termination termination);
@@ -129,7 +134,7 @@ struct DistanceResult {
   bool converged() const {
     return termination == Termination::origin_enclosed || termination == Termination::tolerance ||
            termination == Termination::repeated_support ||
-           termination == Termination::roundoff_floor;
+           termination == Termination::roundoff_floor || termination == Termination::contact;
   }
   /// The query stopped early because the distance was proven larger than `distance_cutoff`.
   bool beyond_cutoff() const { return termination == Termination::beyond_cutoff; }
