@@ -2,6 +2,7 @@
 
 #include <deque>
 #include <memory>
+#include <variant>
 #include <vector>
 
 #include "nearpoint/server/log.hpp"
@@ -40,7 +41,7 @@ grpc::ServerUnaryReactor* refuse(grpc::ServerUnaryReactor* reactor) {
 
 /// One pose stream. Every accepted update yields exactly one report, in order: updates are
 /// evaluated one at a time (the stream's caches are its single mutable state) and reports are
-/// written in the order they were queued.
+/// written in the order their updates were read, the error reports of rejected updates included.
 ///
 /// Flow control (bounded, see nearpoint.v1.FlowControl), with N = max_in_flight_per_stream:
 ///  - BLOCK: the next read starts only while fewer than N updates are in flight (read and not
@@ -50,6 +51,8 @@ grpc::ServerUnaryReactor* refuse(grpc::ServerUnaryReactor* reactor) {
 ///    poses already include the older one's) and its report counts the merged updates. A new
 ///    evaluation starts only when no report is waiting behind the one being written, so reports
 ///    stay fresh. Reads stop only if N reports (error reports of rejected updates) are waiting.
+///    An error report queued behind an update keeps its place: a newer update does not merge
+///    across it.
 ///
 /// Locking: `mutex_` guards every member below it. gRPC never runs a reaction inline inside
 /// StartRead/StartWrite/Finish (their tags are not inlineable), so calling them under the lock
@@ -108,11 +111,16 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
           .kv("code", to_string(error.code))
           .kv("field", error.field)
           .kv("message", error.message);
-      v1::DistanceReport& report = outgoing_.emplace_back();
+      // Queued behind the updates read before it, so that its report does not overtake
+      // theirs: reports leave in the order their updates were read.
+      v1::DistanceReport report;
       to_proto(error, update.sequence, report);
-    } else if (stream_->flow_control() == FlowControl::coalesce && !pending_.empty()) {
-      PoseStream::coalesce(prepared.value(), pending_.back());
-      pending_.back() = std::move(prepared.value());
+      pending_.emplace_back(std::move(report));
+    } else if (stream_->flow_control() == FlowControl::coalesce && !pending_.empty() &&
+               std::holds_alternative<PreparedUpdate>(pending_.back())) {
+      PreparedUpdate& older = std::get<PreparedUpdate>(pending_.back());
+      PoseStream::coalesce(prepared.value(), older);
+      older = std::move(prepared.value());
       ++updates_coalesced_;
     } else {
       pending_.push_back(std::move(prepared.value()));
@@ -169,8 +177,15 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
     if (finished_) return;
     const bool coalescing = stream_->flow_control() == FlowControl::coalesce;
 
+    // Error reports at the head of the queue go out once everything read before them has been
+    // answered (no evaluation in progress).
+    while (!broken_ && !evaluating_ && !pending_.empty() &&
+           std::holds_alternative<v1::DistanceReport>(pending_.front())) {
+      outgoing_.push_back(std::move(std::get<v1::DistanceReport>(pending_.front())));
+      pending_.pop_front();
+    }
     if (!broken_ && !evaluating_ && !pending_.empty() && (!coalescing || outgoing_.empty())) {
-      PreparedUpdate next = std::move(pending_.front());
+      PreparedUpdate next = std::move(std::get<PreparedUpdate>(pending_.front()));
       pending_.pop_front();
       evaluating_ = true;
       stream_->evaluate(std::move(next), [this](Report report) { OnReport(std::move(report)); });
@@ -202,7 +217,10 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
       End(grpc::Status::OK, "ok");
       return;
     }
-    const bool room = coalescing ? outgoing_.size() < max_in_flight_ : in_flight() < max_in_flight_;
+    // Coalescing keeps at most one update queued (newer ones merge into it), so what can pile up
+    // is reports: written ones and error reports waiting their turn.
+    const bool room = coalescing ? outgoing_.size() + pending_.size() < max_in_flight_ + 1
+                                 : in_flight() < max_in_flight_;
     if (!reading_ && !reads_done_ && !draining_ && room) {
       reading_ = true;
       StartRead(&incoming_);
@@ -235,7 +253,9 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
   std::mutex mutex_;
   v1::PoseUpdate incoming_;
   v1::DistanceReport current_write_;
-  std::deque<PreparedUpdate> pending_;
+  /// Read and not yet answered, in read order: updates to evaluate, and the error reports of
+  /// rejected updates waiting for their turn.
+  std::deque<std::variant<PreparedUpdate, v1::DistanceReport>> pending_;
   std::deque<v1::DistanceReport> outgoing_;
   bool reading_ = false;
   bool writing_ = false;
