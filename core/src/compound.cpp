@@ -29,21 +29,6 @@ Compound<S>::Compound(std::vector<Piece<S>> pieces) : pieces_(std::move(pieces))
   invalid_reason_ = nullptr;
 }
 
-namespace {
-// The gradient refers to the whole objects' poses, so it is formed from the winning pair's near
-// points once the winner is known.
-template <class S>
-void finish_gradient(CompoundResult<S>& out, const DistanceOptions<S>& options,
-                     const Pose<S>& pose_a, const Pose<S>& pose_b) {
-  if (options.gradient && out.nearest.status == Status::separated && !out.nearest.beyond_cutoff()) {
-    distance_gradient(out.nearest.point_a, out.nearest.point_b, out.nearest.normal,
-                      pose_a.translation, pose_b.translation, out.nearest.gradient_a,
-                      out.nearest.gradient_b);
-    out.nearest.has_gradient = true;
-  }
-}
-}  // namespace
-
 template <class S>
 CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Compound<S>& b,
                            const Pose<S>& pose_b, const DistanceOptions<S>& options,
@@ -109,11 +94,7 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   out.nearest = evaluate(first_i, first_j);
   out.piece_a = int(first_i);
   out.piece_b = int(first_j);
-  if (out.nearest.status == Status::invalid_input || pair_count == 1) {
-    if (!options.near_points) out.nearest.has_near_points = false;
-    if (out.nearest.status != Status::invalid_input) finish_gradient(out, options, pose_a, pose_b);
-    return out;
-  }
+  if (out.nearest.status == Status::invalid_input) return out;
 
   const bool want_penetration = options.penetration_bound;
   for (std::size_t i = 0; i < a.size(); ++i) {
@@ -151,7 +132,12 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   }
 
   if (!options.near_points) out.nearest.has_near_points = false;
-  finish_gradient(out, options, pose_a, pose_b);
+  if (options.gradient && out.nearest.status == Status::separated && !out.nearest.beyond_cutoff()) {
+    distance_gradient(out.nearest.point_a, out.nearest.point_b, out.nearest.normal,
+                      pose_a.translation, pose_b.translation, out.nearest.gradient_a,
+                      out.nearest.gradient_b);
+    out.nearest.has_gradient = true;
+  }
   return out;
 }
 

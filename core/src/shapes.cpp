@@ -210,9 +210,6 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices, std::span<const std::ve
     for (std::size_t k = 0; k < face.size(); ++k)
       neighbors_[fill[std::size_t(face[k])]++] = std::uint32_t(face[(k + 1) % face.size()]);
 
-  packed_.resize(size_);
-  for (std::size_t i = 0; i < size_; ++i) packed_[i] = {xs_[i], ys_[i], zs_[i], S(0)};
-
   // Cold climbs start from the best of the extreme vertices along the axes and the diagonals:
   // one of them is within a few edges of the answer for any direction.
   for (int x = -1; x <= 1; ++x)
@@ -228,28 +225,45 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices, std::span<const std::ve
 template <class S>
 const char* Polytope<S>::check_faces(std::span<const std::vector<int>> faces) const {
   if (faces.empty()) return "polytope faces: none given";
-  // Directed edges (from, to) as 64-bit keys, sorted: each must occur once, with its twin.
-  std::vector<std::uint64_t> edges;
+  // Directed edges (from, to) as 64-bit keys, each with its face and the vertex that follows it
+  // in that face; sorted by key, each must occur once, with its twin.
+  struct DirectedEdge {
+    std::uint64_t key;
+    std::uint32_t face;
+    std::uint32_t next;  // the face's vertex after the edge's end
+  };
+  std::vector<DirectedEdge> edges;
   std::vector<bool> used(size_, false);
-  for (const std::vector<int>& face : faces) {
+  for (std::size_t f = 0; f < faces.size(); ++f) {
+    const std::vector<int>& face = faces[f];
     if (face.size() < 3) return "polytope faces: a face has fewer than 3 vertices";
     for (const int v : face) {
       if (v < 0 || std::size_t(v) >= size_) return "polytope faces: a vertex index is out of range";
       used[std::size_t(v)] = true;
     }
     for (std::size_t k = 0; k < face.size(); ++k)
-      edges.push_back(std::uint64_t(std::uint32_t(face[k])) << 32 |
-                      std::uint32_t(face[(k + 1) % face.size()]));
+      edges.push_back(
+          {std::uint64_t(std::uint32_t(face[k])) << 32 | std::uint32_t(face[(k + 1) % face.size()]),
+           std::uint32_t(f), std::uint32_t(face[(k + 2) % face.size()])});
   }
   if (std::find(used.begin(), used.end(), false) != used.end())
     return "polytope faces: a vertex lies on no face (pass only the hull's vertices)";
-  std::sort(edges.begin(), edges.end());
-  if (std::adjacent_find(edges.begin(), edges.end()) != edges.end())
-    return "polytope faces: an edge is used twice in the same direction (faces not consistently "
-           "oriented, or not a closed surface)";
-  auto twin = [](std::uint64_t e) { return e << 32 | e >> 32; };
-  for (const std::uint64_t e : edges)
-    if (!std::binary_search(edges.begin(), edges.end(), twin(e)))
+  std::sort(edges.begin(), edges.end(),
+            [](const DirectedEdge& x, const DirectedEdge& y) { return x.key < y.key; });
+  for (std::size_t e = 1; e < edges.size(); ++e)
+    if (edges[e].key == edges[e - 1].key)
+      return "polytope faces: an edge is used twice in the same direction (faces not "
+             "consistently oriented, or not a closed surface)";
+  // The twin (to, from) of each edge, or nullptr when the surface is open there.
+  auto twin_of = [&](const DirectedEdge& edge) -> const DirectedEdge* {
+    const std::uint64_t key = edge.key << 32 | edge.key >> 32;
+    const auto found =
+        std::lower_bound(edges.begin(), edges.end(), key,
+                         [](const DirectedEdge& x, std::uint64_t k) { return x.key < k; });
+    return found != edges.end() && found->key == key ? &*found : nullptr;
+  };
+  for (const DirectedEdge& edge : edges)
+    if (!twin_of(edge))
       return "polytope faces: the surface is not closed (an edge borders only one face)";
   const long long euler =
       (long long)size_ - (long long)(edges.size() / 2) + (long long)faces.size();
@@ -297,33 +311,12 @@ const char* Polytope<S>::check_faces(std::span<const std::vector<int>> faces) co
     return "polytope faces: faces are oriented inwards (want counter-clockwise seen from outside)";
   // Convexity: every vertex lies below every face's plane is O(V·F); checking it at each edge
   // (the far vertex of the neighbouring face) suffices for a closed oriented sphere surface.
-  // For each directed edge (a, b) of face f, the twin lies in a face g; g's vertex after a is off
-  // the edge and must not rise above f's plane.
-  std::vector<std::uint64_t> keys;
-  std::vector<std::uint32_t> next_after;  // per directed edge: the vertex following its end
-  keys.reserve(edges.size());
-  next_after.reserve(edges.size());
-  for (const std::vector<int>& face : faces)
-    for (std::size_t k = 0; k < face.size(); ++k) {
-      keys.push_back(std::uint64_t(std::uint32_t(face[k])) << 32 |
-                     std::uint32_t(face[(k + 1) % face.size()]));
-      next_after.push_back(std::uint32_t(face[(k + 2) % face.size()]));
-    }
-  std::vector<std::size_t> order(keys.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(),
-            [&](std::size_t i, std::size_t j) { return keys[i] < keys[j]; });
-  std::size_t edge = 0;
-  for (std::size_t f = 0; f < faces.size(); ++f) {
-    for (std::size_t k = 0; k < faces[f].size(); ++k, ++edge) {
-      const std::uint64_t t = twin(keys[edge]);
-      const auto found =
-          std::lower_bound(order.begin(), order.end(), t,
-                           [&](std::size_t i, std::uint64_t key) { return keys[i] < key; });
-      S bound = 0;
-      if (height(planes[f], next_after[*found], bound) > bound)
-        return "polytope faces: the surface is not convex (use the convex hull's faces)";
-    }
+  // For each directed edge (a, b) of face f, the twin (b, a) lies in a face g; g's vertex after a
+  // is off the edge and must not rise above f's plane.
+  for (const DirectedEdge& edge : edges) {
+    S bound = 0;
+    if (height(planes[edge.face], twin_of(edge)->next, bound) > bound)
+      return "polytope faces: the surface is not convex (use the convex hull's faces)";
   }
   return nullptr;
 }
@@ -332,11 +325,9 @@ template <class S>
 std::size_t Polytope<S>::support_index(const Vec3<S>& d, std::int32_t hint) const {
   if (neighbor_begin_.empty())
     return argmax_dot_dispatch(xs_.data(), ys_.data(), zs_.data(), xs_.size(), d.x(), d.y(), d.z());
-  const Packed* vertices = packed_.data();
+  const S *xs = xs_.data(), *ys = ys_.data(), *zs = zs_.data();
   const S dx = d.x(), dy = d.y(), dz = d.z();
-  auto value = [&](std::uint32_t i) {
-    return vertices[i].x * dx + vertices[i].y * dy + vertices[i].z * dz;
-  };
+  auto value = [&](std::uint32_t i) { return xs[i] * dx + ys[i] * dy + zs[i] * dz; };
   // Start from the better of the hint (GJK's previous answer for this shape: usually a step or
   // two away) and the precomputed extreme vertices (never far, even when an early GJK direction
   // reverses).

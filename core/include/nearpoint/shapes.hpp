@@ -120,12 +120,6 @@ class Polytope {
   // and the extreme vertices along 14 fixed directions, where cold climbs start.
   std::vector<std::uint32_t> neighbor_begin_, neighbors_;
   std::vector<std::uint32_t> seeds_;
-  // For climbing: the centred vertices again, packed (x, y, z, 0) so that a neighbour's inner
-  // product reads one cache line rather than one from each axis array.
-  struct alignas(4 * sizeof(Scalar)) Packed {
-    Scalar x, y, z, unused;
-  };
-  std::vector<Packed> packed_;
   std::size_t size_ = 0;
   Vec3<Scalar> centroid_ = Vec3<Scalar>::Zero();
   Scalar extent_ = 0;
