@@ -31,7 +31,9 @@ inline int subset_size(unsigned subset) {
 
 template <class S>
 inline bool same_sign(S a, S b) {
-  return (a > 0 && b > 0) || (a < 0 && b < 0);  // zero and NaN are never "the same sign"
+  // Zero and NaN are never "the same sign". Bitwise rather than short-circuit: the signs are
+  // data, and a branch on each would mispredict.
+  return ((a > 0) & (b > 0)) | ((a < 0) & (b < 0));
 }
 
 template <class S>

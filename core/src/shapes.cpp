@@ -93,18 +93,45 @@ __attribute__((always_inline)) inline std::size_t argmax_dot_simd(const S* xs, c
     }
   }
   // Reduction without branches: the largest lane value, then the smallest index among the lanes
-  // holding it (each lane kept its earliest index on ties, so this is the first maximiser). NaN
-  // never equals anything: with an all-NaN direction no lane matches and vertex 0 is returned.
-  const V top2 = (best[0] > best[1]) | (best[1] != best[1]) ? best[0] : best[1];
-  S top = top2[0];
-  for (int l = 1; l < kLanes; ++l) top = top2[l] > top || top != top ? top2[l] : top;
-  const V vtop = V{} + top;
+  // holding it (each lane kept its earliest index on ties, so this is the first maximiser). Both
+  // run as log2(kLanes) lane swaps on whole vectors: a scalar loop over the lanes compiles to
+  // data-dependent branches, which mispredicted about once per call. NaN never wins a comparison
+  // but is replaced by any other value, so it survives only if every lane is NaN; then no lane
+  // equals the maximum and vertex 0 is returned.
+  V top = (best[0] > best[1]) | (best[1] != best[1]) ? best[0] : best[1];
+  V swapped;
   const I none = I{} + std::numeric_limits<Index>::max();
-  const I c0 = best[0] == vtop ? where[0] : none;
-  const I c1 = best[1] == vtop ? where[1] : none;
-  const I c = c0 < c1 ? c0 : c1;
+  if constexpr (kLanes == 4) {
+    swapped = __builtin_shufflevector(top, top, 1, 0, 3, 2);
+    top = (swapped > top) | (top != top) ? swapped : top;
+    swapped = __builtin_shufflevector(top, top, 2, 3, 0, 1);
+    top = (swapped > top) | (top != top) ? swapped : top;
+  } else {
+    swapped = __builtin_shufflevector(top, top, 1, 0, 3, 2, 5, 4, 7, 6);
+    top = (swapped > top) | (top != top) ? swapped : top;
+    swapped = __builtin_shufflevector(top, top, 2, 3, 0, 1, 6, 7, 4, 5);
+    top = (swapped > top) | (top != top) ? swapped : top;
+    swapped = __builtin_shufflevector(top, top, 4, 5, 6, 7, 0, 1, 2, 3);
+    top = (swapped > top) | (top != top) ? swapped : top;
+  }
+  const I c0 = best[0] == top ? where[0] : none;
+  const I c1 = best[1] == top ? where[1] : none;
+  I c = c0 < c1 ? c0 : c1;
+  I c_swapped;
+  if constexpr (kLanes == 4) {
+    c_swapped = __builtin_shufflevector(c, c, 1, 0, 3, 2);
+    c = c_swapped < c ? c_swapped : c;
+    c_swapped = __builtin_shufflevector(c, c, 2, 3, 0, 1);
+    c = c_swapped < c ? c_swapped : c;
+  } else {
+    c_swapped = __builtin_shufflevector(c, c, 1, 0, 3, 2, 5, 4, 7, 6);
+    c = c_swapped < c ? c_swapped : c;
+    c_swapped = __builtin_shufflevector(c, c, 2, 3, 0, 1, 6, 7, 4, 5);
+    c = c_swapped < c ? c_swapped : c;
+    c_swapped = __builtin_shufflevector(c, c, 4, 5, 6, 7, 0, 1, 2, 3);
+    c = c_swapped < c ? c_swapped : c;
+  }
   Index best_index = c[0];
-  for (int l = 1; l < kLanes; ++l) best_index = c[l] < best_index ? c[l] : best_index;
   if (best_index == std::numeric_limits<Index>::max()) best_index = 0;
   return std::size_t(best_index);
 }

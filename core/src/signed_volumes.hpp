@@ -152,12 +152,17 @@ SvAnswer<S> sv_tetrahedron(const Simplex<S>& sx, const int idx[4]) {
   return best;
 }
 
-/// ν(co V_k) by signed volumes, on the occupied slots of the simplex.
+/// ν(co V_k) by signed volumes, on the occupied slots of the simplex. Flattened: the segment,
+/// triangle and tetrahedron cases inline into one body, which saves the calls and the copies of
+/// their answers (measured: 3–5% of a query on the paper set).
 template <class S>
-void signed_volumes(const Simplex<S>& sx, Nearest<S>& out) {
-  int idx[4], n = 0;
-  for (int i = 0; i < 4; ++i)
-    if (sx.used & (1u << i)) idx[n++] = i;
+[[gnu::flatten]] void signed_volumes(const Simplex<S>& sx, Nearest<S>& out) {
+  // The occupied slots, compacted without branches (which slots are free is data).
+  int idx[4] = {0, 0, 0, 0}, n = 0;
+  for (int i = 0; i < 4; ++i) {
+    idx[n] = i;
+    n += int((sx.used >> i) & 1u);
+  }
   SvAnswer<S> a;
   switch (n) {
     case 1:
