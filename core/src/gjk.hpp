@@ -82,9 +82,13 @@ auto diameter_bound(const K& k_set) {
 /// few ulps of D(K) whatever its length, and that error meets w (|w| ≤ D) in the inner product:
 /// a few ulps of D·(|ν| + D).
 template <class S>
+S roundoff_gap_of_length(S nu_length, S diameter) {
+  return S(16) * std::numeric_limits<S>::epsilon() * diameter * (nu_length + diameter);
+}
+template <class S>
 S roundoff_gap(S nu_norm2, S diameter) {
   using std::sqrt;
-  return S(16) * std::numeric_limits<S>::epsilon() * diameter * (sqrt(nu_norm2) + diameter);
+  return roundoff_gap_of_length(sqrt(nu_norm2), diameter);
 }
 
 /// The certified gap: min(g, |ν|² − L²), clamped at 0. |ν|² − L² is only trusted while |ν| is
@@ -192,12 +196,13 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
     // Step 3: the stopping rule (35), g(ν_k) ≤ ε·D(K)².
     S gap = 0;
     bool repeated = false;
+    using std::sqrt;
+    const S nu_length = sqrt(nearest.nu_norm2);  // one square root per iteration
     if (nearest.nu_norm2 > 0) {
       k_set.support(-nearest.nu, w, on_a, on_b, ia, ib);
       const S nu_dot_w = nearest.nu.dot(w);
       gap = nearest.nu_norm2 - nu_dot_w;  // g = |ν|² + h_K(−ν), h_K(−ν) = −ν·w   (25)
-      using std::sqrt;
-      best_lower_bound = std::max(best_lower_bound, nu_dot_w / sqrt(nearest.nu_norm2));
+      best_lower_bound = std::max(best_lower_bound, nu_dot_w / nu_length);
       // Bitwise, not short-circuit: the outcome is data-dependent and would mispredict.
       for (int i = 0; i < 4; ++i)
         repeated |= bool((nearest.subset >> i) & 1u) & (simplex.index_a[i] == ia) &
@@ -209,7 +214,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
     // On curved or flat-sided shapes the support point can jump between iterations (a cylinder's
     // two rims), so g of the latest iterate may be far worse than what an earlier support plane
     // proved: the stopping test uses the sharper of the two certificates.
-    const S roundoff = roundoff_gap(nearest.nu_norm2, diameter);
+    const S roundoff = roundoff_gap_of_length(nu_length, diameter);
     out.gap = certified_gap(gap, nearest.nu_norm2, best_lower_bound, roundoff);
     out.lower_bound = best_lower_bound;
     NEARPOINT_TRACE_PRINTF("k=%d |V|=%d subset=%x |nu|^2=%.17g g=%.6g backup=%d rep=%d\n", k,

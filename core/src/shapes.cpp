@@ -184,6 +184,12 @@ std::size_t argmax_dot_dispatch(const S* xs, const S* ys, const S* zs, std::size
 }
 
 template <class S>
+std::size_t argmax_dot_baseline(const S* xs, const S* ys, const S* zs, std::size_t n, S dx, S dy,
+                                S dz) {
+  return argmax_dot(xs, ys, zs, n, dx, dy, dz);
+}
+
+template <class S>
 bool finite_nonnegative(S value) {
   return std::isfinite(value) && value >= 0;
 }
@@ -349,9 +355,15 @@ const char* Polytope<S>::check_faces(std::span<const std::vector<int>> faces) co
 }
 
 template <class S>
-std::size_t Polytope<S>::support_index(const Vec3<S>& d, std::int32_t hint) const {
-  if (neighbor_begin_.empty())
-    return argmax_dot_dispatch(xs_.data(), ys_.data(), zs_.data(), xs_.size(), d.x(), d.y(), d.z());
+typename Polytope<S>::Scan Polytope<S>::best_scan() {
+#ifdef NEARPOINT_HAVE_AVX2_CLONE
+  if (cpu_has_avx2()) return static_cast<Scan>(&argmax_dot_avx2);
+#endif
+  return &argmax_dot_baseline<S>;
+}
+
+template <class S>
+std::size_t Polytope<S>::climb(const Vec3<S>& d, std::int32_t hint) const {
   const S *xs = xs_.data(), *ys = ys_.data(), *zs = zs_.data();
   const S dx = d.x(), dy = d.y(), dz = d.z();
   auto value = [&](std::uint32_t i) { return xs[i] * dx + ys[i] * dy + zs[i] * dz; };

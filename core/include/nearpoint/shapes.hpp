@@ -97,7 +97,12 @@ class Polytope {
   /// a large polytope built with its faces, a climb over the hull's edges that starts from the
   /// better of `hint` (a vertex index, e.g. the previous answer; -1 for none) and a few
   /// precomputed extreme vertices.
-  std::size_t support_index(const Vec3<Scalar>& direction, std::int32_t hint = -1) const;
+  std::size_t support_index(const Vec3<Scalar>& direction, std::int32_t hint = -1) const {
+    if (neighbor_begin_.empty())
+      return scan_(xs_.data(), ys_.data(), zs_.data(), xs_.size(), direction.x(), direction.y(),
+                   direction.z());
+    return climb(direction, hint);
+  }
   /// True when support queries climb the hull's edges (built with faces, at least
   /// kHillClimbThreshold vertices).
   bool climbs() const { return !neighbor_begin_.empty(); }
@@ -110,6 +115,14 @@ class Polytope {
 
  private:
   const char* check_faces(std::span<const std::vector<int>> faces) const;
+  std::size_t climb(const Vec3<Scalar>& direction, std::int32_t hint) const;
+
+  // The vectorised scan compiled for this CPU (AVX2 or the baseline), chosen once per process and
+  // called through this pointer so that a support call costs one call, not a dispatch chain.
+  using Scan = std::size_t (*)(const Scalar*, const Scalar*, const Scalar*, std::size_t, Scalar,
+                               Scalar, Scalar);
+  static Scan best_scan();
+  Scan scan_ = best_scan();
 
   // Coordinates relative to z̄, one array per axis so the support scan runs four (or eight)
   // vertices per instruction; padded to whole blocks of two vectors (8 doubles, 16 floats) with
