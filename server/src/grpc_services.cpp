@@ -7,6 +7,7 @@
 
 #include "nearpoint/server/log.hpp"
 #include "proto_convert.hpp"
+#include "tsan_handoff.hpp"
 
 namespace nearpoint::server {
 namespace {
@@ -63,6 +64,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
   PoseStreamReactor(DistanceServiceImpl& service, grpc::CallbackServerContext* context,
                     std::uint64_t number)
       : service_(service), number_(number), peer_(context->peer()) {
+    const auto constructed = handoff_.construction();  // see tsan_handoff.hpp
     max_in_flight_ = std::max<std::size_t>(1, service.scenes().limits().max_in_flight_per_stream);
     Expected<std::unique_ptr<PoseStream>> stream = service.scenes().open_stream();
     if (!stream) {
@@ -89,6 +91,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
   }
 
   void OnReadDone(bool ok) override {
+    const auto reaction = handoff_.reaction();
     std::lock_guard lock(mutex_);
     reading_ = false;
     // A read that completes after the call was finished (drained while it was outstanding) is
@@ -129,6 +132,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
   }
 
   void OnWriteDone(bool ok) override {
+    const auto reaction = handoff_.reaction();
     std::lock_guard lock(mutex_);
     writing_ = false;
     if (ok) {
@@ -140,12 +144,14 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
   }
 
   void OnCancel() override {
+    const auto reaction = handoff_.reaction();
     std::lock_guard lock(mutex_);
     broken_ = true;
     Pump();
   }
 
   void OnDone() override {
+    handoff_.done();
     { std::lock_guard lock(mutex_); }  // whoever called Finish has released the lock
     if (registered_) {
       service_.calls().remove(this);
@@ -243,6 +249,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
     Pump();
   }
 
+  ReactorHandoff handoff_;
   DistanceServiceImpl& service_;
   const std::uint64_t number_;
   const std::string peer_;
@@ -278,6 +285,7 @@ class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::Ec
                           public DrainableStream {
  public:
   explicit EchoReactor(CallRegistry& registry) : registry_(registry) {
+    const auto constructed = handoff_.construction();  // see tsan_handoff.hpp
     registered_ = registry_.add(this);  // not under mutex_: drain_all locks them the other way
     std::lock_guard lock(mutex_);
     if (!registered_) End(grpc::Status(grpc::StatusCode::UNAVAILABLE, "server is shutting down"));
@@ -287,6 +295,7 @@ class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::Ec
   }
 
   void OnReadDone(bool ok) override {
+    const auto reaction = handoff_.reaction();
     std::lock_guard lock(mutex_);
     reading_ = false;
     if (!ok) return End(grpc::Status::OK);
@@ -296,6 +305,7 @@ class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::Ec
   }
 
   void OnWriteDone(bool ok) override {
+    const auto reaction = handoff_.reaction();
     std::lock_guard lock(mutex_);
     writing_ = false;
     if (!ok) return End(grpc::Status(grpc::StatusCode::CANCELLED, "cancelled"));
@@ -311,6 +321,7 @@ class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::Ec
   }
 
   void OnDone() override {
+    handoff_.done();
     { std::lock_guard lock(mutex_); }
     if (registered_) registry_.remove(this);
     delete this;
@@ -323,6 +334,7 @@ class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::Ec
     Finish(status);
   }
 
+  ReactorHandoff handoff_;
   CallRegistry& registry_;
   bool registered_ = false;
   std::mutex mutex_;

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "common/time_scale.hpp"
 #include "demo.hpp"
 #include "local_server.hpp"
 #include "nearpoint/client/client.hpp"
@@ -517,12 +518,12 @@ TEST_F(WithServer, LoadRunsBoundedAndReportsPercentiles) {
   LoadCommandOptions options;
   options.remote = remote();
   options.streams = 2;
-  options.duration_s = 0.4;
-  options.progress_every = 0.1;
+  options.duration_s = 0.4 * testkit::kTimeScale;
+  options.progress_every = 0.1 * testkit::kTimeScale;
   std::ostringstream out, err;
   const auto start = Clock::now();
   ASSERT_EQ(run_load(options, out, err), 0) << err.str();
-  EXPECT_LT(Clock::now() - start, seconds(20));
+  EXPECT_LT(Clock::now() - start, seconds(20) * testkit::kTimeScale);
   const Json result = parse_json(out.str());
   EXPECT_GT(result["reports"].get<int>(), 10);
   EXPECT_EQ(result["errors"], 0);

@@ -8,6 +8,7 @@
 #include <thread>
 
 #include "scene_fixture.hpp"
+#include "tsan_handoff.hpp"
 
 namespace nearpoint::server::testing {
 namespace {
@@ -777,8 +778,13 @@ TEST_F(GrpcServerTest, HealthCheckSaysServing) {
     grpc::ByteBuffer request(&slice, 1), response;
     std::promise<grpc::Status> done;
     auto context = make_context();
+    // The callback runs on a gRPC thread, ordered after this call by gRPC (see tsan_handoff.hpp).
+    handoff_release(&done);
     generic.UnaryCall(context.get(), "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
-                      &response, [&](grpc::Status status) { done.set_value(status); });
+                      &response, [&](grpc::Status status) {
+                        handoff_acquire(&done);
+                        done.set_value(status);
+                      });
     const grpc::Status status = done.get_future().get();
     ASSERT_TRUE(status.ok()) << status.error_message();
     std::vector<grpc::Slice> slices;
