@@ -139,6 +139,9 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
                              S cutoff, S settled_below, Subalgorithm method,
                              const SimplexCache* cache, LoopOutcome<S>& out) {
   Simplex<S>& simplex = out.simplex;
+  // The roundoff allowance of the reported error bound (see the query): no certificate is
+  // resolved more finely than this.
+  const S interval_floor = S(8) * std::numeric_limits<S>::epsilon() * diameter;
   // Johnson's method reads the inner products and Δ's every step; signed volumes never does, and
   // the Backup Procedure rebuilds them on the rare occasions it runs.
   const bool tables = method == Subalgorithm::johnson;
@@ -233,6 +236,18 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
     // the Backup Procedure deal with the inconsistency.
     if (repeated && gap <= roundoff) {
       out.termination = Termination::repeated_support;
+      break;
+    }
+    // A new support point that ties with the current face (the fourth vertex of a box's face,
+    // say): g is zero to within its roundoff, and the certified interval [L, |ν|] is already as
+    // narrow as the roundoff allowance the error bound carries. Adding the point could move the
+    // distance by no more than that interval, and in practice leaves ν unchanged: the step would
+    // only find no descent and end, after the Backup Procedure, at the same roundoff floor.
+    // Only between vertices (both indices known): on a finite vertex set a face that is not the
+    // optimum leaves g a geometric margin above roundoff. On a curved shape g ≤ roundoff still
+    // leaves ν's direction √g/|ν| uncertain, which near points and gradients would inherit.
+    if (gap <= roundoff && ia >= 0 && ib >= 0 && nu_length - best_lower_bound <= interval_floor) {
+      out.termination = Termination::roundoff_floor;
       break;
     }
     if (out.lower_bound > cutoff) {
