@@ -41,8 +41,9 @@ enum class Termination : unsigned char {
   /// finite termination of polytopes (Section IV), taken when g is at its roundoff level.
   repeated_support,
   /// Step 5 with g zero to within its roundoff: no further descent is possible and the optimality
-  /// condition of Theorem 1 holds in floating point. The usual end for curved shapes (and for
-  /// polytopes whose support ties on a face) when ε is below what roundoff allows.
+  /// condition of Theorem 1 holds in floating point. The usual end for curved shapes when ε is
+  /// below what roundoff allows; also the end for polytopes whose support point ties with the
+  /// current face (g within roundoff, the interval [L, |ν|] at the bound's roundoff allowance).
   roundoff_floor,
   /// Step 5 with g clearly above its roundoff: descent stalled (a near-degenerate simplex). The
   /// best iterate is returned and the error bound says how good it is.
