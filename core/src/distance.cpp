@@ -67,7 +67,6 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
         "shapes and their separation are too large for this precision (inner "
         "products would overflow: keep coordinates below ~1e150 in double, ~1e17 "
         "in float)");
-  const S eps = std::numeric_limits<S>::epsilon();
   const S epsilon = options.epsilon > 0 ? options.epsilon : S(0);
   const S radii = radius_a + radius_b;
   const S cutoff = options.distance_cutoff + radii;  // the loop works on the cores
@@ -75,7 +74,7 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   // Below this core distance the verdict can only be "intersecting" (see the verdict below:
   // separation needs |ν| − radii above the error bound, which is at least `roundoff`), so a query
   // that wants no near points, d⁻ or gradient can stop there instead of converging further.
-  const S roundoff = S(8) * eps * diameter;
+  const S roundoff = detail::distance_roundoff(diameter);
   const bool needs_simplex = options.near_points || options.penetration_bound || options.gradient;
   const S settled_below = needs_simplex ? S(-1) : radii + roundoff;
 

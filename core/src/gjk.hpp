@@ -78,6 +78,13 @@ auto diameter_bound(const K& k_set) {
   return k_set.a.extent() + k_set.b.extent() + k_set.offset.norm();
 }
 
+/// The roundoff allowance every reported error bound carries: a few ulps of D(K), the largest
+/// magnitude in the loop. No certificate resolves the distance more finely than this.
+template <class S>
+S distance_roundoff(S diameter) {
+  return S(8) * std::numeric_limits<S>::epsilon() * diameter;
+}
+
 /// The size of the roundoff in a computed g = ν·ν − ν·w. ν = Σλy carries an absolute error of a
 /// few ulps of D(K) whatever its length, and that error meets w (|w| ≤ D) in the inner product:
 /// a few ulps of D·(|ν| + D).
@@ -139,9 +146,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
                              S cutoff, S settled_below, Subalgorithm method,
                              const SimplexCache* cache, LoopOutcome<S>& out) {
   Simplex<S>& simplex = out.simplex;
-  // The roundoff allowance of the reported error bound (see the query): no certificate is
-  // resolved more finely than this.
-  const S interval_floor = S(8) * std::numeric_limits<S>::epsilon() * diameter;
+  const S interval_floor = distance_roundoff(diameter);
   // Johnson's method reads the inner products and Δ's every step; signed volumes never does, and
   // the Backup Procedure rebuilds them on the rare occasions it runs.
   const bool tables = method == Subalgorithm::johnson;
@@ -294,7 +299,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   // that triangle's own normal (accurate whatever |ν| is) gives the plane of K's face or of the
   // two shapes' edge–edge contact: one more support call proves d ≥ n̂·s_K(−n̂).
   using std::sqrt;
-  const S slack = S(8) * std::numeric_limits<S>::epsilon() * diameter;
+  const S slack = distance_roundoff(diameter);
   if (subset_size(nearest.subset) == 3 && nearest.nu_norm2 > 0 &&
       out.termination != Termination::beyond_cutoff && out.termination != Termination::contact &&
       sqrt(nearest.nu_norm2) - out.lower_bound > slack) {

@@ -175,15 +175,6 @@ bool cpu_has_avx2() {
 #endif
 
 template <class S>
-std::size_t argmax_dot_dispatch(const S* xs, const S* ys, const S* zs, std::size_t n, S dx, S dy,
-                                S dz) {
-#ifdef NEARPOINT_HAVE_AVX2_CLONE
-  if (cpu_has_avx2()) return argmax_dot_avx2(xs, ys, zs, n, dx, dy, dz);
-#endif
-  return argmax_dot(xs, ys, zs, n, dx, dy, dz);
-}
-
-template <class S>
 std::size_t argmax_dot_baseline(const S* xs, const S* ys, const S* zs, std::size_t n, S dx, S dy,
                                 S dz) {
   return argmax_dot(xs, ys, zs, n, dx, dy, dz);
@@ -250,8 +241,8 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices, std::span<const std::ve
       for (int z = -1; z <= 1; ++z) {
         const int nonzero = (x != 0) + (y != 0) + (z != 0);
         if (nonzero != 1 && nonzero != 3) continue;  // 6 axes + 8 diagonals
-        seeds_.push_back(std::uint32_t(
-            argmax_dot_dispatch(xs_.data(), ys_.data(), zs_.data(), xs_.size(), S(x), S(y), S(z))));
+        seeds_.push_back(
+            std::uint32_t(scan_(xs_.data(), ys_.data(), zs_.data(), xs_.size(), S(x), S(y), S(z))));
       }
 }
 
