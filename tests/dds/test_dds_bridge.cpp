@@ -5,12 +5,11 @@
 
 #include <chrono>
 #include <cstdlib>
-#include <future>
 #include <map>
 #include <numbers>
 #include <thread>
-#include <utility>
 
+#include "common/held_workers.hpp"
 #include "common/random_hull.hpp"
 #include "dds_bridge.hpp"
 #include "dds_test_support.hpp"
@@ -277,28 +276,10 @@ TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
   auto client = connect(kDomainOverload, server.prefix);
   ASSERT_TRUE(client);
 
-  // "Slower than the publisher" must not depend on how fast the engine is today: a query whose
-  // completion waits for the test holds the only worker until every update has been taken.
-  struct Release {  // also on an early return, or the pool's destructor would wait forever
-    std::promise<void> promise;
-    bool done = false;
-    void operator()() {
-      if (!std::exchange(done, true)) promise.set_value();
-    }
-    ~Release() { (*this)(); }
-  } release;
-  std::shared_future<void> released = release.promise.get_future().share();
-  std::promise<void> holding;
-  server::QueryInput hold;
-  hold.scene_id = scene.scene_id;
-  ASSERT_TRUE(server.scenes
-                  ->query(hold, server::Clock::now(),
-                          [released, &holding](server::Report) {
-                            holding.set_value();
-                            released.wait();
-                          })
-                  .ok());
-  ASSERT_EQ(holding.get_future().wait_for(std::chrono::seconds(20)), std::future_status::ready);
+  // "Slower than the publisher" must not depend on how fast the engine is today: the only
+  // worker is held until the bridge has taken every update.
+  testkit::HeldWorkers held(*server.scenes, scene.scene_id);
+  ASSERT_TRUE(held.held());
 
   constexpr std::uint64_t kUpdates = 30;
   std::string error;
@@ -313,7 +294,7 @@ TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
   while (server.bridge->stats().updates_taken < kUpdates &&
          std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  release();
+  held.release();
   ASSERT_EQ(server.bridge->stats().updates_taken, kUpdates) << "the bridge took every update";
 
   std::vector<ReceivedReport> reports;
