@@ -147,6 +147,10 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
                              const SimplexCache* cache, LoopOutcome<S>& out) {
   Simplex<S>& simplex = out.simplex;
   const S interval_floor = distance_roundoff(diameter);
+  // A computed support-plane bound L carries roundoff of a few ulps of D(K) (in y and in the
+  // inner product), so "d > cutoff" is proven only when L clears the cutoff by that much.
+  // Without the margin, touching pairs were reported beyond a zero cutoff.
+  const S proven_beyond = cutoff + interval_floor;
   // Johnson's method reads the inner products and Δ's every step; signed volumes never does, and
   // the Backup Procedure rebuilds them on the rare occasions it runs.
   const bool tables = method == Subalgorithm::johnson;
@@ -168,11 +172,23 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
     }
     out.warm_started = simplex.used != 0;
   }
+  // The best support-plane lower bound L found so far (see the loop).
+  S best_lower_bound = 0;
   if (simplex.used == 0) {
     Vec3<S> direction = k_set.offset;
-    if (!(direction.squaredNorm() > 0)) direction = Vec3<S>(1, 0, 0);  // concentric: any will do
+    const S offset_norm2 = direction.squaredNorm();
+    if (!(offset_norm2 > 0)) direction = Vec3<S>(1, 0, 0);  // concentric: any will do
     k_set.support(direction, y, on_a, on_b, ia, ib);
     simplex.add(y, on_a, on_b, ia, ib, tables);
+    // This first support point is already a support plane: every x ∈ K has u·x ≥ u·s_K(−u) for
+    // any unit u, and |x| ≥ u·x, so d ≥ u·s_K(−u). With u = −δ/|δ| (towards K's centroid
+    // z̄₁ − z̄₂), s_K(−u) is the point just found. Well-separated pairs are decided by this bound
+    // without a second support call: the yes/no query's common case.
+    const S along = -direction.dot(y);
+    if (offset_norm2 > 0 && along > 0) {
+      using std::sqrt;
+      best_lower_bound = along / sqrt(offset_norm2);
+    }
   }
   simplex.newest = -1;  // V_0 has no "newest" point: try its subsets largest first
 
@@ -190,8 +206,15 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   // step can fall back to it for the price of copying a few scalars.
   Nearest<S> previous;
   S previous_gap = 0;
-  S best_lower_bound = 0;
   for (;;) {
+    // A lower bound past the cutoff ends the query (here only the first support plane's can be;
+    // later ones are tested right after their support call, below).
+    if (best_lower_bound > proven_beyond) {
+      out.gap = std::max(S(0), nearest.nu_norm2 - best_lower_bound * best_lower_bound);
+      out.lower_bound = best_lower_bound;
+      out.termination = Termination::beyond_cutoff;
+      break;
+    }
     // Contact settled: ν ∈ K proves d ≤ |ν|, and the distance lies in [L, |ν|] (no support call
     // needed for that), so the gap |ν|² − L² certifies this iterate.
     if (nearest.nu_norm2 > 0 && settled_below >= 0 &&
@@ -255,7 +278,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
       out.termination = Termination::roundoff_floor;
       break;
     }
-    if (out.lower_bound > cutoff) {
+    if (out.lower_bound > proven_beyond) {
       out.termination = Termination::beyond_cutoff;  // the support plane proves d > cutoff
       break;
     }

@@ -448,6 +448,60 @@ TEST(PaperExperiment, ContactExitSettlesTouchingPairsEarly) {
   EXPECT_EQ(failures.total(), 0) << failures.report();
 }
 
+// Cutoff queries, the yes/no test (cutoff 0) among them, against the exact distance: a pair
+// reported beyond the cutoff is truly farther than the cutoff, every distance lies within its
+// bound, and no verdict is wrong where the examples leave a real margin. Most separated pairs
+// must be decided by the support plane of the very first support point (no iteration): its
+// plane bounds the distance from below whether or not the direction came from a point of K.
+TEST(PaperExperiment, CutoffQueriesAreCertifiedAndSeparatedPairsEndAtTheFirstPlane) {
+  nearpoint::testkit::PaperExperimentConfig config;
+  config.poses_per_case = 20;
+  const std::vector<PaperExample> examples = nearpoint::testkit::paper_experiment(config);
+  ASSERT_EQ(examples.size(), 1200u);
+  FailureLog failures;
+  int yes_no_separated = 0, decided_at_first_plane = 0, beyond = 0;
+  for (const nearpoint::Subalgorithm method :
+       {nearpoint::Subalgorithm::signed_volumes, nearpoint::Subalgorithm::johnson}) {
+    for (const PaperExample& e : examples) {
+      const Shape<double> a{Polytope<double>(*e.vertices_a)};
+      const Shape<double> b{Polytope<double>(*e.vertices_b)};
+      const double d_exact = e.exact.distance;
+      for (const double cutoff : {0.0, 0.5 * d_exact, 0.999 * d_exact, 1.5 * d_exact, 0.25}) {
+        DistanceOptions<double> options;
+        options.subalgorithm = method;
+        options.distance_cutoff = cutoff;
+        const DistanceResult<double> r = nearpoint::distance(a, e.pose_a, b, e.pose_b, options);
+        const std::string where =
+            format("%s, cutoff %.17g: %s",
+                   method == nearpoint::Subalgorithm::johnson ? "johnson" : "signed volumes",
+                   cutoff, describe(e).c_str());
+        if (!nearpoint::testkit::all_finite(r)) failures.add("NaN or infinity", where);
+        if (!(std::abs(r.distance - d_exact) <= std::max(kDistanceFloor, r.error_bound)))
+          failures.add("distance off the exact one beyond its bound",
+                       format("%s d=%.17g bound %.3g", where.c_str(), r.distance, r.error_bound));
+        if (r.beyond_cutoff()) {
+          ++beyond;
+          if (!(d_exact > cutoff)) failures.add("beyond the cutoff but not farther", where);
+        }
+        if (e.kind == PaperCase::separated && r.status != Status::separated)
+          failures.add("separated pair not separated", where);
+        if (e.kind == PaperCase::intersecting && r.status != Status::intersecting)
+          failures.add("intersecting pair not intersecting", where);
+        if (cutoff == 0 && e.kind == PaperCase::separated) {
+          ++yes_no_separated;
+          decided_at_first_plane += r.beyond_cutoff() && r.iterations == 0;
+        }
+      }
+    }
+  }
+  std::printf(
+      "\nCutoff queries: %d beyond the cutoff; yes/no on separated pairs: %d of %d "
+      "decided by the first support plane\n",
+      beyond, decided_at_first_plane, yes_no_separated);
+  EXPECT_GT(decided_at_first_plane, yes_no_separated * 9 / 10);
+  EXPECT_EQ(failures.total(), 0) << failures.report();
+}
+
 // The origin shift (eq. 34) and the relative frame: with both poses moved 10⁶ from the origin,
 // the error must still scale with the shapes' size, not with their distance from the origin.
 // The exact distance is recomputed for the offset (rounded) inputs.

@@ -54,8 +54,9 @@ struct DistanceOptions {
   /// Subalgorithm used for ν(co Y).
   Subalgorithm subalgorithm = Subalgorithm::signed_volumes;
   /// Stop as soon as the shapes are proven farther apart than this (a certified lower bound from
-  /// the support plane exceeds it): the answer is then "separated, distance > cutoff" and the
-  /// result says `beyond_cutoff`. 0 turns a query into a yes/no intersection test.
+  /// a support plane exceeds it by more than its roundoff): the answer is then "separated,
+  /// distance > cutoff" and the result says `beyond_cutoff`. 0 turns a query into a yes/no
+  /// intersection test; well-separated pairs are then decided by the first support point.
   Scalar distance_cutoff = std::numeric_limits<Scalar>::infinity();
 
   // What to compute beyond the distance. Each is opt-in: a query pays only for what it asks.
