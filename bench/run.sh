@@ -77,7 +77,9 @@ mkdir -p "$out"
   echo "compiler,\"$(c++ --version | head -n 1)\""
   echo "date,$(date -u +%Y-%m-%dT%H:%MZ)"
   echo "commit,$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
-  echo "working_tree,$(git status --porcelain 2>/dev/null | grep -q . && echo modified || echo clean)"
+  # The run's own outputs (results of an earlier run, or of this one so far) do not count.
+  echo "working_tree,$(git status --porcelain -- . ':!bench/results' ':!bench/RESULTS.md' \
+    2>/dev/null | grep -q . && echo modified || echo clean)"
   echo "load_before,\"$(cut -d' ' -f1-3 /proc/loadavg)\""
   echo "command,bench/run.sh${flags[*]:+ ${flags[*]}}"
   echo "build_seconds,$((built - start))"
