@@ -109,10 +109,17 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
         ++out.pairs_pruned;
         continue;
       }
+      // Only a distance below the best can change the answer: past it the piece pair may stop
+      // as soon as a support plane proves so, often at its first support point.
+      piece_options.distance_cutoff = std::min(options.distance_cutoff, best);
       DistanceResult<S> r = evaluate(i, j);
       if (r.status == Status::invalid_input) {
         out.nearest = r;
         return out;
+      }
+      if (r.beyond_cutoff() && !(options.distance_cutoff <= best)) {
+        ++out.pairs_stopped_at_best;
+        continue;  // proven farther than the best: it cannot be the answer
       }
       const S previous_penetration =
           out.nearest.has_penetration_bound ? out.nearest.penetration_bound : S(0);

@@ -97,9 +97,10 @@ Brute brute_force(const Compound<double>& a, const Pose<double>& pose_a, const C
   return out;
 }
 
-// The compound distance is the minimum over piece pairs (eq. 2–4) despite pruning; the pruning
-// counters account for every pair; the penetration bound is the largest over intersecting pairs;
-// warm starts from per-pair caches agree with cold starts after a small motion.
+// The compound distance is the minimum over piece pairs (eq. 2–4) despite pruning and despite
+// pairs stopping once proven farther than the best; the pruning counters account for every pair;
+// the penetration bound is the largest over intersecting pairs; warm starts from per-pair caches
+// agree with cold starts after a small motion.
 TEST(Compound, EqualsBruteForceMinimumOverPiecePairs) {
   std::mt19937_64 rng(1001);
   FailureLog log;
@@ -107,6 +108,7 @@ TEST(Compound, EqualsBruteForceMinimumOverPiecePairs) {
   options.near_points = true;
   options.penetration_bound = true;
   int queries = 0, pruned_queries = 0, intersecting = 0, separated = 0, warm_used = 0;
+  int stopped_at_best = 0;
   for (int object_set = 0; object_set < 10; ++object_set) {
     const Objects objects = make_objects(rng);
     const std::size_t pairs = objects.a.size() * objects.b.size();
@@ -126,6 +128,9 @@ TEST(Compound, EqualsBruteForceMinimumOverPiecePairs) {
             format("%s %d + %d != %zu", where.c_str(), c.pairs_evaluated, c.pairs_pruned, pairs));
       if (c.pairs_evaluated < 1) log.add("no pair evaluated", where);
       pruned_queries += c.pairs_pruned > 0;
+      stopped_at_best += c.pairs_stopped_at_best;
+      if (c.pairs_stopped_at_best > c.pairs_evaluated - 1)
+        log.add("more pairs stopped at the best than evaluated after the first", where);
       if (c.piece_a < 0 || c.piece_b < 0 || c.piece_a >= int(objects.a.size()) ||
           c.piece_b >= int(objects.b.size())) {
         log.add("nearest piece indices out of range", where);
@@ -182,13 +187,16 @@ TEST(Compound, EqualsBruteForceMinimumOverPiecePairs) {
     }
   }
   std::printf(
-      "\nCompound: %d queries, %d separated, %d intersecting, %d with pruned pairs, %d warm "
-      "starts used\n",
-      queries, separated, intersecting, pruned_queries, warm_used);
+      "\nCompound: %d queries, %d separated, %d intersecting, %d with pruned pairs, %d piece "
+      "pairs stopped once past the best, %d warm starts used\n",
+      queries, separated, intersecting, pruned_queries, stopped_at_best, warm_used);
   // Representative: both verdicts, pruning actually happens, caches actually get used.
   EXPECT_GE(separated, queries / 5);
   EXPECT_GE(intersecting, queries / 10);
   EXPECT_GE(pruned_queries, queries / 5);
+  // Pairs that survive the sphere test but are farther than the best stop early (their GJK runs
+  // with the best as its cutoff), and the minimum above is still exact.
+  EXPECT_GE(stopped_at_best, queries / 5);
   EXPECT_GE(warm_used, queries / 2);
   EXPECT_EQ(log.total(), 0) << log.report();
 }

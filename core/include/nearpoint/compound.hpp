@@ -51,6 +51,9 @@ struct CompoundResult {
   /// beat the best distance already found (or lie beyond the cutoff).
   int pairs_evaluated = 0;
   int pairs_pruned = 0;
+  /// Of the evaluated pairs, those that stopped as soon as a support plane proved them farther
+  /// than the best distance found before them (their GJK ran with that as its cutoff).
+  int pairs_stopped_at_best = 0;
 };
 
 /// Distance between compound objects. `caches` is either empty (cold starts) or holds one
