@@ -10,6 +10,7 @@
 #endif
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 #include "johnson.hpp"
 #include "nearpoint/distance.hpp"
@@ -51,6 +52,20 @@ struct MinkowskiDifference {
   // s_K(η) = s_A(η) − s_B(−η), eq. (21).
   void support(const Vec3<S>& eta, Vec3<S>& y, Vec3<S>& on_a, Vec3<S>& on_b, std::int32_t& ia,
                std::int32_t& ib) const {
+    if constexpr (std::is_same_v<SA, Support<Polytope<S>, S>> &&
+                  std::is_same_v<SB, Support<Polytope<S>, S>>) {
+      if (!a.shape.climbs() && !b.shape.climbs()) {  // both scan: one interleaved pass
+        std::size_t index[2];
+        PairScan::support_indices(a.shape, eta, b.shape, Vec3<S>(-rotate_back(rotation, eta)),
+                                  index);
+        ia = a.hint = std::int32_t(index[0]);
+        ib = b.hint = std::int32_t(index[1]);
+        on_a = a.shape.centered_vertex(index[0]);
+        on_b = rotate(rotation, b.shape.centered_vertex(index[1]));
+        y = difference(on_a, on_b);
+        return;
+      }
+    }
     on_a = a.support(eta, ia);
     on_b = rotate(rotation, b.support(-rotate_back(rotation, eta), ib));
     y = difference(on_a, on_b);

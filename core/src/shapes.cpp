@@ -57,38 +57,45 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices) {
 namespace {
 
 // The support scan of eq. (17): argmax of x·dx + y·dy + z·dz over n vertices (n a multiple of
-// 2 × kLanes),
-// first index on ties. Written with GCC vector types so that it is SIMD whatever the optimiser
-// decides: running maxima and their indices per lane, then a reduction that prefers the lowest
-// index among equal values. '>' is false for NaN, so a NaN product is never selected. Compiled
-// for AVX2 and for the baseline (where each vector becomes SSE2 pairs), chosen at load time.
+// 2 × kLanes), first index on ties. Written with GCC vector types so that it is SIMD whatever the
+// optimiser decides: running maxima and their indices per lane, then a reduction that prefers the
+// lowest index among equal values. '>' is false for NaN, so a NaN product is never selected.
+// Compiled for AVX2 and for the baseline (where each vector becomes SSE2 pairs), chosen at load
+// time. A state object, so that two scans can run interleaved (PairScan).
 template <class V, class I, class S, int kLanes>
-__attribute__((always_inline)) inline std::size_t argmax_dot_simd(const S* xs, const S* ys,
-                                                                  const S* zs, std::size_t n, S dx,
-                                                                  S dy, S dz) {
+struct ArgmaxDot {
   using Index = std::remove_reference_t<decltype(std::declval<I>()[0])>;
-  const V vx = V{} + dx, vy = V{} + dy, vz = V{} + dz;
+  const S *xs, *ys, *zs;
+  V vx, vy, vz;
   V best[2];
   I where[2];
   I lane_index;
-  for (int l = 0; l < kLanes; ++l) lane_index[l] = Index(l);
-  for (int h = 0; h < 2; ++h) {
-    V x, y, z;
-    std::memcpy(&x, xs + h * kLanes, sizeof x);
-    std::memcpy(&y, ys + h * kLanes, sizeof y);
-    std::memcpy(&z, zs + h * kLanes, sizeof z);
-    best[h] = x * vx + y * vy + z * vz;
-    where[h] = lane_index + Index(h * kLanes);
-  }
-  for (std::size_t i = 2 * kLanes; i < n; i += 2 * kLanes) {
+
+  /// The first block of 2 × kLanes vertices.
+  [[gnu::always_inline]] ArgmaxDot(const S* x, const S* y, const S* z, S dx, S dy, S dz)
+      : xs(x), ys(y), zs(z), vx(V{} + dx), vy(V{} + dy), vz(V{} + dz) {
+    for (int l = 0; l < kLanes; ++l) lane_index[l] = Index(l);
     for (int h = 0; h < 2; ++h) {
-      V x, y, z;
-      std::memcpy(&x, xs + i + h * kLanes, sizeof x);
-      std::memcpy(&y, ys + i + h * kLanes, sizeof y);
-      std::memcpy(&z, zs + i + h * kLanes, sizeof z);
-      const V value = x * vx + y * vy + z * vz;
-      const auto better = value > best[h];
-      best[h] = better ? value : best[h];
+      value(h * kLanes, best[h]);
+      where[h] = lane_index + Index(h * kLanes);
+    }
+  }
+  // By reference, not by value: a vector return type would change the ABI of the baseline copy
+  // (it is inlined either way).
+  [[gnu::always_inline]] void value(std::size_t i, V& out) const {
+    V x, y, z;
+    std::memcpy(&x, xs + i, sizeof x);
+    std::memcpy(&y, ys + i, sizeof y);
+    std::memcpy(&z, zs + i, sizeof z);
+    out = x * vx + y * vy + z * vz;
+  }
+  /// The block of 2 × kLanes vertices starting at i.
+  [[gnu::always_inline]] void step(std::size_t i) {
+    for (int h = 0; h < 2; ++h) {
+      V v;
+      value(i + h * kLanes, v);
+      const auto better = v > best[h];
+      best[h] = better ? v : best[h];
       where[h] = better ? lane_index + Index(i + h * kLanes) : where[h];
     }
   }
@@ -98,42 +105,72 @@ __attribute__((always_inline)) inline std::size_t argmax_dot_simd(const S* xs, c
   // data-dependent branches, which mispredicted about once per call. NaN never wins a comparison
   // but is replaced by any other value, so it survives only if every lane is NaN; then no lane
   // equals the maximum and vertex 0 is returned.
-  V top = (best[0] > best[1]) | (best[1] != best[1]) ? best[0] : best[1];
-  V swapped;
-  const I none = I{} + std::numeric_limits<Index>::max();
-  if constexpr (kLanes == 4) {
-    swapped = __builtin_shufflevector(top, top, 1, 0, 3, 2);
-    top = (swapped > top) | (top != top) ? swapped : top;
-    swapped = __builtin_shufflevector(top, top, 2, 3, 0, 1);
-    top = (swapped > top) | (top != top) ? swapped : top;
-  } else {
-    swapped = __builtin_shufflevector(top, top, 1, 0, 3, 2, 5, 4, 7, 6);
-    top = (swapped > top) | (top != top) ? swapped : top;
-    swapped = __builtin_shufflevector(top, top, 2, 3, 0, 1, 6, 7, 4, 5);
-    top = (swapped > top) | (top != top) ? swapped : top;
-    swapped = __builtin_shufflevector(top, top, 4, 5, 6, 7, 0, 1, 2, 3);
-    top = (swapped > top) | (top != top) ? swapped : top;
+  [[gnu::always_inline]] std::size_t index() const {
+    V top = (best[0] > best[1]) | (best[1] != best[1]) ? best[0] : best[1];
+    V swapped;
+    const I none = I{} + std::numeric_limits<Index>::max();
+    if constexpr (kLanes == 4) {
+      swapped = __builtin_shufflevector(top, top, 1, 0, 3, 2);
+      top = (swapped > top) | (top != top) ? swapped : top;
+      swapped = __builtin_shufflevector(top, top, 2, 3, 0, 1);
+      top = (swapped > top) | (top != top) ? swapped : top;
+    } else {
+      swapped = __builtin_shufflevector(top, top, 1, 0, 3, 2, 5, 4, 7, 6);
+      top = (swapped > top) | (top != top) ? swapped : top;
+      swapped = __builtin_shufflevector(top, top, 2, 3, 0, 1, 6, 7, 4, 5);
+      top = (swapped > top) | (top != top) ? swapped : top;
+      swapped = __builtin_shufflevector(top, top, 4, 5, 6, 7, 0, 1, 2, 3);
+      top = (swapped > top) | (top != top) ? swapped : top;
+    }
+    const I c0 = best[0] == top ? where[0] : none;
+    const I c1 = best[1] == top ? where[1] : none;
+    I c = c0 < c1 ? c0 : c1;
+    I c_swapped;
+    if constexpr (kLanes == 4) {
+      c_swapped = __builtin_shufflevector(c, c, 1, 0, 3, 2);
+      c = c_swapped < c ? c_swapped : c;
+      c_swapped = __builtin_shufflevector(c, c, 2, 3, 0, 1);
+      c = c_swapped < c ? c_swapped : c;
+    } else {
+      c_swapped = __builtin_shufflevector(c, c, 1, 0, 3, 2, 5, 4, 7, 6);
+      c = c_swapped < c ? c_swapped : c;
+      c_swapped = __builtin_shufflevector(c, c, 2, 3, 0, 1, 6, 7, 4, 5);
+      c = c_swapped < c ? c_swapped : c;
+      c_swapped = __builtin_shufflevector(c, c, 4, 5, 6, 7, 0, 1, 2, 3);
+      c = c_swapped < c ? c_swapped : c;
+    }
+    Index best_index = c[0];
+    if (best_index == std::numeric_limits<Index>::max()) best_index = 0;
+    return std::size_t(best_index);
   }
-  const I c0 = best[0] == top ? where[0] : none;
-  const I c1 = best[1] == top ? where[1] : none;
-  I c = c0 < c1 ? c0 : c1;
-  I c_swapped;
-  if constexpr (kLanes == 4) {
-    c_swapped = __builtin_shufflevector(c, c, 1, 0, 3, 2);
-    c = c_swapped < c ? c_swapped : c;
-    c_swapped = __builtin_shufflevector(c, c, 2, 3, 0, 1);
-    c = c_swapped < c ? c_swapped : c;
-  } else {
-    c_swapped = __builtin_shufflevector(c, c, 1, 0, 3, 2, 5, 4, 7, 6);
-    c = c_swapped < c ? c_swapped : c;
-    c_swapped = __builtin_shufflevector(c, c, 2, 3, 0, 1, 6, 7, 4, 5);
-    c = c_swapped < c ? c_swapped : c;
-    c_swapped = __builtin_shufflevector(c, c, 4, 5, 6, 7, 0, 1, 2, 3);
-    c = c_swapped < c ? c_swapped : c;
+};
+
+template <class V, class I, class S, int kLanes>
+[[gnu::always_inline]] inline std::size_t argmax_dot_simd(const S* xs, const S* ys, const S* zs,
+                                                          std::size_t n, S dx, S dy, S dz) {
+  ArgmaxDot<V, I, S, kLanes> scan(xs, ys, zs, dx, dy, dz);
+  for (std::size_t i = 2 * kLanes; i < n; i += 2 * kLanes) scan.step(i);
+  return scan.index();
+}
+
+/// Two scans in one loop (see PairScan): the common blocks interleaved, then the longer one's rest.
+template <class V, class I, class S, int kLanes>
+[[gnu::always_inline]] inline void argmax_dot_pair_simd(const S* const a[3], std::size_t na,
+                                                        const S da[3], const S* const b[3],
+                                                        std::size_t nb, const S db[3],
+                                                        std::size_t out[2]) {
+  ArgmaxDot<V, I, S, kLanes> scan_a(a[0], a[1], a[2], da[0], da[1], da[2]);
+  ArgmaxDot<V, I, S, kLanes> scan_b(b[0], b[1], b[2], db[0], db[1], db[2]);
+  const std::size_t common = std::min(na, nb);
+  std::size_t i = 2 * kLanes;
+  for (; i < common; i += 2 * kLanes) {
+    scan_a.step(i);
+    scan_b.step(i);
   }
-  Index best_index = c[0];
-  if (best_index == std::numeric_limits<Index>::max()) best_index = 0;
-  return std::size_t(best_index);
+  for (std::size_t j = i; j < na; j += 2 * kLanes) scan_a.step(j);
+  for (std::size_t j = i; j < nb; j += 2 * kLanes) scan_b.step(j);
+  out[0] = scan_a.index();
+  out[1] = scan_b.index();
 }
 
 using Double4 = double __attribute__((vector_size(32)));
@@ -148,6 +185,16 @@ __attribute__((always_inline)) inline std::size_t argmax_dot(const S* xs, const 
     return argmax_dot_simd<Double4, Int64x4, double, 4>(xs, ys, zs, n, dx, dy, dz);
   else
     return argmax_dot_simd<Float8, Int32x8, float, 8>(xs, ys, zs, n, dx, dy, dz);
+}
+template <class S>
+__attribute__((always_inline)) inline void argmax_dot_pair(const S* const a[3], std::size_t na,
+                                                           const S da[3], const S* const b[3],
+                                                           std::size_t nb, const S db[3],
+                                                           std::size_t out[2]) {
+  if constexpr (std::is_same_v<S, double>)
+    argmax_dot_pair_simd<Double4, Int64x4, double, 4>(a, na, da, b, nb, db, out);
+  else
+    argmax_dot_pair_simd<Float8, Int32x8, float, 8>(a, na, da, b, nb, db, out);
 }
 
 // One copy compiled for AVX2 and one for the baseline, chosen once at run time. Explicit dispatch
@@ -165,6 +212,13 @@ __attribute__((target("avx2"))) std::size_t argmax_dot_avx2(const float* xs, con
                                                             float dx, float dy, float dz) {
   return argmax_dot(xs, ys, zs, n, dx, dy, dz);
 }
+template <class S>
+__attribute__((target("avx2"))) void argmax_dot_pair_avx2(const S* const a[3], std::size_t na,
+                                                          const S da[3], const S* const b[3],
+                                                          std::size_t nb, const S db[3],
+                                                          std::size_t out[2]) {
+  argmax_dot_pair(a, na, da, b, nb, db, out);
+}
 bool cpu_has_avx2() {
   static const bool has = [] {
     __builtin_cpu_init();
@@ -178,6 +232,13 @@ template <class S>
 std::size_t argmax_dot_baseline(const S* xs, const S* ys, const S* zs, std::size_t n, S dx, S dy,
                                 S dz) {
   return argmax_dot(xs, ys, zs, n, dx, dy, dz);
+}
+
+template <class S>
+void argmax_dot_pair_baseline(const S* const a[3], std::size_t na, const S da[3],
+                              const S* const b[3], std::size_t nb, const S db[3],
+                              std::size_t out[2]) {
+  argmax_dot_pair(a, na, da, b, nb, db, out);
 }
 
 template <class S>
@@ -346,6 +407,24 @@ const char* Polytope<S>::check_faces(std::span<const std::vector<int>> faces) co
 }
 
 template <class S>
+void detail::PairScan::support_indices(const Polytope<S>& a, const Vec3<S>& direction_a,
+                                       const Polytope<S>& b, const Vec3<S>& direction_b,
+                                       std::size_t out[2]) {
+  const S* const coords_a[3] = {a.xs_.data(), a.ys_.data(), a.zs_.data()};
+  const S* const coords_b[3] = {b.xs_.data(), b.ys_.data(), b.zs_.data()};
+  const S da[3] = {direction_a.x(), direction_a.y(), direction_a.z()};
+  const S db[3] = {direction_b.x(), direction_b.y(), direction_b.z()};
+  // The polytope's own scan pointer says which build this CPU runs (chosen once per process).
+#ifdef NEARPOINT_HAVE_AVX2_CLONE
+  if (a.scan_ != &argmax_dot_baseline<S>) {
+    argmax_dot_pair_avx2<S>(coords_a, a.xs_.size(), da, coords_b, b.xs_.size(), db, out);
+    return;
+  }
+#endif
+  argmax_dot_pair_baseline<S>(coords_a, a.xs_.size(), da, coords_b, b.xs_.size(), db, out);
+}
+
+template <class S>
 typename Polytope<S>::Scan Polytope<S>::best_scan() {
 #ifdef NEARPOINT_HAVE_AVX2_CLONE
   if (cpu_has_avx2()) return static_cast<Scan>(&argmax_dot_avx2);
@@ -423,12 +502,14 @@ Vec3<S> support(const Shape<S>& shape, const Vec3<S>& direction, int& index) {
       shape.geometry);
 }
 
-#define NEARPOINT_INSTANTIATE(S)                        \
-  template class Polytope<S>;                           \
-  template const char* invalid_reason(const Shape<S>&); \
-  template Vec3<S> core_center(const Shape<S>&);        \
-  template S core_extent(const Shape<S>&);              \
-  template Vec3<S> support(const Shape<S>&, const Vec3<S>&, int& index);
+#define NEARPOINT_INSTANTIATE(S)                                         \
+  template class Polytope<S>;                                            \
+  template const char* invalid_reason(const Shape<S>&);                  \
+  template Vec3<S> core_center(const Shape<S>&);                         \
+  template S core_extent(const Shape<S>&);                               \
+  template Vec3<S> support(const Shape<S>&, const Vec3<S>&, int& index); \
+  template void detail::PairScan::support_indices(                       \
+      const Polytope<S>&, const Vec3<S>&, const Polytope<S>&, const Vec3<S>&, std::size_t[2]);
 NEARPOINT_INSTANTIATE(double)
 NEARPOINT_INSTANTIATE(float)
 #undef NEARPOINT_INSTANTIATE

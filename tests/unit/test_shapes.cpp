@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "nearpoint/distance.hpp"
@@ -112,6 +113,67 @@ TEST(Support, IndicesNameTheVertex) {
     ASSERT_TRUE(s.vertex(index, q));
     EXPECT_EQ(p, q);
   }
+}
+
+// The paired scan (two polytopes in one interleaved pass) returns for each polytope the first
+// vertex of largest x·dx + y·dy + z·dz, as a plain loop over the vertices finds it: for sizes on
+// both sides of the scan's blocks and of each other, with exact ties (repeated vertices, axis
+// directions) and a NaN direction (vertex 0), in both precisions.
+template <class S>
+std::size_t first_maximiser(const Polytope<S>& p, const Vec3<S>& d) {
+  std::size_t best = 0;
+  S best_value = -std::numeric_limits<S>::infinity();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    const Vec3<S> v = p.centered_vertex(i);
+    const S value = v.x() * d.x() + v.y() * d.y() + v.z() * d.z();
+    if (value > best_value) {
+      best_value = value;
+      best = i;
+    }
+  }
+  return best;
+}
+
+template <class S>
+void check_pair_scan() {
+  std::mt19937_64 rng(17);
+  std::uniform_int_distribution<int> coordinate(-3, 3);  // small integers: many exact ties
+  std::normal_distribution<double> normal(0.0, 1.0);
+  auto random_polytope = [&](int n) {
+    std::vector<Vec3<S>> vertices;
+    for (int i = 0; i < n; ++i)
+      vertices.emplace_back(S(coordinate(rng)), S(coordinate(rng)), S(coordinate(rng)));
+    if (n > 2) vertices[std::size_t(n - 1)] = vertices[0];  // a repeated vertex
+    return Polytope<S>(vertices);
+  };
+  const S nan = std::numeric_limits<S>::quiet_NaN();
+  int compared = 0;
+  for (const int na : {1, 3, 8, 9, 16, 17, 40}) {
+    for (const int nb : {1, 5, 8, 24, 33}) {
+      const Polytope<S> a = random_polytope(na), b = random_polytope(nb);
+      for (int trial = 0; trial < 40; ++trial) {
+        Vec3<S> da(S(normal(rng)), S(normal(rng)), S(normal(rng)));
+        Vec3<S> db(S(normal(rng)), S(normal(rng)), S(normal(rng)));
+        if (trial % 4 == 1) da = Vec3<S>::Unit(trial % 3);
+        if (trial % 4 == 2) db = -Vec3<S>::Unit(trial % 3);
+        if (trial == 39) da = Vec3<S>(nan, 0, 0);
+        std::size_t index[2] = {99, 99};
+        detail::PairScan::support_indices(a, da, b, db, index);
+        const std::size_t expect_a = trial == 39 ? 0 : first_maximiser(a, da);
+        EXPECT_EQ(index[0], expect_a) << "A: " << na << " vertices, trial " << trial;
+        EXPECT_EQ(index[1], first_maximiser(b, db)) << "B: " << nb << " vertices, trial " << trial;
+        EXPECT_EQ(index[0], a.support_index(da)) << "same as the single scan";
+        EXPECT_EQ(index[1], b.support_index(db)) << "same as the single scan";
+        ++compared;
+      }
+    }
+  }
+  EXPECT_EQ(compared, 7 * 5 * 40);
+}
+
+TEST(Support, PairedScanFindsEachPolytopesFirstMaximiser) {
+  check_pair_scan<double>();
+  check_pair_scan<float>();
 }
 
 // Zero and tiny directions must still give a point of the shape (never NaN).

@@ -14,6 +14,10 @@
 
 namespace nearpoint {
 
+namespace detail {
+struct PairScan;  // the engine's scan of two polytopes at once (core/src/support.hpp)
+}  // namespace detail
+
 /// A single point at the local origin. With a radius it is a sphere.
 struct Point {};
 
@@ -114,6 +118,7 @@ class Polytope {
   const char* invalid_reason() const { return invalid_reason_; }
 
  private:
+  friend struct detail::PairScan;
   const char* check_faces(std::span<const std::vector<int>> faces) const;
   std::size_t climb(const Vec3<Scalar>& direction, std::int32_t hint) const;
 
