@@ -54,10 +54,10 @@ struct MinkowskiDifference {
                std::int32_t& ib) const {
     if constexpr (std::is_same_v<SA, Support<Polytope<S>, S>> &&
                   std::is_same_v<SB, Support<Polytope<S>, S>>) {
-      if (!a.shape.climbs() && !b.shape.climbs()) {  // both scan: one interleaved pass
+      if (a.shape.climbs() == b.shape.climbs()) {  // both scan or both climb: interleaved
         std::size_t index[2];
-        PairScan::support_indices(a.shape, eta, b.shape, Vec3<S>(-rotate_back(rotation, eta)),
-                                  index);
+        PairScan::support_indices(a.shape, eta, a.hint, b.shape,
+                                  Vec3<S>(-rotate_back(rotation, eta)), b.hint, index);
         ia = a.hint = std::int32_t(index[0]);
         ib = b.hint = std::int32_t(index[1]);
         on_a = a.shape.centered_vertex(index[0]);

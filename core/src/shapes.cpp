@@ -406,10 +406,90 @@ const char* Polytope<S>::check_faces(std::span<const std::vector<int>> faces) co
   return nullptr;
 }
 
+// A climb over the hull's edges as a state object, so that two climbs (A's and B's in one
+// support call of K) can run interleaved: each step depends on the one before (which neighbour
+// won), and two independent chains side by side hide each other's latency.
+template <class S>
+struct Climb {
+  const S *xs, *ys, *zs;
+  const std::uint32_t *begin, *neighbors;
+  S dx, dy, dz;
+  std::uint32_t at;
+  S best;
+
+  [[gnu::always_inline]] S value(std::uint32_t i) const {
+    return xs[i] * dx + ys[i] * dy + zs[i] * dz;
+  }
+  // Start from the better of the hint (GJK's previous answer for this shape: usually a step or
+  // two away) and the precomputed extreme vertices (never far, even when an early GJK direction
+  // reverses).
+  [[gnu::always_inline]] Climb(const S* x, const S* y, const S* z, const std::uint32_t* row_begin,
+                               const std::uint32_t* adjacency,
+                               const std::vector<std::uint32_t>& seeds, std::size_t size,
+                               const Vec3<S>& d, std::int32_t hint)
+      : xs(x),
+        ys(y),
+        zs(z),
+        begin(row_begin),
+        neighbors(adjacency),
+        dx(d.x()),
+        dy(d.y()),
+        dz(d.z()),
+        at(seeds[0]),
+        best(value(at)) {
+    if (hint >= 0 && std::size_t(hint) < size) {
+      at = std::uint32_t(hint);
+      best = value(at);
+    }
+    for (const std::uint32_t seed : seeds)
+      if (const S v = value(seed); v > best) {
+        best = v;
+        at = seed;
+      }
+  }
+  // One step of steepest ascent over the edges; false at the top. On a convex polytope a vertex
+  // with no better neighbour is a maximiser (the simplex method's optimality condition), so the
+  // climb ends at a support point; each step strictly increases the value, so it ends. A NaN
+  // direction never moves.
+  [[gnu::always_inline]] bool step() {
+    std::uint32_t next = at;
+    for (std::uint32_t k = begin[at]; k < begin[at + 1]; ++k)
+      if (const S v = value(neighbors[k]); v > best) {
+        best = v;
+        next = neighbors[k];
+      }
+    const bool moved = next != at;
+    at = next;
+    return moved;
+  }
+};
+
 template <class S>
 void detail::PairScan::support_indices(const Polytope<S>& a, const Vec3<S>& direction_a,
-                                       const Polytope<S>& b, const Vec3<S>& direction_b,
+                                       std::int32_t hint_a, const Polytope<S>& b,
+                                       const Vec3<S>& direction_b, std::int32_t hint_b,
                                        std::size_t out[2]) {
+  if (a.climbs() && b.climbs()) {
+    Climb<S> climb_a(a.xs_.data(), a.ys_.data(), a.zs_.data(), a.neighbor_begin_.data(),
+                     a.neighbors_.data(), a.seeds_, a.size_, direction_a, hint_a);
+    Climb<S> climb_b(b.xs_.data(), b.ys_.data(), b.zs_.data(), b.neighbor_begin_.data(),
+                     b.neighbors_.data(), b.seeds_, b.size_, direction_b, hint_b);
+    bool moving_a = true, moving_b = true;
+    while (moving_a & moving_b) {
+      moving_a = climb_a.step();
+      moving_b = climb_b.step();
+    }
+    while (moving_a) moving_a = climb_a.step();
+    while (moving_b) moving_b = climb_b.step();
+    out[0] = climb_a.at;
+    out[1] = climb_b.at;
+    return;
+  }
+  if (a.climbs() || b.climbs()) {
+    out[0] = a.support_index(direction_a, hint_a);
+    out[1] = b.support_index(direction_b, hint_b);
+    return;
+  }
   const S* const coords_a[3] = {a.xs_.data(), a.ys_.data(), a.zs_.data()};
   const S* const coords_b[3] = {b.xs_.data(), b.ys_.data(), b.zs_.data()};
   const S da[3] = {direction_a.x(), direction_a.y(), direction_a.z()};
@@ -434,36 +514,11 @@ typename Polytope<S>::Scan Polytope<S>::best_scan() {
 
 template <class S>
 std::size_t Polytope<S>::climb(const Vec3<S>& d, std::int32_t hint) const {
-  const S *xs = xs_.data(), *ys = ys_.data(), *zs = zs_.data();
-  const S dx = d.x(), dy = d.y(), dz = d.z();
-  auto value = [&](std::uint32_t i) { return xs[i] * dx + ys[i] * dy + zs[i] * dz; };
-  // Start from the better of the hint (GJK's previous answer for this shape: usually a step or
-  // two away) and the precomputed extreme vertices (never far, even when an early GJK direction
-  // reverses).
-  std::uint32_t at = seeds_[0];
-  S best = value(at);
-  if (hint >= 0 && std::size_t(hint) < size_) {
-    at = std::uint32_t(hint);
-    best = value(at);
+  Climb<S> climb(xs_.data(), ys_.data(), zs_.data(), neighbor_begin_.data(), neighbors_.data(),
+                 seeds_, size_, d, hint);
+  while (climb.step()) {
   }
-  for (const std::uint32_t seed : seeds_)
-    if (const S v = value(seed); v > best) {
-      best = v;
-      at = seed;
-    }
-  // Steepest ascent over the edges. On a convex polytope a vertex with no better neighbour is a
-  // maximiser (the simplex method's optimality condition), so the climb ends at a support point;
-  // each step strictly increases the value, so it ends. A NaN direction never moves.
-  for (;;) {
-    std::uint32_t next = at;
-    for (std::uint32_t k = neighbor_begin_[at]; k < neighbor_begin_[at + 1]; ++k)
-      if (const S v = value(neighbors_[k]); v > best) {
-        best = v;
-        next = neighbors_[k];
-      }
-    if (next == at) return at;
-    at = next;
-  }
+  return climb.at;
 }
 
 template <class S>
@@ -502,14 +557,15 @@ Vec3<S> support(const Shape<S>& shape, const Vec3<S>& direction, int& index) {
       shape.geometry);
 }
 
-#define NEARPOINT_INSTANTIATE(S)                                         \
-  template class Polytope<S>;                                            \
-  template const char* invalid_reason(const Shape<S>&);                  \
-  template Vec3<S> core_center(const Shape<S>&);                         \
-  template S core_extent(const Shape<S>&);                               \
-  template Vec3<S> support(const Shape<S>&, const Vec3<S>&, int& index); \
-  template void detail::PairScan::support_indices(                       \
-      const Polytope<S>&, const Vec3<S>&, const Polytope<S>&, const Vec3<S>&, std::size_t[2]);
+#define NEARPOINT_INSTANTIATE(S)                                                      \
+  template class Polytope<S>;                                                         \
+  template const char* invalid_reason(const Shape<S>&);                               \
+  template Vec3<S> core_center(const Shape<S>&);                                      \
+  template S core_extent(const Shape<S>&);                                            \
+  template Vec3<S> support(const Shape<S>&, const Vec3<S>&, int& index);              \
+  template void detail::PairScan::support_indices(const Polytope<S>&, const Vec3<S>&, \
+                                                  std::int32_t, const Polytope<S>&,   \
+                                                  const Vec3<S>&, std::int32_t, std::size_t[2]);
 NEARPOINT_INSTANTIATE(double)
 NEARPOINT_INSTANTIATE(float)
 #undef NEARPOINT_INSTANTIATE

@@ -23,16 +23,18 @@ inline bool normalise_direction(const Vec3<S>& d, Vec3<S>& out) {
   return true;
 }
 
-/// Both support indices of K = A − B in one pass, for two polytopes that scan (no hull climbing):
-/// s_A(η) and s_B(η_B) by eq. (17), each the first maximiser as Polytope::support_index gives it.
-/// The two argmax chains run interleaved in one loop, so their latencies overlap instead of adding
-/// up: GJK's loop is one dependency chain (support → ν → support), and two scans one after the
-/// other were a fixed part of every iteration (measured: 5–9% of a query on the paper set, 15% at
-/// p99). Defined next to the single scan in shapes.cpp.
+/// Both support indices of K = A − B in one call: s_A(η) and s_B(η_B) by eq. (17), each exactly
+/// what Polytope::support_index(direction, hint) gives. When both polytopes scan, the two argmax
+/// chains run interleaved in one loop; when both climb their hulls, the two climbs step in turn.
+/// Their latencies then overlap instead of adding up: GJK's loop is one dependency chain
+/// (support → ν → support), and two searches one after the other were a fixed part of every
+/// iteration (measured: 5–9% of a query on the paper set, 15% at p99). Defined next to the
+/// single-polytope searches in shapes.cpp.
 struct PairScan {
   template <class S>
-  static void support_indices(const Polytope<S>& a, const Vec3<S>& direction_a,
-                              const Polytope<S>& b, const Vec3<S>& direction_b, std::size_t out[2]);
+  static void support_indices(const Polytope<S>& a, const Vec3<S>& direction_a, std::int32_t hint_a,
+                              const Polytope<S>& b, const Vec3<S>& direction_b, std::int32_t hint_b,
+                              std::size_t out[2]);
 };
 
 template <class G, class S>

@@ -9,6 +9,7 @@
 #include "common/paper_family.hpp"
 #include "nearpoint/distance.hpp"
 #include "nearpoint/hull.hpp"
+#include "support.hpp"
 
 namespace nearpoint {
 namespace {
@@ -110,6 +111,36 @@ TEST(HillClimb, ReachesTheScanMaximumFromAnyStart) {
           << "n=" << n << " d=" << d.transpose();
     }
   }
+}
+
+// Two climbing polytopes searched in one call (PairScan: the climbs step in turn) give exactly
+// what each polytope's own climb gives from the same hint, and so the scan's maximum value.
+TEST(HillClimb, PairedClimbsEqualSeparateClimbs) {
+  const Polytope<double> a = hull_polytope(sphere_points(500, V(1, 1, 1), 21));
+  const Polytope<double> b = hull_polytope(sphere_points(3000, V(1, 0.6, 0.35), 22));
+  ASSERT_TRUE(a.climbs() && b.climbs());
+  std::vector<V> vertices_b;
+  for (std::size_t i = 0; i < b.size(); ++i) vertices_b.push_back(b.vertex(i));
+  const Polytope<double> b_scanning(vertices_b);
+  std::mt19937_64 rng(23);
+  std::uniform_int_distribution<int> hint_a(-1, int(a.size()) - 1), hint_b(-1, int(b.size()) - 1);
+  for (int k = 0; k < 2000; ++k) {
+    const V da = testkit::random_unit_vector(rng), db = testkit::random_unit_vector(rng);
+    const std::int32_t ha = hint_a(rng), hb = hint_b(rng);
+    std::size_t index[2];
+    detail::PairScan::support_indices(a, da, ha, b, db, hb, index);
+    EXPECT_EQ(index[0], a.support_index(da, ha)) << k;
+    EXPECT_EQ(index[1], b.support_index(db, hb)) << k;
+    double top = -1e300;  // the maximum over every vertex, by brute force
+    for (std::size_t i = 0; i < b.size(); ++i) top = std::max(top, b.centered_vertex(i).dot(db));
+    EXPECT_EQ(b.centered_vertex(index[1]).dot(db), top) << k;
+  }
+  // One climbing and one scanning polytope: each searched its own way.
+  std::size_t index[2];
+  const V d(0.3, -0.2, 0.9);
+  detail::PairScan::support_indices(a, d, -1, b_scanning, d, -1, index);
+  EXPECT_EQ(index[0], a.support_index(d));
+  EXPECT_EQ(index[1], b_scanning.support_index(d));
 }
 
 // Distances on climbing polytopes, cold and warm along a path, against CGAL's exact distance.

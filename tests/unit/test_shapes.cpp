@@ -158,7 +158,7 @@ void check_pair_scan() {
         if (trial % 4 == 2) db = -Vec3<S>::Unit(trial % 3);
         if (trial == 39) da = Vec3<S>(nan, 0, 0);
         std::size_t index[2] = {99, 99};
-        detail::PairScan::support_indices(a, da, b, db, index);
+        detail::PairScan::support_indices(a, da, -1, b, db, -1, index);
         const std::size_t expect_a = trial == 39 ? 0 : first_maximiser(a, da);
         EXPECT_EQ(index[0], expect_a) << "A: " << na << " vertices, trial " << trial;
         EXPECT_EQ(index[1], first_maximiser(b, db)) << "B: " << nb << " vertices, trial " << trial;
