@@ -54,21 +54,19 @@ struct MinkowskiDifference {
                std::int32_t& ib) const {
     if constexpr (std::is_same_v<SA, Support<Polytope<S>, S>> &&
                   std::is_same_v<SB, Support<Polytope<S>, S>>) {
-      if (a.shape.climbs() == b.shape.climbs()) {  // both scan or both climb: interleaved
-        std::size_t index[2];
-        PairScan::support_indices(a.shape, eta, a.hint, b.shape,
-                                  Vec3<S>(-rotate_back(rotation, eta)), b.hint, index);
-        ia = a.hint = std::int32_t(index[0]);
-        ib = b.hint = std::int32_t(index[1]);
-        on_a = a.shape.centered_vertex(index[0]);
-        on_b = rotate(rotation, b.shape.centered_vertex(index[1]));
-        y = difference(on_a, on_b);
-        return;
-      }
+      std::size_t index[2];  // both polytopes searched in one call (interleaved when alike)
+      PairScan::support_indices(a.shape, eta, a.hint, b.shape, Vec3<S>(-rotate_back(rotation, eta)),
+                                b.hint, index);
+      ia = a.hint = std::int32_t(index[0]);
+      ib = b.hint = std::int32_t(index[1]);
+      on_a = a.shape.centered_vertex(index[0]);
+      on_b = rotate(rotation, b.shape.centered_vertex(index[1]));
+      y = difference(on_a, on_b);
+    } else {
+      on_a = a.support(eta, ia);
+      on_b = rotate(rotation, b.support(-rotate_back(rotation, eta), ib));
+      y = difference(on_a, on_b);
     }
-    on_a = a.support(eta, ia);
-    on_b = rotate(rotation, b.support(-rotate_back(rotation, eta), ib));
-    y = difference(on_a, on_b);
   }
 
   Vec3<S> difference(const Vec3<S>& on_a, const Vec3<S>& on_b) const {

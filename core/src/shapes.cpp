@@ -241,6 +241,11 @@ void argmax_dot_pair_baseline(const S* const a[3], std::size_t na, const S da[3]
   argmax_dot_pair(a, na, da, b, nb, db, out);
 }
 
+/// Where the climbing seed found along direction (x, y, z) ∈ {-1, 0, 1}³ is kept in seeds_.
+constexpr std::size_t seed_code(int x, int y, int z) {
+  return std::size_t((x + 1) * 9 + (y + 1) * 3 + (z + 1));
+}
+
 template <class S>
 bool finite_nonnegative(S value) {
   return std::isfinite(value) && value >= 0;
@@ -296,15 +301,16 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices, std::span<const std::ve
       neighbors_[fill[std::size_t(face[k])]++] = std::uint32_t(face[(k + 1) % face.size()]);
 
   // Cold climbs start from the extreme vertices along the axes and the diagonals nearest their
-  // direction: within a few edges of the answer for any direction. Climb's kSeedOf relies on
-  // this loop's order.
+  // direction: within a few edges of the answer for any direction. Indexed by seed_code(x, y, z);
+  // the other 13 codes are never read.
+  seeds_.assign(27, 0);
   for (int x = -1; x <= 1; ++x)
     for (int y = -1; y <= 1; ++y)
       for (int z = -1; z <= 1; ++z) {
         const int nonzero = (x != 0) + (y != 0) + (z != 0);
         if (nonzero != 1 && nonzero != 3) continue;  // 6 axes + 8 diagonals
-        seeds_.push_back(
-            std::uint32_t(scan_(xs_.data(), ys_.data(), zs_.data(), xs_.size(), S(x), S(y), S(z))));
+        seeds_[seed_code(x, y, z)] =
+            std::uint32_t(scan_(xs_.data(), ys_.data(), zs_.data(), xs_.size(), S(x), S(y), S(z)));
       }
 }
 
@@ -437,32 +443,16 @@ struct Climb {
         dx(d.x()),
         dy(d.y()),
         dz(d.z()),
-        at(seeds[0]),
+        at(hint >= 0 && std::size_t(hint) < size ? std::uint32_t(hint)
+                                                 : seeds[seed_code(-1, -1, -1)]),
         best(value(at)) {
-    if (hint >= 0 && std::size_t(hint) < size) {
-      at = std::uint32_t(hint);
-      best = value(at);
-    }
-    // The diagonal of d's signs and the axis of d's largest component. kSeedOf maps a direction
-    // (x, y, z) ∈ {-1, 0, 1}³, coded (x+1)·9 + (y+1)·3 + (z+1), to its seed, in the order the
-    // constructor found them.
-    static constexpr std::array<std::int8_t, 27> kSeedOf = [] {
-      std::array<std::int8_t, 27> table{};
-      int k = 0;
-      for (int x = -1; x <= 1; ++x)
-        for (int y = -1; y <= 1; ++y)
-          for (int z = -1; z <= 1; ++z) {
-            const int nonzero = (x != 0) + (y != 0) + (z != 0);
-            table[std::size_t((x + 1) * 9 + (y + 1) * 3 + (z + 1))] =
-                std::int8_t(nonzero == 1 || nonzero == 3 ? k++ : -1);
-          }
-      return table;
-    }();
-    const int sx = dx > 0 ? 2 : 0, sy = dy > 0 ? 2 : 0, sz = dz > 0 ? 2 : 0;
-    const std::uint32_t diagonal = seeds[std::size_t(kSeedOf[std::size_t(sx * 9 + sy * 3 + sz)])];
+    // The diagonal of d's signs and the axis of d's largest component.
+    const int sx = dx > 0 ? 1 : -1, sy = dy > 0 ? 1 : -1, sz = dz > 0 ? 1 : -1;
+    const std::uint32_t diagonal = seeds[seed_code(sx, sy, sz)];
     const S ax = std::abs(dx), ay = std::abs(dy), az = std::abs(dz);
-    const int code = ax >= ay && ax >= az ? sx * 9 + 3 + 1 : ay >= az ? 9 + sy * 3 + 1 : 9 + 3 + sz;
-    const std::uint32_t axis = seeds[std::size_t(kSeedOf[std::size_t(code)])];
+    const std::uint32_t axis = seeds[ax >= ay && ax >= az ? seed_code(sx, 0, 0)
+                                     : ay >= az           ? seed_code(0, sy, 0)
+                                                          : seed_code(0, 0, sz)];
     for (const std::uint32_t seed : {diagonal, axis})
       if (const S v = value(seed); v > best) {
         best = v;
