@@ -25,9 +25,9 @@ template <class S>
 [[gnu::always_inline]] inline int largest_component(const Vec3<S>& v) {
   using std::abs;
   const S x = abs(v.x()), y = abs(v.y()), z = abs(v.z());
-  const int xy = y > x ? 1 : 0;
+  const int xy = int(y > x);
   const S top = y > x ? y : x;
-  return z > top ? 2 : xy;
+  return xy + int(z > top) * (2 - xy);  // arithmetic: GCC made `z > top ? 2 : xy` a jump
 }
 
 /// Result on up to 4 points given by slot numbers into the simplex.
