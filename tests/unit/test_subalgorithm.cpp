@@ -214,6 +214,65 @@ TEST(SignedVolumes, RandomSimplicesMatchBruteForce) {
   EXPECT_GT(interior, 50);
 }
 
+// The shortcuts of signed volumes: a tetrahedron whose origin sees exactly one face answers with
+// that face, and a triangle whose origin's projection lies beyond exactly one edge answers with
+// that edge, without comparing candidates. Both must agree with the brute-force minimiser, and
+// the random set must exercise them and the multi-candidate cases alike (classified here from
+// long-double plane sides, independently of the code under test).
+TEST(SignedVolumes, SingleFaceAndSingleEdgeShortcutsMatchBruteForce) {
+  using L = long double;
+  std::mt19937_64 rng(4711);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  auto side = [](const V& a, const V& b, const V& c, const V& p) {
+    const Eigen::Matrix<L, 3, 1> u = (b - a).cast<L>(), v = (c - a).cast<L>(),
+                                 w = (p - a).cast<L>();
+    return u.cross(v).dot(w);
+  };
+  int tetra_by_faces[5] = {0, 0, 0, 0, 0};
+  int triangle_by_edges[4] = {0, 0, 0, 0};
+  for (int trial = 0; trial < 6000; ++trial) {
+    const int n = 3 + trial % 2;
+    const V shift = 1.2 * V(normal(rng), normal(rng), normal(rng));
+    std::vector<V> pts;
+    for (int i = 0; i < n; ++i) pts.emplace_back(V(normal(rng), normal(rng), normal(rng)) + shift);
+    const V origin = V::Zero();
+    if (n == 4) {
+      int visible = 0;
+      for (int m = 0; m < 4; ++m) {
+        const V& a = pts[(m + 1) % 4];
+        const V& b = pts[(m + 2) % 4];
+        const V& c = pts[(m + 3) % 4];
+        visible += (side(a, b, c, origin) > 0) != (side(a, b, c, pts[m]) > 0);
+      }
+      ++tetra_by_faces[visible];
+    } else {
+      // The origin's projection beyond edge m: it and vertex m on different sides of the edge,
+      // within the triangle's plane (sides measured with the plane normal).
+      const Eigen::Matrix<L, 3, 1> normal_l =
+          (pts[1] - pts[0]).cast<L>().cross((pts[2] - pts[0]).cast<L>());
+      int beyond = 0;
+      for (int m = 0; m < 3; ++m) {
+        const Eigen::Matrix<L, 3, 1> a = pts[(m + 1) % 3].cast<L>(), b = pts[(m + 2) % 3].cast<L>();
+        const Eigen::Matrix<L, 3, 1> edge_normal = (b - a).cross(normal_l);
+        beyond += ((-a).dot(edge_normal) > 0) != ((pts[m].cast<L>() - a).dot(edge_normal) > 0);
+      }
+      ++triangle_by_edges[beyond];
+    }
+    Nearest<double> got;
+    signed_volumes(make_simplex(pts), got);
+    ASSERT_NEAR((got.nu - brute_force_nearest(pts)).norm(), 0.0, 1e-12) << "trial " << trial;
+  }
+  std::printf(
+      "tetrahedra seeing 0/1/2/3 faces: %d/%d/%d/%d; triangles beyond 0/1/2 edges: %d/%d/%d\n",
+      tetra_by_faces[0], tetra_by_faces[1], tetra_by_faces[2], tetra_by_faces[3],
+      triangle_by_edges[0], triangle_by_edges[1], triangle_by_edges[2]);
+  EXPECT_GT(tetra_by_faces[0], 20);                       // encloses the origin
+  EXPECT_GT(tetra_by_faces[1], 300);                      // the single-face shortcut
+  EXPECT_GT(tetra_by_faces[2] + tetra_by_faces[3], 300);  // the minimum over several faces
+  EXPECT_GT(triangle_by_edges[1], 300);                   // the single-edge shortcut
+  EXPECT_GT(triangle_by_edges[2], 100);                   // the minimum over two edges
+}
+
 // Small simplices far from the origin are where the Δ recursion (differences of inner products of
 // large vectors) loses digits and signed volumes should not. Both must stay within a tolerance
 // scaled to the simplex's distance; signed volumes must be at least as accurate overall.
