@@ -241,9 +241,15 @@ void argmax_dot_pair_baseline(const S* const a[3], std::size_t na, const S da[3]
   argmax_dot_pair(a, na, da, b, nb, db, out);
 }
 
-/// Where the climbing seed found along direction (x, y, z) ∈ {-1, 0, 1}³ is kept in seeds_.
+/// Climbing seeds are the extreme vertices along the integer directions (x, y, z) ∈
+/// {-kSeedGrid … kSeedGrid}³ \ {0}: 728 directions; rounding d scaled to the grid lands within
+/// about 10° of it.
+constexpr int kSeedGrid = 4;
+constexpr std::size_t kSeedSlots = (2 * kSeedGrid + 1) * (2 * kSeedGrid + 1) * (2 * kSeedGrid + 1);
+/// Where the seed found along grid direction (x, y, z) is kept in seeds_.
 constexpr std::size_t seed_code(int x, int y, int z) {
-  return std::size_t((x + 1) * 9 + (y + 1) * 3 + (z + 1));
+  constexpr int width = 2 * kSeedGrid + 1;
+  return std::size_t(((x + kSeedGrid) * width + (y + kSeedGrid)) * width + (z + kSeedGrid));
 }
 
 template <class S>
@@ -300,15 +306,17 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices, std::span<const std::ve
     for (std::size_t k = 0; k < face.size(); ++k)
       neighbors_[fill[std::size_t(face[k])]++] = std::uint32_t(face[(k + 1) % face.size()]);
 
-  // Cold climbs start from the extreme vertices along the axes and the diagonals nearest their
-  // direction: within a few edges of the answer for any direction. Indexed by seed_code(x, y, z);
-  // the other 13 codes are never read.
-  seeds_.assign(27, 0);
-  for (int x = -1; x <= 1; ++x)
-    for (int y = -1; y <= 1; ++y)
-      for (int z = -1; z <= 1; ++z) {
-        const int nonzero = (x != 0) + (y != 0) + (z != 0);
-        if (nonzero != 1 && nonzero != 3) continue;  // 6 axes + 8 diagonals
+  // A climb starts from the extreme vertex along the grid direction nearest its own: within a
+  // step or two of the answer for any direction. 728 scans of the vertices, once per polytope
+  // (measured: +0.4 ms on the 4.6 ms of building a 1,000-vertex hull, +80 ms on the 1.05 s of a
+  // 10⁵-vertex one), for cold climbs much shorter than from the 14 axes and diagonals before
+  // (measured: 1,000 vertices cold 1.44 → 1.13 µs, 10,000 3.3 → 2.0 µs). The centre slot,
+  // (0, 0, 0), keeps vertex 0.
+  seeds_.assign(kSeedSlots, 0);
+  for (int x = -kSeedGrid; x <= kSeedGrid; ++x)
+    for (int y = -kSeedGrid; y <= kSeedGrid; ++y)
+      for (int z = -kSeedGrid; z <= kSeedGrid; ++z) {
+        if (x == 0 && y == 0 && z == 0) continue;
         seeds_[seed_code(x, y, z)] =
             std::uint32_t(scan_(xs_.data(), ys_.data(), zs_.data(), xs_.size(), S(x), S(y), S(z)));
       }
@@ -427,10 +435,10 @@ struct Climb {
   [[gnu::always_inline]] S value(std::uint32_t i) const {
     return xs[i] * dx + ys[i] * dy + zs[i] * dz;
   }
-  // Start from the best of the hint (GJK's previous answer for this shape: usually a step or two
-  // away) and two of the precomputed extreme vertices, those found along the directions nearest d
-  // (never far, even when an early GJK direction reverses). Evaluating all 14 cost more than the
-  // longer climbs the two leave (measured: 6% of a cold 1,000-vertex query).
+  // Start from the better of the hint (GJK's previous answer for this shape: usually close) and
+  // the seed along the grid direction nearest d (never far, even when an early GJK direction
+  // reverses): d scaled so that its largest component is ±kSeedGrid, rounded. A direction that is
+  // zero or not finite keeps the hint (or seed (−1, −1, −1)), and a NaN one never moves.
   [[gnu::always_inline]] Climb(const S* x, const S* y, const S* z, const std::uint32_t* row_begin,
                                const std::uint32_t* adjacency,
                                const std::vector<std::uint32_t>& seeds, std::size_t size,
@@ -446,18 +454,21 @@ struct Climb {
         at(hint >= 0 && std::size_t(hint) < size ? std::uint32_t(hint)
                                                  : seeds[seed_code(-1, -1, -1)]),
         best(value(at)) {
-    // The diagonal of d's signs and the axis of d's largest component.
-    const int sx = dx > 0 ? 1 : -1, sy = dy > 0 ? 1 : -1, sz = dz > 0 ? 1 : -1;
-    const std::uint32_t diagonal = seeds[seed_code(sx, sy, sz)];
-    const S ax = std::abs(dx), ay = std::abs(dy), az = std::abs(dz);
-    const std::uint32_t axis = seeds[ax >= ay && ax >= az ? seed_code(sx, 0, 0)
-                                     : ay >= az           ? seed_code(0, sy, 0)
-                                                          : seed_code(0, 0, sz)];
-    for (const std::uint32_t seed : {diagonal, axis})
-      if (const S v = value(seed); v > best) {
-        best = v;
-        at = seed;
-      }
+    using std::abs;
+    const S largest = std::max(abs(dx), std::max(abs(dy), abs(dz)));
+    if (!(std::isfinite(dx) && std::isfinite(dy) && std::isfinite(dz) && largest > 0)) return;
+    // |component| · scale ≤ kSeedGrid (to within a rounding of the product), so each rounded
+    // coordinate lies in the grid.
+    const S scale = S(kSeedGrid) / largest;
+    auto grid = [scale](S component) {
+      const S scaled = component * scale;
+      return int(scaled + (scaled >= 0 ? S(0.5) : S(-0.5)));
+    };
+    const std::uint32_t seed = seeds[seed_code(grid(dx), grid(dy), grid(dz))];
+    if (const S v = value(seed); v > best) {
+      best = v;
+      at = seed;
+    }
   }
   // One step of steepest ascent over the edges; false at the top. On a convex polytope a vertex
   // with no better neighbour is a maximiser (the simplex method's optimality condition), so the

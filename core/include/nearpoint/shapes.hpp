@@ -135,8 +135,8 @@ class Polytope {
   std::vector<Scalar> xs_, ys_, zs_;
   // The hull's edge graph in compressed rows (vertex i's neighbours are
   // neighbors_[neighbor_begin_[i] .. neighbor_begin_[i + 1])), empty when the polytope scans;
-  // and the extreme vertices along 14 fixed directions (6 axes, 8 diagonals), where cold climbs
-  // start, kept by direction (see seed_code in shapes.cpp).
+  // and the extreme vertices along 728 fixed integer directions, where climbs start, kept by
+  // direction (see seed_code in shapes.cpp).
   std::vector<std::uint32_t> neighbor_begin_, neighbors_;
   std::vector<std::uint32_t> seeds_;
   std::size_t size_ = 0;
