@@ -457,11 +457,11 @@ struct Climb {
     using std::abs;
     const S largest = std::max(abs(dx), std::max(abs(dy), abs(dz)));
     if (!(std::isfinite(dx) && std::isfinite(dy) && std::isfinite(dz) && largest > 0)) return;
-    // |component| · scale ≤ kSeedGrid (to within a rounding of the product), so each rounded
-    // coordinate lies in the grid.
-    const S scale = S(kSeedGrid) / largest;
-    auto grid = [scale](S component) {
-      const S scaled = component * scale;
+    // component / largest ∈ [−1, 1] for any finite direction, subnormal ones included (a
+    // reciprocal of a subnormal `largest` would overflow), so each rounded coordinate is in the
+    // grid.
+    auto grid = [largest](S component) {
+      const S scaled = S(kSeedGrid) * (component / largest);
       return int(scaled + (scaled >= 0 ? S(0.5) : S(-0.5)));
     };
     const std::uint32_t seed = seeds[seed_code(grid(dx), grid(dy), grid(dz))];

@@ -3,6 +3,7 @@
 // distance, cold and warm.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
 #include "common/exact_distance.hpp"
@@ -111,6 +112,43 @@ TEST(HillClimb, ReachesTheScanMaximumFromAnyStart) {
           << "n=" << n << " d=" << d.transpose();
     }
   }
+}
+
+// A climb starts from the seed along the grid direction nearest d, found by scaling d to the grid
+// and rounding. Directions of any scale (subnormal to 1e300), on the grid's own lines or between
+// them must still reach the maximum, and zero, infinite and NaN directions must give a valid
+// vertex.
+TEST(HillClimb, DirectionsOfAnyScaleOrNoneGiveAValidVertex) {
+  const Polytope<double> climbing = hull_polytope(sphere_points(2000, V(1, 0.6, 0.35), 31));
+  ASSERT_TRUE(climbing.climbs());
+  std::vector<V> hull_vertices;
+  for (std::size_t i = 0; i < climbing.size(); ++i) hull_vertices.push_back(climbing.vertex(i));
+  const Polytope<double> scanning(hull_vertices);
+  const double tiny = std::numeric_limits<double>::denorm_min();
+  const std::vector<V> directions = {V(tiny, 0, 0),
+                                     V(tiny, -tiny, 3 * tiny),
+                                     V(1e-300, 2e-300, -3e-300),
+                                     V(1e300, -2e300, 5e299),
+                                     V(4, 2, -0.5),
+                                     V(-1, 0.125, 0.875),
+                                     V(0.5, 0.5, 0.5),
+                                     V(1, 0.375, 0.625),
+                                     V(-1e-5, 1, 1e-5),
+                                     V(3, -3, 3)};
+  for (const V& d : directions) {
+    for (const std::int32_t hint : {-1, 0, int(climbing.size()) - 1}) {
+      const std::size_t c = climbing.support_index(d, hint);
+      ASSERT_LT(c, climbing.size());
+      EXPECT_EQ(climbing.centered_vertex(c).dot(d),
+                scanning.centered_vertex(scanning.support_index(d)).dot(d))
+          << "d=" << d.transpose() << " hint " << hint;
+    }
+  }
+  const double inf = std::numeric_limits<double>::infinity();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (const V& d : {V(0, 0, 0), V(inf, 1, 0), V(-inf, inf, 0), V(nan, 1, 1), V(nan, nan, nan)})
+    for (const std::int32_t hint : {-1, 5})
+      EXPECT_LT(climbing.support_index(d, hint), climbing.size()) << d.transpose();
 }
 
 // Two climbing polytopes searched in one call (PairScan: the climbs step in turn) give exactly
