@@ -49,11 +49,14 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   detail::MinkowskiDifference<S, SA, SB> k_set{SA{ga}, SB{gb}, {}, {}, {}, {}, true};
 
   // B relative to A: t = R_Aᵀ(p_B − p_A). A common offset of both poses cancels in p_B − p_A.
-  const Mat3<S> rotation_a_t = pose_a.rotation.transpose();
-  k_set.rotation = rotation_a_t * pose_b.rotation;
-  const Vec3<S> translation = rotation_a_t * (pose_b.translation - pose_a.translation);
+  // Written out (detail::rotate_back per column): Eigen's 3×3 products were left out of line here,
+  // on the path to the first support point.
+  for (int j = 0; j < 3; ++j)
+    k_set.rotation.col(j) = detail::rotate_back(pose_a.rotation, Vec3<S>(pose_b.rotation.col(j)));
+  const Vec3<S> translation =
+      detail::rotate_back(pose_a.rotation, Vec3<S>(pose_b.translation - pose_a.translation));
   k_set.a_center = k_set.a.center();
-  k_set.b_center_rel = k_set.rotation * k_set.b.center() + translation;
+  k_set.b_center_rel = detail::rotate(k_set.rotation, k_set.b.center()) + translation;
   k_set.offset = k_set.b_center_rel - k_set.a_center;  // δ, eq. (34)
   k_set.origin_shift = options.origin_shift;
 
@@ -153,9 +156,9 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
       point_b = point_a;  // one common point of the cores
     }
     result.has_near_points = true;
-    result.point_a = pose_a.apply(point_a);
-    result.point_b = pose_a.apply(point_b);
-    result.normal = pose_a.rotation * normal;
+    result.point_a = detail::rotate(pose_a.rotation, point_a) + pose_a.translation;
+    result.point_b = detail::rotate(pose_a.rotation, point_b) + pose_a.translation;
+    result.normal = detail::rotate(pose_a.rotation, normal);
   }
 
   if (options.penetration_bound && result.status == Status::intersecting) {
