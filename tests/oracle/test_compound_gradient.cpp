@@ -383,24 +383,25 @@ TEST(InvalidInput, RejectedWithMessageAndNoNaN) {
   struct BadPose {
     const char* what;
     Pose<double> pose;
+    const char* reason;  // what the message must say
   };
   std::vector<BadPose> bad_poses;
   {
     Pose<double> p;
     p.translation[1] = nan;
-    bad_poses.push_back({"NaN translation", p});
+    bad_poses.push_back({"NaN translation", p, "translation has a non-finite component"});
     p = Pose<double>();
     p.translation[2] = inf;
-    bad_poses.push_back({"infinite translation", p});
+    bad_poses.push_back({"infinite translation", p, "translation has a non-finite component"});
     p = Pose<double>();
     p.rotation(1, 2) = nan;
-    bad_poses.push_back({"NaN rotation entry", p});
+    bad_poses.push_back({"NaN rotation entry", p, "rotation has a non-finite entry"});
     p = Pose<double>();
     p.rotation *= 2;
-    bad_poses.push_back({"scaled rotation (not orthonormal)", p});
+    bad_poses.push_back({"scaled rotation (not orthonormal)", p, "not orthonormal"});
     p = Pose<double>();
     p.rotation(0, 0) = -1;
-    bad_poses.push_back({"reflection (determinant -1)", p});
+    bad_poses.push_back({"reflection (determinant -1)", p, "reflection"});
   }
 
   DistanceOptions<double> options;
@@ -427,10 +428,15 @@ TEST(InvalidInput, RejectedWithMessageAndNoNaN) {
                    nearpoint::distance(compound, good_pose, fine, good_pose, options).nearest);
   }
   for (const BadPose& p : bad_poses) {
-    expect_invalid(std::string(p.what) + " as pose A",
-                   nearpoint::distance(good, p.pose, good, good_pose, options));
-    expect_invalid(std::string(p.what) + " as pose B",
-                   nearpoint::distance(good, good_pose, good, p.pose, options));
+    for (bool as_a : {true, false}) {
+      const std::string what = std::string(p.what) + (as_a ? " as pose A" : " as pose B");
+      const DistanceResult<double> r =
+          as_a ? nearpoint::distance(good, p.pose, good, good_pose, options)
+               : nearpoint::distance(good, good_pose, good, p.pose, options);
+      expect_invalid(what, r);
+      if (r.message && std::string(r.message).find(p.reason) == std::string::npos)
+        log.add(std::string("message does not say \"") + p.reason + "\": " + r.message, what);
+    }
     const Compound<double> fine({{good, good_pose}});
     expect_invalid(std::string(p.what) + " as a compound's pose",
                    nearpoint::distance(fine, p.pose, fine, good_pose, options).nearest);
