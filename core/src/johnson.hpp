@@ -29,13 +29,6 @@ inline int subset_size(unsigned subset) {
   return kBits[subset & 15u];
 }
 
-/// Whether a subset of the 4 slots holds exactly one point. A bit table for the same reason as
-/// subset_size: std::has_single_bit became a libgcc popcount call, four of them in signed volumes.
-inline bool single_slot(unsigned subset) {
-  constexpr unsigned kSingles = (1u << 1) | (1u << 2) | (1u << 4) | (1u << 8);
-  return (kSingles >> (subset & 15u)) & 1u;
-}
-
 template <class S>
 inline bool same_sign(S a, S b) {
   // Zero and NaN are never "the same sign". Bitwise rather than short-circuit: the signs are

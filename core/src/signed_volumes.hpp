@@ -204,9 +204,9 @@ inline void sv_tetrahedron(const Vec3<S> (&y)[4], Nearest<S>& out) {
   }
 }
 
-/// ν(co V_k) by signed volumes, on the occupied slots of the simplex: one case per occupancy mask,
-/// so the points are read from their slots directly. Flattened: the cases inline into one body,
-/// which saves the calls (measured: 3–5% of a query on the paper set).
+/// ν(co V_k) by signed volumes, on the occupied slots of the simplex: a table gives each occupancy
+/// mask's slots, so the points are read from their slots directly. Flattened: the cases inline
+/// into one body, which saves the calls (measured: 3–5% of a query on the paper set).
 template <class S>
 [[gnu::flatten]] void signed_volumes(const Simplex<S>& sx, Nearest<S>& out) {
   // The occupied slots of each mask, in increasing order.
