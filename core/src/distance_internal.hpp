@@ -31,8 +31,13 @@ template <class S>
   const Vec3<S>& t = pose.translation;
   // x − x is 0 for a finite x, NaN for ±∞ and NaN.
   const bool finite = (t.x() - t.x() == 0) & (t.y() - t.y() == 0) & (t.z() - t.z() == 0);
-  const auto c0 = pose.rotation.col(0), c1 = pose.rotation.col(1), c2 = pose.rotation.col(2);
-  return finite & orthonormal_columns(pose.rotation) & (c0.dot(c1.cross(c2)) > 0);
+  // det R = r₀·(r₁ × r₂) by rows, written out: Eigen's cross product went through the stack as two
+  // 8-byte stores read back as one 16-byte load, a store-forwarding stall on every query.
+  const Mat3<S>& r = pose.rotation;
+  const S det = r(0, 0) * (r(1, 1) * r(2, 2) - r(1, 2) * r(2, 1)) +
+                r(0, 1) * (r(1, 2) * r(2, 0) - r(1, 0) * r(2, 2)) +
+                r(0, 2) * (r(1, 0) * r(2, 1) - r(1, 1) * r(2, 0));
+  return finite & orthonormal_columns(pose.rotation) & (det > 0);
 }
 
 /// Why a pose is unusable (non-finite, not orthonormal, a reflection), or nullptr when
