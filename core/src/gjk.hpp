@@ -11,6 +11,7 @@
 #include <cmath>
 #include <limits>
 #include <type_traits>
+#include <utility>
 
 #include "johnson.hpp"
 #include "nearpoint/distance.hpp"
@@ -59,9 +60,13 @@ struct MinkowskiDifference {
                                 b.hint, index);
       ia = a.hint = std::int32_t(index[0]);
       ib = b.hint = std::int32_t(index[1]);
-      on_a = a.shape.centered_vertex(index[0]);
-      on_b = rotate(rotation, b.shape.centered_vertex(index[1]));
-      y = difference(on_a, on_b);
+      // y from the values in registers, not read back from on_a/on_b: rotate's three scalar
+      // stores read back as a 16-byte load would stall store forwarding once per support call.
+      const Vec3<S> point_a = a.shape.centered_vertex(index[0]);
+      const Vec3<S> point_b = rotate(rotation, b.shape.centered_vertex(index[1]));
+      y = difference(point_a, point_b);
+      on_a = point_a;
+      on_b = point_b;
     } else {
       on_a = a.support(eta, ia);
       on_b = rotate(rotation, b.support(-rotate_back(rotation, eta), ib));
@@ -167,7 +172,12 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   // Johnson's method reads the inner products and Δ's every step; signed volumes never does, and
   // the Backup Procedure rebuilds them on the rare occasions it runs.
   const bool tables = method == Subalgorithm::johnson;
-  Nearest<S>& nearest = out.nearest;
+  // ν_k and ν_{k−1} live in two buffers that trade places each step, rather than ν_k being
+  // copied aside: the subalgorithm writes its answer field by field, and the copy read those
+  // fresh 8-byte stores back as 16-byte loads (a store-forwarding stall every iteration).
+  Nearest<S> spare;
+  Nearest<S>* nearest = &out.nearest;
+  Nearest<S>* previous = &spare;
   Vec3<S> y, on_a, on_b;
   std::int32_t ia = 0, ib = 0;
 
@@ -210,29 +220,28 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   int k = 0;
 
   // Step 2 for V_0.
-  if (!nearest_of_simplex(method, simplex, w, nearest)) {
-    backup_procedure(simplex, nearest);
+  if (!nearest_of_simplex(method, simplex, w, *nearest)) {
+    backup_procedure(simplex, *nearest);
     backup = true;
   }
   // The previous iterate ν_{k−1}: the best so far, since every accepted step descends. Its slots
   // stay intact while step k runs (only the new support point's slot is written), so a failed
-  // step can fall back to it for the price of copying a few scalars.
-  Nearest<S> previous;
+  // step can fall back to it by trading the two buffers back.
   S previous_gap = 0;
   for (;;) {
     // A lower bound past the cutoff ends the query (here only the first support plane's can be;
     // later ones are tested right after their support call, below).
     if (best_lower_bound > proven_beyond) {
-      out.gap = std::max(S(0), nearest.nu_norm2 - best_lower_bound * best_lower_bound);
+      out.gap = std::max(S(0), nearest->nu_norm2 - best_lower_bound * best_lower_bound);
       out.lower_bound = best_lower_bound;
       out.termination = Termination::beyond_cutoff;
       break;
     }
     // Contact settled: ν ∈ K proves d ≤ |ν|, and the distance lies in [L, |ν|] (no support call
     // needed for that), so the gap |ν|² − L² certifies this iterate.
-    if (nearest.nu_norm2 > 0 && settled_below >= 0 &&
-        nearest.nu_norm2 <= settled_below * settled_below) {
-      out.gap = std::max(S(0), nearest.nu_norm2 - best_lower_bound * best_lower_bound);
+    if (nearest->nu_norm2 > 0 && settled_below >= 0 &&
+        nearest->nu_norm2 <= settled_below * settled_below) {
+      out.gap = std::max(S(0), nearest->nu_norm2 - best_lower_bound * best_lower_bound);
       out.lower_bound = best_lower_bound;
       out.termination = Termination::contact;
       break;
@@ -241,15 +250,15 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
     S gap = 0;
     bool repeated = false;
     using std::sqrt;
-    const S nu_length = sqrt(nearest.nu_norm2);  // one square root per iteration
-    if (nearest.nu_norm2 > 0) {
-      k_set.support(-nearest.nu, w, on_a, on_b, ia, ib);
-      const S nu_dot_w = nearest.nu.dot(w);
-      gap = nearest.nu_norm2 - nu_dot_w;  // g = |ν|² + h_K(−ν), h_K(−ν) = −ν·w   (25)
+    const S nu_length = sqrt(nearest->nu_norm2);  // one square root per iteration
+    if (nearest->nu_norm2 > 0) {
+      k_set.support(-nearest->nu, w, on_a, on_b, ia, ib);
+      const S nu_dot_w = nearest->nu.dot(w);
+      gap = nearest->nu_norm2 - nu_dot_w;  // g = |ν|² + h_K(−ν), h_K(−ν) = −ν·w   (25)
       best_lower_bound = std::max(best_lower_bound, nu_dot_w / nu_length);
       // Bitwise, not short-circuit: the outcome is data-dependent and would mispredict.
       for (int i = 0; i < 4; ++i)
-        repeated |= bool((nearest.subset >> i) & 1u) & (simplex.index_a[i] == ia) &
+        repeated |= bool((nearest->subset >> i) & 1u) & (simplex.index_a[i] == ia) &
                     (simplex.index_b[i] == ib);
       repeated &= (ia >= 0) & (ib >= 0);
     } else {
@@ -259,12 +268,12 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
     // two rims), so g of the latest iterate may be far worse than what an earlier support plane
     // proved: the stopping test uses the sharper of the two certificates.
     const S roundoff = roundoff_gap_of_length(nu_length, diameter);
-    out.gap = certified_gap(gap, nearest.nu_norm2, best_lower_bound, roundoff);
+    out.gap = certified_gap(gap, nearest->nu_norm2, best_lower_bound, roundoff);
     out.lower_bound = best_lower_bound;
     NEARPOINT_TRACE_PRINTF("k=%d |V|=%d subset=%x |nu|^2=%.17g g=%.6g backup=%d rep=%d\n", k,
-                           simplex.size(), nearest.subset, double(nearest.nu_norm2), double(gap),
+                           simplex.size(), nearest->subset, double(nearest->nu_norm2), double(gap),
                            int(backup), int(repeated));
-    if (!(nearest.nu_norm2 > 0)) {
+    if (!(nearest->nu_norm2 > 0)) {
       out.termination = Termination::origin_enclosed;  // ν = 0: "intersecting", g = 0
       break;
     }
@@ -296,19 +305,19 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
       break;
     }
     // Step 4: descend with V_{k+1} = V̂_k ∪ {s_K(−ν_k)} while |ν| strictly decreases (26).
-    if ((k == 0 || nearest.nu_norm2 < previous.nu_norm2) && subset_size(nearest.subset) <= 3) {
+    if ((k == 0 || nearest->nu_norm2 < previous->nu_norm2) && subset_size(nearest->subset) <= 3) {
       if (k >= max_iterations) {
         out.termination = Termination::iteration_limit;  // the cap, not convergence
         break;
       }
-      previous = nearest;
+      std::swap(nearest, previous);
       previous_gap = out.gap;
-      simplex.keep(nearest.subset);
+      simplex.keep(previous->subset);
       simplex.add(w, on_a, on_b, ia, ib, tables);
       ++k;
       backup = false;
-      if (!nearest_of_simplex(method, simplex, w, nearest)) {
-        backup_procedure(simplex, nearest);
+      if (!nearest_of_simplex(method, simplex, w, *nearest)) {
+        backup_procedure(simplex, *nearest);
         backup = true;
       }
       continue;
@@ -316,18 +325,18 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
     // Step 5: no descent although the Backup Procedure was used: the numerical limit is reached.
     // Return the best iterate, ν_{k−1} when step k made things worse.
     if (backup) {
-      if (k > 0 && !(nearest.nu_norm2 < previous.nu_norm2)) {
-        nearest = previous;
-        out.gap = certified_gap(previous_gap, previous.nu_norm2, best_lower_bound,
-                                roundoff_gap(previous.nu_norm2, diameter));
+      if (k > 0 && !(nearest->nu_norm2 < previous->nu_norm2)) {
+        out.gap = certified_gap(previous_gap, previous->nu_norm2, best_lower_bound,
+                                roundoff_gap(previous->nu_norm2, diameter));
+        std::swap(nearest, previous);
       }
-      out.termination = out.gap <= roundoff_gap(nearest.nu_norm2, diameter)
+      out.termination = out.gap <= roundoff_gap(nearest->nu_norm2, diameter)
                             ? Termination::roundoff_floor
                             : Termination::numerical_limit;
       break;
     }
     // Step 6: recompute ν_k on V_k with the Backup Procedure and test (35) again.
-    backup_procedure(simplex, nearest);
+    backup_procedure(simplex, *nearest);
     backup = true;
   }
   // A sharper certificate near contact. ν's direction carries an error of ~ulp(D)/|ν|, so when ν
@@ -336,27 +345,28 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   // two shapes' edge–edge contact: one more support call proves d ≥ n̂·s_K(−n̂).
   using std::sqrt;
   const S slack = distance_roundoff(diameter);
-  if (subset_size(nearest.subset) == 3 && nearest.nu_norm2 > 0 &&
+  if (subset_size(nearest->subset) == 3 && nearest->nu_norm2 > 0 &&
       out.termination != Termination::beyond_cutoff && out.termination != Termination::contact &&
-      sqrt(nearest.nu_norm2) - out.lower_bound > slack) {
+      sqrt(nearest->nu_norm2) - out.lower_bound > slack) {
     int idx[3], n = 0;
     for (int i = 0; i < 4; ++i)
-      if (nearest.subset & (1u << i)) idx[n++] = i;
+      if (nearest->subset & (1u << i)) idx[n++] = i;
     Vec3<S> normal =
         (simplex.y[idx[1]] - simplex.y[idx[0]]).cross(simplex.y[idx[2]] - simplex.y[idx[0]]);
     const S length = normal.norm();
     if (length > 0) {
       normal /= length;
-      if (normal.dot(nearest.nu) < 0) normal = -normal;
+      if (normal.dot(nearest->nu) < 0) normal = -normal;
       k_set.support(-normal, w, on_a, on_b, ia, ib);
       const S plane_bound = normal.dot(w);
       if (plane_bound > out.lower_bound) {
         out.lower_bound = plane_bound;
-        out.gap = certified_gap(out.gap, nearest.nu_norm2, plane_bound,
-                                roundoff_gap(nearest.nu_norm2, diameter));
+        out.gap = certified_gap(out.gap, nearest->nu_norm2, plane_bound,
+                                roundoff_gap(nearest->nu_norm2, diameter));
       }
     }
   }
+  if (nearest != &out.nearest) out.nearest = *nearest;
   out.iterations = k;
   out.finished_by = backup ? FinishedBy::backup_procedure : FinishedBy::distance_subalgorithm;
 }

@@ -177,13 +177,15 @@ struct Simplex {
   }
 };
 
-/// The outcome of the subalgorithm: the subset Y_s (V̂_k), its weights and ν(co Y).
+/// The outcome of the subalgorithm: the subset Y_s (V̂_k), its weights and ν(co Y). Every
+/// subalgorithm writes all of it, so a declared `Nearest` is left uninitialised: the loop and
+/// signed volumes keep scratch copies, and zeroing each one showed up as stores on every call.
 template <class S>
 struct Nearest {
-  unsigned subset = 0;
-  S lambda[4] = {0, 0, 0, 0};
-  Vec3<S> nu = Vec3<S>::Zero();
-  S nu_norm2 = 0;
+  unsigned subset;
+  S lambda[4];
+  Vec3<S> nu;
+  S nu_norm2;
 };
 
 template <class S>

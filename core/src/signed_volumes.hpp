@@ -227,7 +227,9 @@ template <class S>
     case 4:
       return sv_tetrahedron(y, out);
     default:  // an empty simplex (never formed by the loop): no point, ν undefined
-      out = Nearest<S>{};
+      out.subset = 0;
+      clear_weights(out);
+      out.nu.setZero();
       out.nu_norm2 = std::numeric_limits<S>::infinity();
       return;
   }
