@@ -63,12 +63,18 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   const S diameter = detail::diameter_bound(k_set);
   // Squared lengths of D(K) must stay finite: beyond ~1e150 (double) or ~1e18 (float) the inner
   // products overflow and no answer could be trusted.
+  // One result object for every return, so that it is built in the caller's storage (with a
+  // second `return invalid(...)` GCC gave up the named return value optimisation and copied the
+  // 330-byte result out on every query).
+  DistanceResult<S> result;
   using std::sqrt;
-  if (!(diameter <= sqrt(std::numeric_limits<S>::max()) / S(64)))
-    return invalid<S>(
+  if (!(diameter <= sqrt(std::numeric_limits<S>::max()) / S(64))) {
+    result.message =
         "shapes and their separation are too large for this precision (inner "
         "products would overflow: keep coordinates below ~1e150 in double, ~1e17 "
-        "in float)");
+        "in float)";
+    return result;  // status stays invalid_input
+  }
   const S epsilon = options.epsilon > 0 ? options.epsilon : S(0);
   const S radii = radius_a + radius_b;
   const S cutoff = options.distance_cutoff + radii;  // the loop works on the cores
@@ -85,7 +91,6 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
                                   std::max(0, options.max_iterations), cutoff, settled_below,
                                   options.subalgorithm, cache, loop);
 
-  DistanceResult<S> result;
   const detail::Nearest<S>& nearest = loop.nearest;
   const detail::Simplex<S>& simplex = loop.simplex;
   const S core_distance = sqrt(nearest.nu_norm2);
@@ -108,18 +113,23 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   }
 
   result.simplex_size = 0;
-  SimplexCache written;
   for (int i = 0; i < 4; ++i) {
     if (!(nearest.subset & (1u << i))) continue;
     const int n = result.simplex_size++;
     result.index_a[n] = simplex.index_a[i];
     result.index_b[n] = simplex.index_b[i];
     result.weights[n] = nearest.lambda[i];
-    written.index_a[n] = simplex.index_a[i];
-    written.index_b[n] = simplex.index_b[i];
   }
-  written.count = static_cast<std::uint8_t>(result.simplex_size);
-  if (cache) *cache = written;
+  // Written field by field: a whole SimplexCache assembled on the stack and copied read its
+  // single-field stores back with wider loads (a store-forwarding stall per warm query).
+  if (cache) {
+    cache->count = static_cast<std::uint8_t>(result.simplex_size);
+    for (int n = 0; n < 4; ++n) {
+      const bool kept = n < result.simplex_size;
+      cache->index_a[n] = kept ? result.index_a[n] : 0;
+      cache->index_b[n] = kept ? result.index_b[n] : 0;
+    }
+  }
 
   // The verdict needs a proof. The distance is within error_bound of |ν| − r_A − r_B, so
   // "separated" is certain when that exceeds the bound; otherwise the shapes touch, overlap, or
