@@ -86,10 +86,14 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   const bool needs_simplex = options.near_points || options.penetration_bound || options.gradient;
   const S settled_below = needs_simplex ? S(-1) : radii + roundoff;
 
+  // d⁻ (eq. 32) comes from the faces of the tetrahedron that encloses the origin; an interior
+  // corner (the centroids' point) would pull them inwards and weaken it.
+  const ColdStart cold_start =
+      options.penetration_bound ? ColdStart::single_point : options.cold_start;
   detail::LoopOutcome<S> loop;
   detail::run_numerical_algorithm(k_set, diameter, epsilon * diameter * diameter,
                                   std::max(0, options.max_iterations), cutoff, settled_below,
-                                  options.subalgorithm, cache, loop);
+                                  options.subalgorithm, cold_start, cache, loop);
 
   const detail::Nearest<S>& nearest = loop.nearest;
   const detail::Simplex<S>& simplex = loop.simplex;

@@ -405,6 +405,90 @@ TEST(PaperExperiment, WarmStartAgreesWithColdStart) {
   EXPECT_EQ(failures.total(), 0) << failures.report();
 }
 
+// The cold start from the support point and the centroids' point (ColdStart::with_centroids, the
+// default) against the paper's single point, on all 6000 examples with near points: both held to
+// the exact distance and to the hulls, the same verdicts where the examples leave a margin, and
+// the saving it exists for (fewer iterations on touching and intersecting pairs, where the
+// centroids' point shows up in final simplices as index −1). With d⁻ requested the query starts
+// from the single point, so its answers are those of an explicit single-point run, bit for bit.
+TEST(PaperExperiment, CentroidStartMatchesSinglePointAndSavesIterations) {
+  const std::vector<PaperExample> examples = nearpoint::testkit::paper_experiment({});
+  ASSERT_EQ(examples.size(), 6000u);
+  const std::vector<Vec3<long double>> probes = probe_directions();
+  std::map<const void*, Shape<double>> shapes;
+  for (const PaperExample& e : examples)
+    for (const auto& v : {e.vertices_a, e.vertices_b})
+      if (!shapes.count(v.get())) shapes.emplace(v.get(), Shape<double>(Polytope<double>(*v)));
+
+  DistanceOptions<double> centroids;  // the default cold start
+  centroids.near_points = true;
+  ASSERT_EQ(centroids.cold_start, nearpoint::ColdStart::with_centroids);
+  DistanceOptions<double> single = centroids;
+  single.cold_start = nearpoint::ColdStart::single_point;
+  DistanceOptions<double> depth = centroids;  // d⁻ asked: single point whatever cold_start says
+  depth.penetration_bound = true;
+  DistanceOptions<double> depth_single = depth;
+  depth_single.cold_start = nearpoint::ColdStart::single_point;
+
+  FailureLog failures;
+  std::array<long, 3> iterations_centroids{}, iterations_single{};
+  std::array<int, 3> centroid_in_answer{};
+  for (const PaperExample& e : examples) {
+    const Shape<double>& a = shapes.at(e.vertices_a.get());
+    const Shape<double>& b = shapes.at(e.vertices_b.get());
+    const DistanceResult<double> with = nearpoint::distance(a, e.pose_a, b, e.pose_b, centroids);
+    const DistanceResult<double> without = nearpoint::distance(a, e.pose_a, b, e.pose_b, single);
+    const std::string where = describe(e);
+    const std::size_t c = std::size_t(e.kind);
+    iterations_centroids[c] += with.iterations;
+    iterations_single[c] += without.iterations;
+    for (int i = 0; i < with.simplex_size; ++i) {
+      const bool centroid_entry = with.index_a[i] < 0 || with.index_b[i] < 0;
+      if (centroid_entry && (with.index_a[i] >= 0 || with.index_b[i] >= 0))
+        failures.add("half a vertex pair", where);
+      centroid_in_answer[c] += centroid_entry;
+    }
+    if (!with.converged()) failures.add("centroid start: not converged", where);
+    if (e.kind != PaperCase::touching && with.status != without.status)
+      failures.add("verdicts differ", where);
+    if (!(std::abs(with.distance - e.exact.distance) <= std::max(kDistanceFloor, with.error_bound)))
+      failures.add("centroid start: distance off the exact one beyond its bound",
+                   format("%s d=%.17g exact=%.17g bound=%.3g", where.c_str(), with.distance,
+                          e.exact.distance, with.error_bound));
+    const Vec3<long double> n = with.normal.cast<long double>();
+    const double tol = point_tolerance(e);
+    const double tol_b = with.status == Status::intersecting && e.kind == PaperCase::touching
+                             ? 1e-9 * (1 + scale_of(e))
+                             : tol;
+    if (!(outside_by(*e.vertices_a, e.pose_a, with.point_a, probes, n) <= tol))
+      failures.add("centroid start: point_a outside A", where);
+    if (!(outside_by(*e.vertices_b, e.pose_b, with.point_b, probes, Vec3<long double>(-n)) <=
+          tol_b))
+      failures.add("centroid start: point_b outside B", where);
+
+    if (e.kind == PaperCase::intersecting) {
+      const DistanceResult<double> d1 = nearpoint::distance(a, e.pose_a, b, e.pose_b, depth);
+      const DistanceResult<double> d2 = nearpoint::distance(a, e.pose_a, b, e.pose_b, depth_single);
+      if (d1.penetration_bound != d2.penetration_bound || d1.iterations != d2.iterations ||
+          d1.point_a != d2.point_a)
+        failures.add("with d- asked, not the single-point start", where);
+    }
+  }
+  std::printf(
+      "\nCold start, iterations with centroids / single point: separated %ld / %ld, touching "
+      "%ld / %ld, intersecting %ld / %ld; centroid point in the answer: %d / %d / %d\n",
+      iterations_centroids[0], iterations_single[0], iterations_centroids[1], iterations_single[1],
+      iterations_centroids[2], iterations_single[2], centroid_in_answer[0], centroid_in_answer[1],
+      centroid_in_answer[2]);
+  // Measured when this was written: intersecting 5063 vs 6597, touching 10350 vs 11321 (2000
+  // examples each). A saving of 40% of that still proves the start does its job.
+  EXPECT_LT(iterations_centroids[2], iterations_single[2] - 2000 * 3 / 10);
+  EXPECT_LT(iterations_centroids[1], iterations_single[1] - 2000 * 2 / 10);
+  EXPECT_LE(iterations_centroids[0], iterations_single[0]);
+  EXPECT_GT(centroid_in_answer[2], 0);  // the point is really used
+  EXPECT_EQ(failures.total(), 0) << failures.report();
+}
+
 // A query that asks for no near points, d⁻ or gradient stops once |ν| is within the roundoff
 // allowance (Termination::contact): the verdict could not change any more. On the touching
 // examples that must give the same verdicts and distances as the converged run, a certified
