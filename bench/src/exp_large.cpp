@@ -1,7 +1,7 @@
 // (4) Large polytopes: the hulls of N random points on a unit sphere (A) and on an ellipsoid with
 // radii 1, 0.6, 0.35 (B), N = 10² … 10⁵. B follows a closed path around A that alternates between
 // separated (gaps up to ~0.75), touching and deeply intersecting configurations while it turns, in
-// P small steps. Timed per query: nearpoint cold (single-point initialisation) and warm (the
+// P small steps. Timed per query: nearpoint cold (no cache: the default start) and warm (the
 // cache carried from the previous step, Section VIII), and the peers cold. The exact distance
 // (CGAL) is computed on every 10th step (50th above 10⁴ vertices) for the error columns.
 //

@@ -91,6 +91,8 @@ int run_table1(const Args& args) {
   for (const Subalgorithm method : {Subalgorithm::johnson, Subalgorithm::signed_volumes}) {
     DistanceOptions<double> options;
     options.subalgorithm = method;
+    // The paper's comparison: warm start against Section VI's single-point initialisation.
+    options.cold_start = ColdStart::single_point;
     const char* method_name = method == Subalgorithm::johnson ? "johnson" : "signed_volumes";
     for (std::size_t g = 0; g < grid.size(); ++g) {
       const int T = grid[g];

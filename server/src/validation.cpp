@@ -163,6 +163,10 @@ Expected<ResolvedOptions> resolve_options(const ResolvedOptions& base,
     out.engine.distance_cutoff = cutoff;
   }
   if (overrides.warm_start) out.warm_start = *overrides.warm_start;
+  // Without warm starts every query starts as the paper's Section VI does, from one support
+  // point: the comparison of Table I, which the demo reproduces. With them, a pair's first query
+  // uses the engine's default start (support point and centroids' point).
+  out.engine.cold_start = out.warm_start ? ColdStart::with_centroids : ColdStart::single_point;
   if (overrides.max_iterations) {
     const std::uint64_t cap = *overrides.max_iterations;
     if (cap < 1 || cap > kMaxIterationsCap)

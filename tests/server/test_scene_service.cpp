@@ -112,6 +112,12 @@ TEST(SceneService, OptionsInheritFieldByField) {
   EXPECT_TRUE(resolved.engine.penetration_bound);               // from the update
   EXPECT_EQ(resolved.engine.epsilon, kDefaultEpsilon<double>);  // the engine's
   EXPECT_TRUE(resolved.warm_start);
+  EXPECT_EQ(resolved.engine.cold_start, ColdStart::with_centroids);  // first query of a pair
+  // Without warm starts, queries start as the paper's Section VI does (Table I's comparison).
+  QueryOptionsInput cold;
+  cold.warm_start = false;
+  EXPECT_EQ(resolve_options(scene, cold, "options").value().engine.cold_start,
+            ColdStart::single_point);
 
   QueryOptionsInput bad;
   bad.epsilon = -1;
