@@ -209,7 +209,7 @@ template <class S>
 DistanceResult<S> distance(const Shape<S>& a, const Pose<S>& pose_a, const Shape<S>& b,
                            const Pose<S>& pose_b, const DistanceOptions<S>& options,
                            SimplexCache* cache) {
-  if (!(detail::rigid_pose(pose_a) & detail::rigid_pose(pose_b))) {
+  if (!detail::rigid_poses(pose_a, pose_b)) {
     const char* why = detail::invalid_pose_reason(pose_a);
     return invalid<S>(why ? why : detail::invalid_pose_reason(pose_b));
   }
