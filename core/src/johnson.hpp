@@ -93,13 +93,17 @@ struct Simplex {
     used |= bit;
     newest = slot;
     tables_valid = update_tables && tables_valid;
-    if (update_tables) {
-      for (int i = 0; i < 4; ++i)
-        if (used & (1u << i)) dot[slot][i] = dot[i][slot] = y[i].dot(point);
-      // Subsets without the new slot keep their Δ's: their points have not changed.
-      update_deltas(bit);
-    }
+    if (update_tables) update_tables_for(slot);
     return slot;
+  }
+
+  /// The inner products and Δ's that involve a newly added slot. Out of line, so that `add`
+  /// itself stays small enough to inline into the loop (signed volumes never needs the tables).
+  [[gnu::noinline]] void update_tables_for(int slot) {
+    for (int i = 0; i < 4; ++i)
+      if (used & (1u << i)) dot[slot][i] = dot[i][slot] = y[i].dot(y[slot]);
+    // Subsets without the new slot keep their Δ's: their points have not changed.
+    update_deltas(1u << slot);
   }
 
   /// Recomputes every inner product and Δ of the occupied slots (after adds without tables).
