@@ -25,6 +25,8 @@ Compound<S>::Compound(std::vector<Piece<S>> pieces) : pieces_(std::move(pieces))
     // A sphere about the piece's centre z̄ with its extent and radius bounds the rounded piece.
     centers_.push_back(piece.offset.apply(core_center(piece.shape)));
     radii_.push_back(core_extent(piece.shape) + piece.shape.radius);
+    at_origin_.push_back(piece.offset.rotation == Mat3<S>::Identity() &&
+                         piece.offset.translation == Vec3<S>::Zero());
   }
   invalid_reason_ = nullptr;
 }
@@ -35,8 +37,10 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
                            std::span<SimplexCache> caches) {
   CompoundResult<S> out;
   const char* why = a.invalid_reason() ? a.invalid_reason() : b.invalid_reason();
-  if (!why) why = detail::invalid_pose_reason(pose_a);
-  if (!why) why = detail::invalid_pose_reason(pose_b);
+  if (!why && !detail::rigid_poses(pose_a, pose_b)) {  // both poses in one check
+    why = detail::invalid_pose_reason(pose_a);
+    if (!why) why = detail::invalid_pose_reason(pose_b);
+  }
   if (!why && !caches.empty() && caches.size() != a.size() * b.size())
     why = "compound query: caches must be empty or hold one cache per piece pair";
   if (why) {
@@ -59,20 +63,33 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   const bool keep_gaps = pair_count <= kStackPairs;
   S gaps[kStackPairs];
   auto compute_gap = [&](std::size_t i, std::size_t j) {
-    const Vec3<S> ca = pose_a.apply(a.sphere_center(i));
-    const Vec3<S> cb = pose_b.apply(b.sphere_center(j));
+    const Vec3<S> ca = detail::apply_pose(pose_a, a.sphere_center(i));
+    const Vec3<S> cb = detail::apply_pose(pose_b, b.sphere_center(j));
     return (cb - ca).norm() - a.sphere_radius(i) - b.sphere_radius(j);
   };
   auto sphere_gap = [&](std::size_t i, std::size_t j) {
     return keep_gaps ? gaps[i * b.size() + j] : compute_gap(i, j);
   };
-  auto evaluate = [&](std::size_t i, std::size_t j) {
+  // A piece's pose is the object's when it sits at the object's origin (single-piece obstacles,
+  // say); otherwise the two are composed here. Poses composed from validated ones are rigid to
+  // roundoff: no need to check them again. The answer is written straight into `into` (the
+  // object's result for the first pair): a returned result was a 400-byte copy per query.
+  Pose<S> placed_a, placed_b;
+  auto evaluate = [&](std::size_t i, std::size_t j, DistanceResult<S>& into) {
     SimplexCache* cache = caches.empty() ? nullptr : &caches[i * b.size() + j];
     ++out.pairs_evaluated;
-    // Poses composed from validated ones are rigid to roundoff: no need to check them again.
-    return detail::distance_with_valid_poses(a.piece(i).shape, pose_a.compose(a.piece(i).offset),
-                                             b.piece(j).shape, pose_b.compose(b.piece(j).offset),
-                                             piece_options, cache);
+    const Pose<S>* piece_pose_a = &pose_a;
+    const Pose<S>* piece_pose_b = &pose_b;
+    if (!a.at_origin(i)) {
+      placed_a = pose_a.compose(a.piece(i).offset);
+      piece_pose_a = &placed_a;
+    }
+    if (!b.at_origin(j)) {
+      placed_b = pose_b.compose(b.piece(j).offset);
+      piece_pose_b = &placed_b;
+    }
+    detail::distance_with_valid_poses(a.piece(i).shape, *piece_pose_a, b.piece(j).shape,
+                                      *piece_pose_b, piece_options, cache, into);
   };
 
   // Start with the pair whose spheres are nearest: it usually holds the answer, so the bound
@@ -91,7 +108,7 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
         }
       }
   }
-  out.nearest = evaluate(first_i, first_j);
+  evaluate(first_i, first_j, out.nearest);
   out.piece_a = int(first_i);
   out.piece_b = int(first_j);
   if (out.nearest.status == Status::invalid_input) return out;
@@ -112,7 +129,8 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
       // Only a distance below the best can change the answer: past it the piece pair may stop
       // as soon as a support plane proves so, often at its first support point.
       piece_options.distance_cutoff = std::min(options.distance_cutoff, best);
-      DistanceResult<S> r = evaluate(i, j);
+      DistanceResult<S> r;
+      evaluate(i, j, r);
       if (r.status == Status::invalid_input) {
         out.nearest = r;
         return out;

@@ -22,17 +22,17 @@ const char* detail::invalid_pose_reason(const Pose<S>& pose) {
 namespace {
 
 template <class S>
-DistanceResult<S> invalid(const char* message) {
-  DistanceResult<S> result;
+void set_invalid(DistanceResult<S>& result, const char* message) {
   result.status = Status::invalid_input;
   result.message = message;
-  return result;
 }
 
+// Writes into `result`, which the caller has just default-constructed (see
+// detail::distance_with_valid_poses).
 template <class S, class GA, class GB>
-DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radius_b,
-                        const Pose<S>& pose_b, const DistanceOptions<S>& options,
-                        SimplexCache* cache) {
+void query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radius_b,
+           const Pose<S>& pose_b, const DistanceOptions<S>& options, SimplexCache* cache,
+           DistanceResult<S>& result) {
   using SA = detail::Support<GA, S>;
   using SB = detail::Support<GB, S>;
   const SA support_a{ga};
@@ -63,17 +63,13 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
   const S diameter = detail::diameter_bound(k_set);
   // Squared lengths of D(K) must stay finite: beyond ~1e150 (double) or ~1e18 (float) the inner
   // products overflow and no answer could be trusted.
-  // One result object for every return, so that it is built in the caller's storage (with a
-  // second `return invalid(...)` GCC gave up the named return value optimisation and copied the
-  // 330-byte result out on every query).
-  DistanceResult<S> result;
   using std::sqrt;
   if (!(diameter <= sqrt(std::numeric_limits<S>::max()) / S(64))) {
     result.message =
         "shapes and their separation are too large for this precision (inner "
         "products would overflow: keep coordinates below ~1e150 in double, ~1e17 "
         "in float)";
-    return result;  // status stays invalid_input
+    return;  // status stays invalid_input
   }
   const S epsilon = options.epsilon > 0 ? options.epsilon : S(0);
   const S radii = radius_a + radius_b;
@@ -188,7 +184,6 @@ DistanceResult<S> query(const GA& ga, S radius_a, const Pose<S>& pose_a, const G
                       pose_b.translation, result.gradient_a, result.gradient_b);
     result.has_gradient = true;
   }
-  return result;
 }
 
 }  // namespace
@@ -209,38 +204,43 @@ template <class S>
 DistanceResult<S> distance(const Shape<S>& a, const Pose<S>& pose_a, const Shape<S>& b,
                            const Pose<S>& pose_b, const DistanceOptions<S>& options,
                            SimplexCache* cache) {
+  DistanceResult<S> result;  // the one object returned, built in the caller's storage
   if (!detail::rigid_poses(pose_a, pose_b)) {
     const char* why = detail::invalid_pose_reason(pose_a);
-    return invalid<S>(why ? why : detail::invalid_pose_reason(pose_b));
+    set_invalid(result, why ? why : detail::invalid_pose_reason(pose_b));
+    return result;
   }
-  return detail::distance_with_valid_poses(a, pose_a, b, pose_b, options, cache);
+  detail::distance_with_valid_poses(a, pose_a, b, pose_b, options, cache, result);
+  return result;
 }
 
 template <class S>
-DistanceResult<S> detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
-                                                    const Shape<S>& b, const Pose<S>& pose_b,
-                                                    const DistanceOptions<S>& options,
-                                                    SimplexCache* cache) {
-  if (const char* why = invalid_reason(a)) return invalid<S>(why);
-  if (const char* why = invalid_reason(b)) return invalid<S>(why);
-  if (!(options.epsilon >= 0)) return invalid<S>("options.epsilon must be >= 0");
-  if (std::isnan(options.distance_cutoff)) return invalid<S>("options.distance_cutoff is NaN");
+void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a, const Shape<S>& b,
+                                       const Pose<S>& pose_b, const DistanceOptions<S>& options,
+                                       SimplexCache* cache, DistanceResult<S>& result) {
+  const char* why = invalid_reason(a);
+  if (!why) why = invalid_reason(b);
+  if (!why && !(options.epsilon >= 0)) why = "options.epsilon must be >= 0";
+  if (!why && std::isnan(options.distance_cutoff)) why = "options.distance_cutoff is NaN";
+  if (why) return set_invalid(result, why);
   // One dispatch per query; the loop below is specialised for the two concrete shapes.
-  return std::visit(
+  std::visit(
       [&](const auto& ga, const auto& gb) {
-        return query<S>(ga, a.radius, pose_a, gb, b.radius, pose_b, options, cache);
+        query<S>(ga, a.radius, pose_a, gb, b.radius, pose_b, options, cache, result);
       },
       a.geometry, b.geometry);
 }
 
 template const char* detail::invalid_pose_reason(const Pose<double>&);
 template const char* detail::invalid_pose_reason(const Pose<float>&);
-template DistanceResult<double> detail::distance_with_valid_poses(
-    const Shape<double>&, const Pose<double>&, const Shape<double>&, const Pose<double>&,
-    const DistanceOptions<double>&, SimplexCache*);
-template DistanceResult<float> detail::distance_with_valid_poses(
-    const Shape<float>&, const Pose<float>&, const Shape<float>&, const Pose<float>&,
-    const DistanceOptions<float>&, SimplexCache*);
+template void detail::distance_with_valid_poses(const Shape<double>&, const Pose<double>&,
+                                                const Shape<double>&, const Pose<double>&,
+                                                const DistanceOptions<double>&, SimplexCache*,
+                                                DistanceResult<double>&);
+template void detail::distance_with_valid_poses(const Shape<float>&, const Pose<float>&,
+                                                const Shape<float>&, const Pose<float>&,
+                                                const DistanceOptions<float>&, SimplexCache*,
+                                                DistanceResult<float>&);
 template DistanceResult<double> distance(const Shape<double>&, const Pose<double>&,
                                          const Shape<double>&, const Pose<double>&,
                                          const DistanceOptions<double>&, SimplexCache*);

@@ -13,27 +13,13 @@
 #include <type_traits>
 #include <utility>
 
+#include "distance_internal.hpp"
 #include "johnson.hpp"
 #include "nearpoint/distance.hpp"
 #include "signed_volumes.hpp"
 #include "support.hpp"
 
 namespace nearpoint::detail {
-
-/// R·v and Rᵀ·v written out. Eigen's generic 3×3 product is left out of line by GCC in this loop
-/// (a call and a copy per support call, measured: 5% of a query).
-template <class S>
-[[gnu::always_inline]] inline Vec3<S> rotate(const Mat3<S>& r, const Vec3<S>& v) {
-  return Vec3<S>(r(0, 0) * v.x() + r(0, 1) * v.y() + r(0, 2) * v.z(),
-                 r(1, 0) * v.x() + r(1, 1) * v.y() + r(1, 2) * v.z(),
-                 r(2, 0) * v.x() + r(2, 1) * v.y() + r(2, 2) * v.z());
-}
-template <class S>
-[[gnu::always_inline]] inline Vec3<S> rotate_back(const Mat3<S>& r, const Vec3<S>& v) {
-  return Vec3<S>(r(0, 0) * v.x() + r(1, 0) * v.y() + r(2, 0) * v.z(),
-                 r(0, 1) * v.x() + r(1, 1) * v.y() + r(2, 1) * v.z(),
-                 r(0, 2) * v.x() + r(1, 2) * v.y() + r(2, 2) * v.z());
-}
 
 /// K = A − B seen from A's frame with the origin moved to the midpoint of the centroids (eq. 34).
 /// A support point of K is y = a − b − δ, where a = s_A(η) − z̄_A and b = R·(s_B(−Rᵀη) − z̄_B) are

@@ -252,6 +252,61 @@ void check_gradient(FailureLog& log, const std::string& where, const Pose<double
 // The gradient (options.gradient) of separated pairs with unique near points — a polytope vs a
 // sphere (the distance from a point to a polytope is C¹ outside it) and smooth shapes — matches
 // central finite differences in all 12 pose coordinates.
+// A piece whose offset is exactly the identity is queried at the object's pose as it is; any
+// other piece at the object's pose composed with its offset (Pose::compose). Either way a
+// single-piece compound answers exactly as the plain query on the piece's pose does.
+TEST(Compound, PiecePoseIsTheObjectPoseOrItsComposition) {
+  std::mt19937_64 rng(20261201);
+  const auto polytopes = nearpoint::testkit::paper_polytopes();
+  const Shape<double> shape_a(Polytope<double>(*polytopes[5].vertices));
+  const Shape<double> shape_b =
+      Shape<double>::capsule(Vec3<double>(-1, 0, 0), Vec3<double>(1, 0.3, 0), 0.2);
+  const Pose<double> offset_a = random_pose(rng, 1.5), offset_b = random_pose(rng, 1.5);
+  const Compound<double> at_origin_a({{shape_a, Pose<double>::identity()}});
+  const Compound<double> at_origin_b({{shape_b, Pose<double>::identity()}});
+  const Compound<double> placed_a({{shape_a, offset_a}});
+  const Compound<double> placed_b({{shape_b, offset_b}});
+  Pose<double> shifted = Pose<double>::identity();  // a translation alone is not the origin
+  shifted.translation = Vec3<double>(0.5, -0.3, 0.2);
+  const Compound<double> shifted_b({{shape_b, shifted}});
+  ASSERT_TRUE(at_origin_a.at_origin(0));
+  ASSERT_TRUE(at_origin_b.at_origin(0));
+  ASSERT_FALSE(placed_a.at_origin(0));
+  ASSERT_FALSE(placed_b.at_origin(0));
+  ASSERT_FALSE(shifted_b.at_origin(0));
+
+  DistanceOptions<double> options;
+  options.near_points = true;
+  FailureLog log;
+  int separated = 0;
+  for (int q = 0; q < 400; ++q) {
+    const Pose<double> pose_a = random_pose(rng, 3), pose_b = random_pose(rng, 3);
+    const auto check = [&](const char* what, const CompoundResult<double>& got,
+                           const DistanceResult<double>& want) {
+      const bool same = got.nearest.status == want.status &&
+                        got.nearest.distance == want.distance &&
+                        got.nearest.error_bound == want.error_bound &&
+                        got.nearest.iterations == want.iterations &&
+                        got.nearest.point_a == want.point_a && got.nearest.point_b == want.point_b;
+      if (!same)
+        log.add(
+            std::string("compound differs from the plain query on the piece's pose (") + what + ")",
+            format("query %d: %.17g vs %.17g", q, got.nearest.distance, want.distance));
+    };
+    const DistanceResult<double> plain =
+        nearpoint::distance(shape_a, pose_a, shape_b, pose_b, options);
+    separated += plain.status == Status::separated;
+    check("at origin", nearpoint::distance(at_origin_a, pose_a, at_origin_b, pose_b, options),
+          plain);
+    check("placed", nearpoint::distance(placed_a, pose_a, placed_b, pose_b, options),
+          nearpoint::distance(shape_a, pose_a.compose(offset_a), shape_b, pose_b.compose(offset_b),
+                              options));
+  }
+  EXPECT_GT(separated, 100);  // both verdicts occur
+  EXPECT_LT(separated, 400);
+  EXPECT_EQ(log.total(), 0) << log.report();
+}
+
 TEST(Gradient, MatchesCentralDifferences) {
   std::mt19937_64 rng(2002);
   const auto polytopes = nearpoint::testkit::paper_polytopes();

@@ -29,6 +29,9 @@ class Compound {
   /// Bounding sphere of piece i in the object's frame.
   const Vec3<Scalar>& sphere_center(std::size_t i) const { return centers_[i]; }
   Scalar sphere_radius(std::size_t i) const { return radii_[i]; }
+  /// Whether piece i's offset is exactly the identity: its pose is then the object's, and a query
+  /// uses that pose as it is instead of composing the two.
+  bool at_origin(std::size_t i) const { return at_origin_[i] != 0; }
   /// nullptr when usable; otherwise why not (no pieces, an invalid piece or offset).
   const char* invalid_reason() const { return invalid_reason_; }
 
@@ -36,6 +39,7 @@ class Compound {
   std::vector<Piece<Scalar>> pieces_;
   std::vector<Vec3<Scalar>> centers_;
   std::vector<Scalar> radii_;
+  std::vector<unsigned char> at_origin_;
   const char* invalid_reason_ = "compound has no pieces";
 };
 
