@@ -37,19 +37,13 @@ template <class S>
                  r(0, 2) * v.x() + r(1, 2) * v.y() + r(2, 2) * v.z());
 }
 
-/// parent ∘ child (Pose::compose) and a pose applied to a point (Pose::apply), written out with
-/// the products above: Eigen's 3×3 products were calls here, once per piece pair of a compound
-/// query. (Eigen's sums may round differently in the last bit.)
+/// A pose applied to a point (Pose::apply) with the product above, for the bounding spheres of a
+/// compound query (Eigen's product was a call there). It may differ from Pose::apply in the last
+/// bit. Piece poses keep Pose::compose, so that a piece is queried exactly as a caller composing
+/// the poses itself would query it.
 template <class S>
 [[gnu::always_inline]] inline Vec3<S> apply_pose(const Pose<S>& pose, const Vec3<S>& local) {
   return rotate(pose.rotation, local) + pose.translation;
-}
-template <class S>
-[[gnu::always_inline]] inline void compose_poses(const Pose<S>& parent, const Pose<S>& child,
-                                                 Pose<S>& out) {
-  for (int j = 0; j < 3; ++j)
-    out.rotation.col(j) = rotate(parent.rotation, Vec3<S>(child.rotation.col(j)));
-  out.translation = apply_pose(parent, child.translation);
 }
 
 /// Whether rotation columns are orthonormal to within what a rotation built from a float
