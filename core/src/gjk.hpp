@@ -60,10 +60,16 @@ struct MinkowskiDifference {
     }
   }
 
-  Vec3<S> difference(const Vec3<S>& on_a, const Vec3<S>& on_b) const {
-    if (origin_shift) return on_a - on_b - offset;
+  // Per component, always inline: GCC left Eigen's expression out of line as a call where the
+  // warm start forms its points (measured: 8% of a warm compound query).
+  [[gnu::always_inline]] Vec3<S> difference(const Vec3<S>& on_a, const Vec3<S>& on_b) const {
+    if (origin_shift)
+      return Vec3<S>(on_a.x() - on_b.x() - offset.x(), on_a.y() - on_b.y() - offset.y(),
+                     on_a.z() - on_b.z() - offset.z());
     // Without eq. (34): the points in A's frame as given, subtracted as they are.
-    return (on_a + a_center) - (on_b + b_center_rel);
+    return Vec3<S>((on_a.x() + a_center.x()) - (on_b.x() + b_center_rel.x()),
+                   (on_a.y() + a_center.y()) - (on_b.y() + b_center_rel.y()),
+                   (on_a.z() + a_center.z()) - (on_b.z() + b_center_rel.z()));
   }
 
   bool vertex_pair(std::int32_t ia, std::int32_t ib, Vec3<S>& y, Vec3<S>& on_a,
