@@ -37,10 +37,7 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
                            std::span<SimplexCache> caches) {
   CompoundResult<S> out;
   const char* why = a.invalid_reason() ? a.invalid_reason() : b.invalid_reason();
-  if (!why && !detail::rigid_poses(pose_a, pose_b)) {  // both poses in one check
-    why = detail::invalid_pose_reason(pose_a);
-    if (!why) why = detail::invalid_pose_reason(pose_b);
-  }
+  if (!why) why = detail::invalid_poses_reason(pose_a, pose_b);
   if (!why && !caches.empty() && caches.size() != a.size() * b.size())
     why = "compound query: caches must be empty or hold one cache per piece pair";
   if (why) {

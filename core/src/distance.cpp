@@ -65,11 +65,10 @@ void query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   // products overflow and no answer could be trusted.
   using std::sqrt;
   if (!(diameter <= sqrt(std::numeric_limits<S>::max()) / S(64))) {
-    result.message =
-        "shapes and their separation are too large for this precision (inner "
-        "products would overflow: keep coordinates below ~1e150 in double, ~1e17 "
-        "in float)";
-    return;  // status stays invalid_input
+    return set_invalid(result,
+                       "shapes and their separation are too large for this precision (inner "
+                       "products would overflow: keep coordinates below ~1e150 in double, ~1e17 "
+                       "in float)");
   }
   const S epsilon = options.epsilon > 0 ? options.epsilon : S(0);
   const S radii = radius_a + radius_b;
@@ -205,9 +204,8 @@ DistanceResult<S> distance(const Shape<S>& a, const Pose<S>& pose_a, const Shape
                            const Pose<S>& pose_b, const DistanceOptions<S>& options,
                            SimplexCache* cache) {
   DistanceResult<S> result;  // the one object returned, built in the caller's storage
-  if (!detail::rigid_poses(pose_a, pose_b)) {
-    const char* why = detail::invalid_pose_reason(pose_a);
-    set_invalid(result, why ? why : detail::invalid_pose_reason(pose_b));
+  if (const char* why = detail::invalid_poses_reason(pose_a, pose_b)) {
+    set_invalid(result, why);
     return result;
   }
   detail::distance_with_valid_poses(a, pose_a, b, pose_b, options, cache, result);

@@ -108,6 +108,15 @@ template <class S>
 template <class S>
 const char* invalid_pose_reason(const Pose<S>& pose);
 
+/// Why one of two poses is unusable (pose a's reason first), or nullptr when both are rigid: the
+/// check of every query, both poses at once, with the reason looked up only on failure.
+template <class S>
+[[gnu::always_inline]] inline const char* invalid_poses_reason(const Pose<S>& a, const Pose<S>& b) {
+  if (rigid_poses(a, b)) return nullptr;
+  const char* why = invalid_pose_reason(a);
+  return why ? why : invalid_pose_reason(b);
+}
+
 /// `distance` for poses already known to be valid (the shapes and options are still checked),
 /// written into `result`, which must be freshly default-constructed: the answer is built where the
 /// caller keeps it (a compound query's best result) instead of being returned and copied.
