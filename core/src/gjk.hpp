@@ -41,15 +41,17 @@ struct MinkowskiDifference {
                std::int32_t& ib) const {
     if constexpr (std::is_same_v<SA, Support<Polytope<S>, S>> &&
                   std::is_same_v<SB, Support<Polytope<S>, S>>) {
-      std::size_t index[2];  // both polytopes searched in one call (interleaved when alike)
-      PairScan::support_indices(a.shape, eta, a.hint, b.shape, Vec3<S>(-rotate_back(rotation, eta)),
-                                b.hint, index);
-      ia = a.hint = std::int32_t(index[0]);
-      ib = b.hint = std::int32_t(index[1]);
+      // Both polytopes searched in one call (interleaved when alike).
+      const Vec3<S> eta_b = -rotate_back(rotation, eta);
+      const IndexPair index =
+          PairScan::support_indices(a.shape, eta.x(), eta.y(), eta.z(), a.hint, b.shape, eta_b.x(),
+                                    eta_b.y(), eta_b.z(), b.hint);
+      ia = a.hint = std::int32_t(index.a);
+      ib = b.hint = std::int32_t(index.b);
       // y from the values in registers, not read back from on_a/on_b: rotate's three scalar
       // stores read back as a 16-byte load would stall store forwarding once per support call.
-      const Vec3<S> point_a = a.shape.centered_vertex(index[0]);
-      const Vec3<S> point_b = rotate(rotation, b.shape.centered_vertex(index[1]));
+      const Vec3<S> point_a = a.shape.centered_vertex(index.a);
+      const Vec3<S> point_b = rotate(rotation, b.shape.centered_vertex(index.b));
       y = difference(point_a, point_b);
       on_a = point_a;
       on_b = point_b;

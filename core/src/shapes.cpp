@@ -71,9 +71,20 @@ struct ArgmaxDot {
   I where[2];
   I lane_index;
 
+  /// kLanes copies of s. A broadcast, where V{} + s added zero on GJK's critical path (and
+  /// writing lane by lane went through memory).
+  [[gnu::always_inline]] static void splat(S s, V& out) {
+    if constexpr (kLanes == 4)
+      out = V{s, s, s, s};
+    else
+      out = V{s, s, s, s, s, s, s, s};
+  }
   /// The first block of 2 × kLanes vertices.
   [[gnu::always_inline]] ArgmaxDot(const S* x, const S* y, const S* z, S dx, S dy, S dz)
-      : xs(x), ys(y), zs(z), vx(V{} + dx), vy(V{} + dy), vz(V{} + dz) {
+      : xs(x), ys(y), zs(z) {
+    splat(dx, vx);
+    splat(dy, vy);
+    splat(dz, vz);
     for (int l = 0; l < kLanes; ++l) lane_index[l] = Index(l);
     for (int h = 0; h < 2; ++h) {
       value(h * kLanes, best[h]);
@@ -99,49 +110,39 @@ struct ArgmaxDot {
       where[h] = better ? lane_index + Index(i + h * kLanes) : where[h];
     }
   }
-  // Reduction without branches: the largest lane value, then the smallest index among the lanes
-  // holding it (each lane kept its earliest index on ties, so this is the first maximiser). Both
-  // run as log2(kLanes) lane swaps on whole vectors: a scalar loop over the lanes compiles to
-  // data-dependent branches, which mispredicted about once per call. NaN never wins a comparison
-  // but is replaced by any other value, so it survives only if every lane is NaN; then no lane
-  // equals the maximum and vertex 0 is returned.
+  // Reduction without branches: the largest lane value and, among the lanes holding it, the
+  // smallest index (each lane kept its earliest index on ties, so this is the first maximiser),
+  // in log2(kLanes) lane swaps on whole vectors of (value, index) pairs: a lane takes its
+  // partner's pair when the partner's value is larger, when its own value is NaN, or when the
+  // values are equal and the partner's index is smaller. One pass over the pairs rather than the
+  // maximum first and the index after it: half the dependent steps on GJK's critical path. (A
+  // scalar loop over the lanes compiles to data-dependent branches, which mispredicted about once
+  // per call.) NaN never wins a comparison but is replaced by any other value, so it survives
+  // only if every lane is NaN; then vertex 0 is returned.
   [[gnu::always_inline]] std::size_t index() const {
-    V top = (best[0] > best[1]) | (best[1] != best[1]) ? best[0] : best[1];
-    V swapped;
-    const I none = I{} + std::numeric_limits<Index>::max();
+    auto merge = [](V& v, I& at, const V& ov, const I& oi) {
+      const auto take = (ov > v) | (v != v) | ((ov == v) & (oi < at));
+      v = take ? ov : v;
+      at = take ? oi : at;
+    };
+    V top = best[0];
+    I at = where[0];
+    merge(top, at, best[1], where[1]);
     if constexpr (kLanes == 4) {
-      swapped = __builtin_shufflevector(top, top, 1, 0, 3, 2);
-      top = (swapped > top) | (top != top) ? swapped : top;
-      swapped = __builtin_shufflevector(top, top, 2, 3, 0, 1);
-      top = (swapped > top) | (top != top) ? swapped : top;
+      merge(top, at, __builtin_shufflevector(top, top, 1, 0, 3, 2),
+            __builtin_shufflevector(at, at, 1, 0, 3, 2));
+      merge(top, at, __builtin_shufflevector(top, top, 2, 3, 0, 1),
+            __builtin_shufflevector(at, at, 2, 3, 0, 1));
     } else {
-      swapped = __builtin_shufflevector(top, top, 1, 0, 3, 2, 5, 4, 7, 6);
-      top = (swapped > top) | (top != top) ? swapped : top;
-      swapped = __builtin_shufflevector(top, top, 2, 3, 0, 1, 6, 7, 4, 5);
-      top = (swapped > top) | (top != top) ? swapped : top;
-      swapped = __builtin_shufflevector(top, top, 4, 5, 6, 7, 0, 1, 2, 3);
-      top = (swapped > top) | (top != top) ? swapped : top;
+      merge(top, at, __builtin_shufflevector(top, top, 1, 0, 3, 2, 5, 4, 7, 6),
+            __builtin_shufflevector(at, at, 1, 0, 3, 2, 5, 4, 7, 6));
+      merge(top, at, __builtin_shufflevector(top, top, 2, 3, 0, 1, 6, 7, 4, 5),
+            __builtin_shufflevector(at, at, 2, 3, 0, 1, 6, 7, 4, 5));
+      merge(top, at, __builtin_shufflevector(top, top, 4, 5, 6, 7, 0, 1, 2, 3),
+            __builtin_shufflevector(at, at, 4, 5, 6, 7, 0, 1, 2, 3));
     }
-    const I c0 = best[0] == top ? where[0] : none;
-    const I c1 = best[1] == top ? where[1] : none;
-    I c = c0 < c1 ? c0 : c1;
-    I c_swapped;
-    if constexpr (kLanes == 4) {
-      c_swapped = __builtin_shufflevector(c, c, 1, 0, 3, 2);
-      c = c_swapped < c ? c_swapped : c;
-      c_swapped = __builtin_shufflevector(c, c, 2, 3, 0, 1);
-      c = c_swapped < c ? c_swapped : c;
-    } else {
-      c_swapped = __builtin_shufflevector(c, c, 1, 0, 3, 2, 5, 4, 7, 6);
-      c = c_swapped < c ? c_swapped : c;
-      c_swapped = __builtin_shufflevector(c, c, 2, 3, 0, 1, 6, 7, 4, 5);
-      c = c_swapped < c ? c_swapped : c;
-      c_swapped = __builtin_shufflevector(c, c, 4, 5, 6, 7, 0, 1, 2, 3);
-      c = c_swapped < c ? c_swapped : c;
-    }
-    Index best_index = c[0];
-    if (best_index == std::numeric_limits<Index>::max()) best_index = 0;
-    return std::size_t(best_index);
+    if (top[0] != top[0]) return 0;  // every lane NaN
+    return std::size_t(at[0]);
   }
 };
 
@@ -155,12 +156,13 @@ template <class V, class I, class S, int kLanes>
 
 /// Two scans in one loop (see PairScan): the common blocks interleaved, then the longer one's rest.
 template <class V, class I, class S, int kLanes>
-[[gnu::always_inline]] inline void argmax_dot_pair_simd(const S* const a[3], std::size_t na,
-                                                        const S da[3], const S* const b[3],
-                                                        std::size_t nb, const S db[3],
-                                                        std::size_t out[2]) {
-  ArgmaxDot<V, I, S, kLanes> scan_a(a[0], a[1], a[2], da[0], da[1], da[2]);
-  ArgmaxDot<V, I, S, kLanes> scan_b(b[0], b[1], b[2], db[0], db[1], db[2]);
+[[gnu::always_inline]] inline detail::IndexPair argmax_dot_pair_simd(const S* const a[3],
+                                                                     std::size_t na, S ax, S ay,
+                                                                     S az, const S* const b[3],
+                                                                     std::size_t nb, S bx, S by,
+                                                                     S bz) {
+  ArgmaxDot<V, I, S, kLanes> scan_a(a[0], a[1], a[2], ax, ay, az);
+  ArgmaxDot<V, I, S, kLanes> scan_b(b[0], b[1], b[2], bx, by, bz);
   const std::size_t common = std::min(na, nb);
   std::size_t i = 2 * kLanes;
   for (; i < common; i += 2 * kLanes) {
@@ -169,8 +171,7 @@ template <class V, class I, class S, int kLanes>
   }
   for (std::size_t j = i; j < na; j += 2 * kLanes) scan_a.step(j);
   for (std::size_t j = i; j < nb; j += 2 * kLanes) scan_b.step(j);
-  out[0] = scan_a.index();
-  out[1] = scan_b.index();
+  return {scan_a.index(), scan_b.index()};
 }
 
 using Double4 = double __attribute__((vector_size(32)));
@@ -187,14 +188,15 @@ __attribute__((always_inline)) inline std::size_t argmax_dot(const S* xs, const 
     return argmax_dot_simd<Float8, Int32x8, float, 8>(xs, ys, zs, n, dx, dy, dz);
 }
 template <class S>
-__attribute__((always_inline)) inline void argmax_dot_pair(const S* const a[3], std::size_t na,
-                                                           const S da[3], const S* const b[3],
-                                                           std::size_t nb, const S db[3],
-                                                           std::size_t out[2]) {
+__attribute__((always_inline)) inline detail::IndexPair argmax_dot_pair(const S* const a[3],
+                                                                        std::size_t na, S ax, S ay,
+                                                                        S az, const S* const b[3],
+                                                                        std::size_t nb, S bx, S by,
+                                                                        S bz) {
   if constexpr (std::is_same_v<S, double>)
-    argmax_dot_pair_simd<Double4, Int64x4, double, 4>(a, na, da, b, nb, db, out);
+    return argmax_dot_pair_simd<Double4, Int64x4, double, 4>(a, na, ax, ay, az, b, nb, bx, by, bz);
   else
-    argmax_dot_pair_simd<Float8, Int32x8, float, 8>(a, na, da, b, nb, db, out);
+    return argmax_dot_pair_simd<Float8, Int32x8, float, 8>(a, na, ax, ay, az, b, nb, bx, by, bz);
 }
 
 // One copy compiled for AVX2 and one for the baseline, chosen once at run time. Explicit dispatch
@@ -213,11 +215,12 @@ __attribute__((target("avx2"))) std::size_t argmax_dot_avx2(const float* xs, con
   return argmax_dot(xs, ys, zs, n, dx, dy, dz);
 }
 template <class S>
-__attribute__((target("avx2"))) void argmax_dot_pair_avx2(const S* const a[3], std::size_t na,
-                                                          const S da[3], const S* const b[3],
-                                                          std::size_t nb, const S db[3],
-                                                          std::size_t out[2]) {
-  argmax_dot_pair(a, na, da, b, nb, db, out);
+__attribute__((target("avx2"))) detail::IndexPair argmax_dot_pair_avx2(const S* const a[3],
+                                                                       std::size_t na, S ax, S ay,
+                                                                       S az, const S* const b[3],
+                                                                       std::size_t nb, S bx, S by,
+                                                                       S bz) {
+  return argmax_dot_pair(a, na, ax, ay, az, b, nb, bx, by, bz);
 }
 bool cpu_has_avx2() {
   static const bool has = [] {
@@ -235,10 +238,9 @@ std::size_t argmax_dot_baseline(const S* xs, const S* ys, const S* zs, std::size
 }
 
 template <class S>
-void argmax_dot_pair_baseline(const S* const a[3], std::size_t na, const S da[3],
-                              const S* const b[3], std::size_t nb, const S db[3],
-                              std::size_t out[2]) {
-  argmax_dot_pair(a, na, da, b, nb, db, out);
+detail::IndexPair argmax_dot_pair_baseline(const S* const a[3], std::size_t na, S ax, S ay, S az,
+                                           const S* const b[3], std::size_t nb, S bx, S by, S bz) {
+  return argmax_dot_pair(a, na, ax, ay, az, b, nb, bx, by, bz);
 }
 
 /// Climbing seeds are the extreme vertices along the integer directions (x, y, z) ∈
@@ -488,10 +490,27 @@ struct Climb {
 };
 
 template <class S>
-void detail::PairScan::support_indices(const Polytope<S>& a, const Vec3<S>& direction_a,
-                                       std::int32_t hint_a, const Polytope<S>& b,
-                                       const Vec3<S>& direction_b, std::int32_t hint_b,
-                                       std::size_t out[2]) {
+detail::IndexPair detail::PairScan::support_indices(const Polytope<S>& a, S ax, S ay, S az,
+                                                    std::int32_t hint_a, const Polytope<S>& b, S bx,
+                                                    S by, S bz, std::int32_t hint_b) {
+  if (a.climbs() || b.climbs())
+    return climb_indices(a, Vec3<S>(ax, ay, az), hint_a, b, Vec3<S>(bx, by, bz), hint_b);
+  const S* const coords_a[3] = {a.xs_.data(), a.ys_.data(), a.zs_.data()};
+  const S* const coords_b[3] = {b.xs_.data(), b.ys_.data(), b.zs_.data()};
+  // The polytope's own scan pointer says which build this CPU runs (chosen once per process).
+#ifdef NEARPOINT_HAVE_AVX2_CLONE
+  if (a.scan_ != &argmax_dot_baseline<S>)
+    return argmax_dot_pair_avx2<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx,
+                                   by, bz);
+#endif
+  return argmax_dot_pair_baseline<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx,
+                                     by, bz);
+}
+
+template <class S>
+detail::IndexPair detail::PairScan::climb_indices(const Polytope<S>& a, const Vec3<S>& direction_a,
+                                                  std::int32_t hint_a, const Polytope<S>& b,
+                                                  const Vec3<S>& direction_b, std::int32_t hint_b) {
   if (a.climbs() && b.climbs()) {
     Climb<S> climb_a(a.xs_.data(), a.ys_.data(), a.zs_.data(), a.neighbor_begin_.data(),
                      a.neighbors_.data(), a.seeds_, a.size_, direction_a, hint_a);
@@ -504,27 +523,9 @@ void detail::PairScan::support_indices(const Polytope<S>& a, const Vec3<S>& dire
     }
     while (moving_a) moving_a = climb_a.step();
     while (moving_b) moving_b = climb_b.step();
-    out[0] = climb_a.at;
-    out[1] = climb_b.at;
-    return;
+    return {climb_a.at, climb_b.at};
   }
-  if (a.climbs() || b.climbs()) {
-    out[0] = a.support_index(direction_a, hint_a);
-    out[1] = b.support_index(direction_b, hint_b);
-    return;
-  }
-  const S* const coords_a[3] = {a.xs_.data(), a.ys_.data(), a.zs_.data()};
-  const S* const coords_b[3] = {b.xs_.data(), b.ys_.data(), b.zs_.data()};
-  const S da[3] = {direction_a.x(), direction_a.y(), direction_a.z()};
-  const S db[3] = {direction_b.x(), direction_b.y(), direction_b.z()};
-  // The polytope's own scan pointer says which build this CPU runs (chosen once per process).
-#ifdef NEARPOINT_HAVE_AVX2_CLONE
-  if (a.scan_ != &argmax_dot_baseline<S>) {
-    argmax_dot_pair_avx2<S>(coords_a, a.xs_.size(), da, coords_b, b.xs_.size(), db, out);
-    return;
-  }
-#endif
-  argmax_dot_pair_baseline<S>(coords_a, a.xs_.size(), da, coords_b, b.xs_.size(), db, out);
+  return {a.support_index(direction_a, hint_a), b.support_index(direction_b, hint_b)};
 }
 
 template <class S>
@@ -580,15 +581,14 @@ Vec3<S> support(const Shape<S>& shape, const Vec3<S>& direction, int& index) {
       shape.geometry);
 }
 
-#define NEARPOINT_INSTANTIATE(S)                                                      \
-  template class Polytope<S>;                                                         \
-  template const char* invalid_reason(const Shape<S>&);                               \
-  template Vec3<S> core_center(const Shape<S>&);                                      \
-  template S core_extent(const Shape<S>&);                                            \
-  template Vec3<S> support(const Shape<S>&, const Vec3<S>&, int& index);              \
-  template void detail::PairScan::support_indices(const Polytope<S>&, const Vec3<S>&, \
-                                                  std::int32_t, const Polytope<S>&,   \
-                                                  const Vec3<S>&, std::int32_t, std::size_t[2]);
+#define NEARPOINT_INSTANTIATE(S)                                         \
+  template class Polytope<S>;                                            \
+  template const char* invalid_reason(const Shape<S>&);                  \
+  template Vec3<S> core_center(const Shape<S>&);                         \
+  template S core_extent(const Shape<S>&);                               \
+  template Vec3<S> support(const Shape<S>&, const Vec3<S>&, int& index); \
+  template detail::IndexPair detail::PairScan::support_indices(          \
+      const Polytope<S>&, S, S, S, std::int32_t, const Polytope<S>&, S, S, S, std::int32_t);
 NEARPOINT_INSTANTIATE(double)
 NEARPOINT_INSTANTIATE(float)
 #undef NEARPOINT_INSTANTIATE

@@ -23,6 +23,11 @@ inline bool normalise_direction(const Vec3<S>& d, Vec3<S>& out) {
   return true;
 }
 
+/// The two support indices of a PairScan, returned in registers.
+struct IndexPair {
+  std::size_t a, b;
+};
+
 /// Both support indices of K = A − B in one call: s_A(η) and s_B(η_B) by eq. (17), each exactly
 /// what Polytope::support_index(direction, hint) gives. When both polytopes scan, the two argmax
 /// chains run interleaved in one loop; when both climb their hulls, the two climbs step in turn.
@@ -31,10 +36,17 @@ inline bool normalise_direction(const Vec3<S>& d, Vec3<S>& out) {
 /// iteration (measured: 5–9% of a query on the paper set, 15% at p99). Defined next to the
 /// single-polytope searches in shapes.cpp.
 struct PairScan {
+  /// Directions by component, so that they travel in registers rather than through memory (the
+  /// call is on GJK's critical path).
   template <class S>
-  static void support_indices(const Polytope<S>& a, const Vec3<S>& direction_a, std::int32_t hint_a,
-                              const Polytope<S>& b, const Vec3<S>& direction_b, std::int32_t hint_b,
-                              std::size_t out[2]);
+  static IndexPair support_indices(const Polytope<S>& a, S ax, S ay, S az, std::int32_t hint_a,
+                                   const Polytope<S>& b, S bx, S by, S bz, std::int32_t hint_b);
+
+ private:
+  template <class S>
+  static IndexPair climb_indices(const Polytope<S>& a, const Vec3<S>& direction_a,
+                                 std::int32_t hint_a, const Polytope<S>& b,
+                                 const Vec3<S>& direction_b, std::int32_t hint_b);
 };
 
 template <class G, class S>

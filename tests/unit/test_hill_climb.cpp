@@ -165,20 +165,20 @@ TEST(HillClimb, PairedClimbsEqualSeparateClimbs) {
   for (int k = 0; k < 2000; ++k) {
     const V da = testkit::random_unit_vector(rng), db = testkit::random_unit_vector(rng);
     const std::int32_t ha = hint_a(rng), hb = hint_b(rng);
-    std::size_t index[2];
-    detail::PairScan::support_indices(a, da, ha, b, db, hb, index);
-    EXPECT_EQ(index[0], a.support_index(da, ha)) << k;
-    EXPECT_EQ(index[1], b.support_index(db, hb)) << k;
+    const detail::IndexPair index = detail::PairScan::support_indices(
+        a, da.x(), da.y(), da.z(), ha, b, db.x(), db.y(), db.z(), hb);
+    EXPECT_EQ(index.a, a.support_index(da, ha)) << k;
+    EXPECT_EQ(index.b, b.support_index(db, hb)) << k;
     double top = -1e300;  // the maximum over every vertex, by brute force
     for (std::size_t i = 0; i < b.size(); ++i) top = std::max(top, b.centered_vertex(i).dot(db));
-    EXPECT_EQ(b.centered_vertex(index[1]).dot(db), top) << k;
+    EXPECT_EQ(b.centered_vertex(index.b).dot(db), top) << k;
   }
   // One climbing and one scanning polytope: each searched its own way.
-  std::size_t index[2];
   const V d(0.3, -0.2, 0.9);
-  detail::PairScan::support_indices(a, d, -1, b_scanning, d, -1, index);
-  EXPECT_EQ(index[0], a.support_index(d));
-  EXPECT_EQ(index[1], b_scanning.support_index(d));
+  const detail::IndexPair index = detail::PairScan::support_indices(
+      a, d.x(), d.y(), d.z(), -1, b_scanning, d.x(), d.y(), d.z(), -1);
+  EXPECT_EQ(index.a, a.support_index(d));
+  EXPECT_EQ(index.b, b_scanning.support_index(d));
 }
 
 // Distances on climbing polytopes, cold and warm along a path, against CGAL's exact distance.

@@ -157,13 +157,13 @@ void check_pair_scan() {
         if (trial % 4 == 1) da = Vec3<S>::Unit(trial % 3);
         if (trial % 4 == 2) db = -Vec3<S>::Unit(trial % 3);
         if (trial == 39) da = Vec3<S>(nan, 0, 0);
-        std::size_t index[2] = {99, 99};
-        detail::PairScan::support_indices(a, da, -1, b, db, -1, index);
+        const detail::IndexPair index = detail::PairScan::support_indices(
+            a, da.x(), da.y(), da.z(), -1, b, db.x(), db.y(), db.z(), -1);
         const std::size_t expect_a = trial == 39 ? 0 : first_maximiser(a, da);
-        EXPECT_EQ(index[0], expect_a) << "A: " << na << " vertices, trial " << trial;
-        EXPECT_EQ(index[1], first_maximiser(b, db)) << "B: " << nb << " vertices, trial " << trial;
-        EXPECT_EQ(index[0], a.support_index(da)) << "same as the single scan";
-        EXPECT_EQ(index[1], b.support_index(db)) << "same as the single scan";
+        EXPECT_EQ(index.a, expect_a) << "A: " << na << " vertices, trial " << trial;
+        EXPECT_EQ(index.b, first_maximiser(b, db)) << "B: " << nb << " vertices, trial " << trial;
+        EXPECT_EQ(index.a, a.support_index(da)) << "same as the single scan";
+        EXPECT_EQ(index.b, b.support_index(db)) << "same as the single scan";
         ++compared;
       }
     }
