@@ -92,7 +92,7 @@ void query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
 
   const detail::Nearest<S>& nearest = loop.nearest;
   const detail::Simplex<S>& simplex = loop.simplex;
-  const S core_distance = sqrt(nearest.nu_norm2);
+  const S core_distance = loop.nu_length;
   result.gap = loop.gap;
   result.diameter_bound = diameter;
   result.iterations = loop.iterations;

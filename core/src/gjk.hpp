@@ -130,6 +130,8 @@ struct LoopOutcome {
   /// L: the largest support-plane lower bound ν_k·s_K(−ν_k)/|ν_k| over all iterations. Each is a
   /// certified lower bound on |ν(K)|, so the distance lies in [L, |ν|].
   S lower_bound = 0;
+  /// |ν| of the final iterate: the core distance.
+  S nu_length = 0;
   int iterations = 0;
   Termination termination = Termination::tolerance;
   bool warm_started = false;
@@ -234,6 +236,11 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   // step can fall back to it by trading the two buffers back.
   S previous_gap = 0;
   for (;;) {
+    // One square root per iteration, taken as soon as ν is known: the query's distance is this
+    // |ν| at exit, ready before the exit branch resolves instead of computed after it.
+    using std::sqrt;
+    const S nu_length = sqrt(nearest->nu_norm2);
+    out.nu_length = nu_length;
     // A lower bound past the cutoff ends the query (here only the first support plane's can be;
     // later ones are tested right after their support call, below).
     if (best_lower_bound > proven_beyond) {
@@ -254,8 +261,6 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
     // Step 3: the stopping rule (35), g(ν_k) ≤ ε·D(K)².
     S gap = 0;
     bool repeated = false;
-    using std::sqrt;
-    const S nu_length = sqrt(nearest->nu_norm2);  // one square root per iteration
     if (nearest->nu_norm2 > 0) {
       k_set.support(-nearest->nu, w, on_a, on_b, ia, ib);
       const S nu_dot_w = nearest->nu.dot(w);
@@ -334,6 +339,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
         out.gap = certified_gap(previous_gap, previous->nu_norm2, best_lower_bound,
                                 roundoff_gap(previous->nu_norm2, diameter));
         std::swap(nearest, previous);
+        out.nu_length = sqrt(nearest->nu_norm2);
       }
       out.termination = out.gap <= roundoff_gap(nearest->nu_norm2, diameter)
                             ? Termination::roundoff_floor
@@ -348,11 +354,10 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   // is short the support plane normal to ν proves little. When the answer lies on a triangle,
   // that triangle's own normal (accurate whatever |ν| is) gives the plane of K's face or of the
   // two shapes' edge–edge contact: one more support call proves d ≥ n̂·s_K(−n̂).
-  using std::sqrt;
   const S slack = distance_roundoff(diameter);
   if (subset_size(nearest->subset) == 3 && nearest->nu_norm2 > 0 &&
       out.termination != Termination::beyond_cutoff && out.termination != Termination::contact &&
-      sqrt(nearest->nu_norm2) - out.lower_bound > slack) {
+      out.nu_length - out.lower_bound > slack) {
     int idx[3], n = 0;
     for (int i = 0; i < 4; ++i)
       if (nearest->subset & (1u << i)) idx[n++] = i;
