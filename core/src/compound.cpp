@@ -41,8 +41,7 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   if (!why && !caches.empty() && caches.size() != a.size() * b.size())
     why = "compound query: caches must be empty or hold one cache per piece pair";
   if (why) {
-    out.nearest.status = Status::invalid_input;
-    out.nearest.message = why;
+    detail::set_invalid(out.nearest, why);
     return out;
   }
 

@@ -21,11 +21,7 @@ const char* detail::invalid_pose_reason(const Pose<S>& pose) {
 
 namespace {
 
-template <class S>
-void set_invalid(DistanceResult<S>& result, const char* message) {
-  result.status = Status::invalid_input;
-  result.message = message;
-}
+using detail::set_invalid;
 
 // Writes into `result`, which the caller has just default-constructed (see
 // detail::distance_with_valid_poses).

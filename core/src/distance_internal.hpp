@@ -103,6 +103,13 @@ template <class S>
   return rigid_poses(pose, pose);
 }
 
+/// Marks a result as rejected input, with the reason.
+template <class S>
+inline void set_invalid(DistanceResult<S>& result, const char* message) {
+  result.status = Status::invalid_input;
+  result.message = message;
+}
+
 /// Why a pose is unusable (non-finite, not orthonormal, a reflection), or nullptr when
 /// rigid_pose(pose).
 template <class S>
