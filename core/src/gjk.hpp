@@ -147,9 +147,7 @@ bool nearest_of_simplex(Subalgorithm method, const Simplex<S>& simplex, const Ve
     signed_volumes(simplex, nearest);
     return true;
   }
-  unsigned order[15];
-  const int n = subset_order(simplex, newest, order);
-  return distance_subalgorithm(simplex, order, n, nearest);
+  return distance_subalgorithm(simplex, subset_order(simplex, newest), nearest);
 }
 
 /// Runs steps 1–6. `diameter` is D(K) of eq. (37) and `d2_tolerance` ε·D(K)² of eq. (35);

@@ -57,10 +57,8 @@ Simplex<double> make_simplex(const std::vector<V>& pts) {
 }
 
 Nearest<double> solve(Simplex<double> s, bool* used_backup = nullptr) {
-  unsigned order[15];
-  const int n = subset_order(s, V(V::Zero()), order);
   Nearest<double> out;
-  const bool ok = distance_subalgorithm(s, order, n, out);
+  const bool ok = distance_subalgorithm(s, subset_order(s, V(V::Zero())), out);
   if (!ok) backup_procedure(s, out);
   if (used_backup) *used_backup = !ok;
   return out;
@@ -177,16 +175,15 @@ TEST(Subalgorithm, PenetrationBoundIsNearestFacePlane) {
 TEST(Subalgorithm, OrderingListsEverySubsetOnce) {
   Simplex<double> s = make_simplex({V(1, 0, 0), V(0, 1, 0), V(0, 0, 1)});
   s.add(V(1, 1, 1), V(1, 1, 1), V::Zero(), 0, 0);  // newest in slot 3
-  unsigned order[15];
-  const int n = subset_order(s, V(1, 1, 1), order);
-  EXPECT_EQ(n, 15);
+  const SubsetOrder& order = subset_order(s, V(1, 1, 1));
+  EXPECT_EQ(order.count, 15);
   unsigned seen = 0;
-  for (int i = 0; i < n; ++i) {
-    EXPECT_EQ(seen & (1u << order[i]), 0u);
-    seen |= 1u << order[i];
+  for (int i = 0; i < order.count; ++i) {
+    EXPECT_EQ(seen & (1u << order.subsets[i]), 0u);
+    seen |= 1u << order.subsets[i];
   }
-  EXPECT_TRUE(order[0] & (1u << 3)) << "the first candidate contains the newest point";
-  EXPECT_EQ(std::popcount(order[0]), 3);
+  EXPECT_TRUE(order.subsets[0] & (1u << 3)) << "the first candidate contains the newest point";
+  EXPECT_EQ(std::popcount(order.subsets[0]), 3);
 }
 
 // Guards the signed-volumes subalgorithm (Montanari et al. 2017) on the same random simplices,
