@@ -64,10 +64,12 @@ struct DeltaStep {
   unsigned char rest_slots[3];  // I_rest, increasing
 };
 
-/// The Δ's to compute, in an order where each Y_rest is done before the Y_s that needs it.
+/// The Δ's to compute, in an order where each Y_rest is done before the Y_s that needs it:
+/// grouped by |Y_rest| (steps [by_rest_size[n], by_rest_size[n + 1]) have n points in Y_rest), so
+/// that each group runs with a fixed number of terms.
 template <int Capacity>
 struct DeltaPlan {
-  int count = 0;
+  unsigned char by_rest_size[5] = {};
   DeltaStep steps[Capacity] = {};
 };
 
@@ -75,7 +77,9 @@ struct DeltaPlan {
 template <int Capacity>
 constexpr DeltaPlan<Capacity> make_delta_plan(unsigned used, unsigned required) {
   DeltaPlan<Capacity> plan;
+  int count = 0;
   for (int size = 1; size <= 4; ++size) {
+    plan.by_rest_size[size - 1] = static_cast<unsigned char>(count);
     for (unsigned s = 1; s < 16; ++s) {
       if ((s & required) != required || (s & ~used) || std::popcount(s) != size) continue;
       for (int m = 0; m < 4; ++m) {
@@ -88,10 +92,11 @@ constexpr DeltaPlan<Capacity> make_delta_plan(unsigned used, unsigned required) 
         step.k = static_cast<unsigned char>(rest ? std::countr_zero(rest) : 0);
         for (int i = 0; i < 4; ++i)
           if (rest & (1u << i)) step.rest_slots[step.count++] = static_cast<unsigned char>(i);
-        plan.steps[plan.count++] = step;
+        plan.steps[count++] = step;
       }
     }
   }
+  plan.by_rest_size[4] = static_cast<unsigned char>(count);
   return plan;
 }
 
@@ -176,19 +181,27 @@ struct Simplex {
   /// walk was a fifth of a query with Johnson's method).
   template <int Capacity>
   void update_deltas(const DeltaPlan<Capacity>& plan) {
-    for (int p = 0; p < plan.count; ++p) {
-      const DeltaStep& step = plan.steps[p];
-      if (step.count == 0) {
-        delta[step.s][step.m] = 1;
-        continue;
-      }
-      S sum = 0;
-      for (int j = 0; j < step.count; ++j) {
-        const int i = step.rest_slots[j];
-        sum += delta[step.rest][i] * (dot[i][step.k] - dot[i][step.m]);  // eq. (30)
-      }
-      delta[step.s][step.m] = sum;
+    const unsigned char* group = plan.by_rest_size;
+    for (int p = group[0]; p < group[1]; ++p) delta[plan.steps[p].s][plan.steps[p].m] = 1;
+    // eq. (30), its terms in increasing slot order. (Summed from the first term rather than from
+    // 0: the two differ only in the sign of a zero Δ, which no test of Δ > 0 or Δ ≤ 0 sees.)
+    for (int p = group[1]; p < group[2]; ++p) {
+      const DeltaStep& st = plan.steps[p];
+      delta[st.s][st.m] = term(st, 0);
     }
+    for (int p = group[2]; p < group[3]; ++p) {
+      const DeltaStep& st = plan.steps[p];
+      delta[st.s][st.m] = term(st, 0) + term(st, 1);
+    }
+    for (int p = group[3]; p < group[4]; ++p) {
+      const DeltaStep& st = plan.steps[p];
+      delta[st.s][st.m] = (term(st, 0) + term(st, 1)) + term(st, 2);
+    }
+  }
+  /// Δ_i(Y_rest)·(y_i·y_k − y_i·y_m) for the j-th slot i of Y_rest.
+  S term(const DeltaStep& st, int j) const {
+    const int i = st.rest_slots[j];
+    return delta[st.rest][i] * (dot[i][st.k] - dot[i][st.m]);
   }
 
   /// Keeps only the slots in `mask` (V̂_k). Their inner products and Δ's stay valid.
