@@ -378,7 +378,8 @@ inline constexpr auto kTetrahedronOrders = [] {
 template <class S>
 const SubsetOrder& subset_order(const Simplex<S>& simplex, const Vec3<S>& newest_point) {
   const unsigned used = simplex.used & 15u;
-  if (simplex.newest < 0) return kInitialOrders[used];
+  // No newest point, or (never formed by the loop) one whose slot is not occupied: no history.
+  if (simplex.newest < 0 || !((used >> simplex.newest) & 1u)) return kInitialOrders[used];
   if (used != 15u) return kStepOrders[used][simplex.newest];
   const unsigned old = used & ~(1u << simplex.newest);
   int drop = -1;

@@ -116,6 +116,46 @@ TEST(Subalgorithm, IncrementalDeltasEqualFreshOnes) {
   }
 }
 
+// Guards the update after an added point, which is compiled once per (occupancy, slot): for every
+// combination, a point written into the slot and updated incrementally must leave the same inner
+// products and Δ's, to the last bit, as a rebuild of the whole table (which runs the same steps of
+// eq. (30) in the same order, read from a table at run time).
+TEST(Subalgorithm, IncrementalUpdateMatchesRebuildForEveryOccupancyAndSlot) {
+  std::mt19937_64 rng(99);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  int combinations = 0;
+  for (unsigned used = 1; used < 16; ++used) {
+    for (int slot = 0; slot < 4; ++slot) {
+      if (!(used & (1u << slot))) continue;
+      ++combinations;
+      for (int trial = 0; trial < 20; ++trial) {
+        Simplex<double> inc;
+        for (int i = 0; i < 4; ++i) inc.y[i] = V(normal(rng), normal(rng), normal(rng));
+        inc.used = used;
+        inc.tables_valid = false;
+        inc.rebuild_tables();
+        inc.y[slot] = V(normal(rng), normal(rng), normal(rng));  // the slot takes a new point
+        inc.update_tables_for(slot);
+        Simplex<double> fresh;
+        for (int i = 0; i < 4; ++i) fresh.y[i] = inc.y[i];
+        fresh.used = used;
+        fresh.tables_valid = false;
+        fresh.rebuild_tables();
+        for (unsigned s = 1; s < 16; ++s) {
+          if (s & ~used) continue;
+          for (int i = 0; i < 4; ++i) {
+            if (!(s & (1u << i))) continue;
+            EXPECT_EQ(inc.delta[s][i], fresh.delta[s][i])
+                << "occupancy " << used << ", slot " << slot << ", subset " << s << ", i " << i;
+            EXPECT_EQ(inc.dot[slot][i], fresh.dot[slot][i]);
+          }
+        }
+      }
+    }
+  }
+  EXPECT_EQ(combinations, 32);
+}
+
 // The paper: "Δ(Y_s) > 0 if and only if Y_s is affinely independent" (Lemma 1). Duplicate and
 // collinear points must not produce a NaN or a wrong nearest point.
 TEST(Subalgorithm, AffinelyDependentSetsAreHandled) {
