@@ -65,24 +65,20 @@ struct DeltaStep {
   unsigned char rest_slots[3];  // I_rest, increasing
 };
 
-/// The Δ's to compute, in an order where each Y_rest is done before the Y_s that needs it:
-/// grouped by |Y_rest| (steps [by_rest_size[n], by_rest_size[n + 1]) have n points in Y_rest), so
-/// that each group runs with a fixed number of terms.
-template <int Capacity>
+/// The Δ's a point in one slot changes, in an order where each Y_rest is done before the Y_s
+/// that needs it (smallest subsets first).
 struct DeltaPlan {
-  unsigned char by_rest_size[5] = {};
-  DeltaStep steps[Capacity] = {};
+  int count = 0;
+  DeltaStep steps[20] = {};  // at most 1 + 6 + 9 + 4: the subsets with the slot, by size
 };
 
-/// The Δ's of the subsets of `used` that contain all bits of `required`, smallest first.
-template <int Capacity>
-constexpr DeltaPlan<Capacity> make_delta_plan(unsigned used, unsigned required) {
-  DeltaPlan<Capacity> plan;
-  int count = 0;
+/// The Δ's of the subsets of `used` that contain `slot`, smallest first.
+constexpr DeltaPlan make_delta_plan(unsigned used, unsigned slot) {
+  DeltaPlan plan;
+  const unsigned required = 1u << slot;
   for (int size = 1; size <= 4; ++size) {
-    plan.by_rest_size[size - 1] = static_cast<unsigned char>(count);
     for (unsigned s = 1; s < 16; ++s) {
-      if ((s & required) != required || (s & ~used) || std::popcount(s) != size) continue;
+      if (!(s & required) || (s & ~used) || std::popcount(s) != size) continue;
       for (int m = 0; m < 4; ++m) {
         if (!(s & (1u << m))) continue;
         const unsigned rest = s & ~(1u << m);
@@ -93,20 +89,12 @@ constexpr DeltaPlan<Capacity> make_delta_plan(unsigned used, unsigned required) 
         step.k = static_cast<unsigned char>(rest ? std::countr_zero(rest) : 0);
         for (int i = 0; i < 4; ++i)
           if (rest & (1u << i)) step.rest_slots[step.count++] = static_cast<unsigned char>(i);
-        plan.steps[count++] = step;
+        plan.steps[plan.count++] = step;
       }
     }
   }
-  plan.by_rest_size[4] = static_cast<unsigned char>(count);
   return plan;
 }
-
-// A rebuild (after the Backup Procedure's adds without tables) recomputes all 32 Δ's.
-inline constexpr auto kDeltasRebuild = [] {
-  std::array<DeltaPlan<32>, 16> table{};
-  for (unsigned used = 1; used < 16; ++used) table[used] = make_delta_plan<32>(used, 0);
-  return table;
-}();
 
 template <class S>
 struct Simplex {
@@ -163,15 +151,18 @@ struct Simplex {
   /// 1 + 3 + 3 + 1 subsets that contain it at most: 1 + 6 + 9 + 4 Δ's), unrolled at compile time
   /// into straight-line code with the slots as constants. One function per (Used, Slot), called
   /// through kFixedUpdates. (Read from a table of steps at run time, the same plan cost 10–15% more
-  /// per query with Johnson's method.)
+  /// per query with Johnson's method; walking all 15 masks per subset size to find the steps, a
+  /// fifth of a query.)
   template <unsigned Used, unsigned Slot>
   void update_deltas_fixed() {
-    static constexpr DeltaPlan<20> kPlan = make_delta_plan<20>(Used, 1u << Slot);
+    static constexpr DeltaPlan kPlan = make_delta_plan(Used, Slot);
     [this]<std::size_t... P>(std::index_sequence<P...>) {
       (apply_step<kPlan.steps[P]>(), ...);
     }
-    (std::make_index_sequence<kPlan.by_rest_size[4]>{});
+    (std::make_index_sequence<kPlan.count>{});
   }
+  /// eq. (30), its terms in increasing slot order. (Summed from the first term rather than from 0:
+  /// the two differ only in the sign of a zero Δ, which no test of Δ > 0 or Δ ≤ 0 sees.)
   template <DeltaStep St>
   void apply_step() {
     if constexpr (St.count == 0)
@@ -183,6 +174,11 @@ struct Simplex {
     else
       delta[St.s][St.m] = (term(St, 0) + term(St, 1)) + term(St, 2);
   }
+  /// Δ_i(Y_rest)·(y_i·y_k − y_i·y_m) for the j-th slot i of Y_rest.
+  S term(const DeltaStep& st, int j) const {
+    const int i = st.rest_slots[j];
+    return delta[st.rest][i] * (dot[i][st.k] - dot[i][st.m]);
+  }
   using FixedUpdate = void (Simplex::*)();
   template <std::size_t... Key>
   static constexpr std::array<FixedUpdate, 64> fixed_updates(std::index_sequence<Key...>) {
@@ -191,42 +187,17 @@ struct Simplex {
   static constexpr std::array<FixedUpdate, 64> kFixedUpdates =
       fixed_updates(std::make_index_sequence<64>{});
 
-  /// Recomputes every inner product and Δ of the occupied slots (after adds without tables).
+  /// Recomputes every inner product and Δ of the occupied slots (after adds without tables): the
+  /// slots taken in increasing order, as if added one by one, so each update finds the Δ's of the
+  /// subsets without its slot already done.
   void rebuild_tables() {
     if (tables_valid) return;
     for (int i = 0; i < 4; ++i)
       for (int j = 0; j <= i; ++j)
         if ((used & (1u << i)) && (used & (1u << j))) dot[i][j] = dot[j][i] = y[i].dot(y[j]);
-    update_deltas(kDeltasRebuild[used & 15u]);
+    for (unsigned i = 0; i < 4; ++i)
+      if (used & (1u << i)) (this->*kFixedUpdates[(used & ((2u << i) - 1u)) << 2 | i])();
     tables_valid = true;
-  }
-
-  /// Runs a plan of eq. (30) steps (kDeltasRebuild): precomputed per occupancy,
-  /// so the Δ's cost their arithmetic only, not a walk over all 15 masks per size (measured: the
-  /// walk was a fifth of a query with Johnson's method).
-  template <int Capacity>
-  void update_deltas(const DeltaPlan<Capacity>& plan) {
-    const unsigned char* group = plan.by_rest_size;
-    for (int p = group[0]; p < group[1]; ++p) delta[plan.steps[p].s][plan.steps[p].m] = 1;
-    // eq. (30), its terms in increasing slot order. (Summed from the first term rather than from
-    // 0: the two differ only in the sign of a zero Δ, which no test of Δ > 0 or Δ ≤ 0 sees.)
-    for (int p = group[1]; p < group[2]; ++p) {
-      const DeltaStep& st = plan.steps[p];
-      delta[st.s][st.m] = term(st, 0);
-    }
-    for (int p = group[2]; p < group[3]; ++p) {
-      const DeltaStep& st = plan.steps[p];
-      delta[st.s][st.m] = term(st, 0) + term(st, 1);
-    }
-    for (int p = group[3]; p < group[4]; ++p) {
-      const DeltaStep& st = plan.steps[p];
-      delta[st.s][st.m] = (term(st, 0) + term(st, 1)) + term(st, 2);
-    }
-  }
-  /// Δ_i(Y_rest)·(y_i·y_k − y_i·y_m) for the j-th slot i of Y_rest.
-  S term(const DeltaStep& st, int j) const {
-    const int i = st.rest_slots[j];
-    return delta[st.rest][i] * (dot[i][st.k] - dot[i][st.m]);
   }
 
   /// Keeps only the slots in `mask` (V̂_k). Their inner products and Δ's stay valid.

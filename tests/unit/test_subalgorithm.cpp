@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/QR>
+#include <bit>
 #include <random>
 
 #include "johnson.hpp"
@@ -116,11 +117,33 @@ TEST(Subalgorithm, IncrementalDeltasEqualFreshOnes) {
   }
 }
 
-// Guards the update after an added point, which is compiled once per (occupancy, slot): for every
-// combination, a point written into the slot and updated incrementally must leave the same inner
-// products and Δ's, to the last bit, as a rebuild of the whole table (which runs the same steps of
-// eq. (30) in the same order, read from a table at run time).
-TEST(Subalgorithm, IncrementalUpdateMatchesRebuildForEveryOccupancyAndSlot) {
+// eq. (30) as the paper states it, over every subset of `used`, smallest first, with inner
+// products taken afresh: the reference for the engine's compiled updates.
+void reference_deltas(const V (&y)[4], unsigned used, double delta[16][4]) {
+  for (int size = 1; size <= 4; ++size)
+    for (unsigned s = 1; s < 16; ++s) {
+      if ((s & ~used) || std::popcount(s) != size) continue;
+      for (int m = 0; m < 4; ++m) {
+        if (!(s & (1u << m))) continue;
+        const unsigned rest = s & ~(1u << m);
+        if (!rest) {
+          delta[s][m] = 1;
+          continue;
+        }
+        const int k = std::countr_zero(rest);
+        double sum = 0;
+        for (int i = 0; i < 4; ++i)
+          if (rest & (1u << i)) sum += delta[rest][i] * (y[i].dot(y[k]) - y[i].dot(y[m]));
+        delta[s][m] = sum;
+      }
+    }
+}
+
+// Guards the Δ updates, compiled once per (occupancy, slot): for every combination, a point
+// written into the slot and updated incrementally, and a rebuild of the whole table (which runs
+// the updates slot by slot), must give the reference's Δ's and fresh inner products to the last
+// bit.
+TEST(Subalgorithm, DeltaUpdatesMatchTheRecursionForEveryOccupancyAndSlot) {
   std::mt19937_64 rng(99);
   std::normal_distribution<double> normal(0.0, 1.0);
   int combinations = 0;
@@ -141,13 +164,18 @@ TEST(Subalgorithm, IncrementalUpdateMatchesRebuildForEveryOccupancyAndSlot) {
         fresh.used = used;
         fresh.tables_valid = false;
         fresh.rebuild_tables();
+        double expected[16][4];
+        reference_deltas(inc.y, used, expected);
         for (unsigned s = 1; s < 16; ++s) {
           if (s & ~used) continue;
           for (int i = 0; i < 4; ++i) {
             if (!(s & (1u << i))) continue;
-            EXPECT_EQ(inc.delta[s][i], fresh.delta[s][i])
-                << "occupancy " << used << ", slot " << slot << ", subset " << s << ", i " << i;
-            EXPECT_EQ(inc.dot[slot][i], fresh.dot[slot][i]);
+            EXPECT_EQ(inc.delta[s][i], expected[s][i]) << "update: occupancy " << used << ", slot "
+                                                       << slot << ", subset " << s << ", i " << i;
+            EXPECT_EQ(fresh.delta[s][i], expected[s][i])
+                << "rebuild: occupancy " << used << ", subset " << s << ", i " << i;
+            EXPECT_EQ(inc.dot[slot][i], inc.y[slot].dot(inc.y[i]));
+            EXPECT_EQ(inc.dot[i][slot], inc.y[slot].dot(inc.y[i]));
           }
         }
       }
