@@ -86,6 +86,8 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
     }
     detail::distance_with_valid_poses(a.piece(i).shape, *piece_pose_a, b.piece(j).shape,
                                       *piece_pose_b, piece_options, cache, into);
+    out.support_calls += into.support_calls;
+    out.subalgorithm_runs += into.subalgorithm_runs;
   };
 
   // Start with the pair whose spheres are nearest: it usually holds the answer, so the bound

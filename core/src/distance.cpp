@@ -92,6 +92,8 @@ void query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   result.gap = loop.gap;
   result.diameter_bound = diameter;
   result.iterations = loop.iterations;
+  result.support_calls = loop.support_calls;
+  result.subalgorithm_runs = loop.subalgorithm_runs;
   result.termination = loop.termination;
   result.warm_started = loop.warm_started;
   result.finished_by = loop.finished_by;

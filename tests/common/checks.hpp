@@ -27,6 +27,27 @@ bool all_finite(const DistanceResult<S>& r) {
   return ok;
 }
 
+/// Why a result's cost counters cannot come from the loop of Section VI, or nullptr. With k
+/// iterations: step 2 runs once on V_0 and once per added point, and the Backup Procedure at most
+/// once more for each (a failed subalgorithm, or step 6), so k + 1 ≤ runs ≤ 2(k + 1), and more
+/// than k + 1 when the Backup Procedure produced the answer. A cold start makes V_0's support
+/// call; each pass that tests eq. (35) makes one (k passes added a point, each step-6 pass is
+/// paid for by a Backup Procedure run, and the last pass), and the final triangle's normal one
+/// more: calls ≤ [cold] + (runs − 1) + 2.
+template <class S>
+const char* cost_counters_violation(const DistanceResult<S>& r, bool warm_started) {
+  const int k = r.iterations;
+  if (r.subalgorithm_runs < k + 1 || r.subalgorithm_runs > 2 * (k + 1))
+    return "subalgorithm_runs outside [k + 1, 2(k + 1)]";
+  if (r.finished_by == FinishedBy::backup_procedure && r.subalgorithm_runs == k + 1)
+    return "the Backup Procedure finished but no run of it was counted";
+  const int cold = warm_started ? 0 : 1;
+  if (r.support_calls < cold) return "a cold start made no support call";
+  if (r.support_calls > cold + (r.subalgorithm_runs - 1) + 2)
+    return "more support calls than the loop's passes allow";
+  return nullptr;
+}
+
 /// Counts failures per check and keeps the first `keep` messages of each.
 class FailureLog {
  public:

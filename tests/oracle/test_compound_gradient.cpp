@@ -108,7 +108,7 @@ TEST(Compound, EqualsBruteForceMinimumOverPiecePairs) {
   options.near_points = true;
   options.penetration_bound = true;
   int queries = 0, pruned_queries = 0, intersecting = 0, separated = 0, warm_used = 0;
-  int stopped_at_best = 0;
+  int stopped_at_best = 0, single_pair_queries = 0;
   for (int object_set = 0; object_set < 10; ++object_set) {
     const Objects objects = make_objects(rng);
     const std::size_t pairs = objects.a.size() * objects.b.size();
@@ -127,6 +127,18 @@ TEST(Compound, EqualsBruteForceMinimumOverPiecePairs) {
             "pairs_evaluated + pairs_pruned != pieces_a * pieces_b",
             format("%s %d + %d != %zu", where.c_str(), c.pairs_evaluated, c.pairs_pruned, pairs));
       if (c.pairs_evaluated < 1) log.add("no pair evaluated", where);
+      // The query's cost counters sum its evaluated pairs: at least the nearest pair's, at least
+      // one run of step 2 per evaluated pair, and exactly the nearest pair's when it ran alone.
+      if (c.support_calls < c.nearest.support_calls ||
+          c.subalgorithm_runs < c.nearest.subalgorithm_runs ||
+          c.subalgorithm_runs < c.pairs_evaluated ||
+          (c.pairs_evaluated == 1 && (c.support_calls != c.nearest.support_calls ||
+                                      c.subalgorithm_runs != c.nearest.subalgorithm_runs)))
+        log.add("cost counters do not sum the evaluated pairs",
+                format("%s: %d pairs, %d/%d calls, %d/%d runs", where.c_str(), c.pairs_evaluated,
+                       c.support_calls, c.nearest.support_calls, c.subalgorithm_runs,
+                       c.nearest.subalgorithm_runs));
+      single_pair_queries += c.pairs_evaluated == 1;
       pruned_queries += c.pairs_pruned > 0;
       stopped_at_best += c.pairs_stopped_at_best;
       if (c.pairs_stopped_at_best > c.pairs_evaluated - 1)
@@ -198,6 +210,7 @@ TEST(Compound, EqualsBruteForceMinimumOverPiecePairs) {
   // with the best as its cutoff), and the minimum above is still exact.
   EXPECT_GE(stopped_at_best, queries / 5);
   EXPECT_GE(warm_used, queries / 2);
+  EXPECT_GE(single_pair_queries, queries / 10);
   EXPECT_EQ(log.total(), 0) << log.report();
 }
 

@@ -362,6 +362,15 @@ TEST(PaperExperiment, WarmStartAgreesWithColdStart) {
   std::mt19937_64 rng(77);
   FailureLog failures;
   int warm_iterations = 0, cold_iterations = 0, warm_flags = 0;
+  long warm_supports = 0, cold_supports = 0, warm_runs = 0, cold_runs = 0;
+  // The cost counters against the loop's structure (also checked on the stiff cases, where the
+  // Backup Procedure runs): see testkit::check_cost_counters.
+  auto check_counts = [&](const DistanceResult<double>& r, bool warm, const std::string& where) {
+    if (const char* why = nearpoint::testkit::cost_counters_violation(r, warm))
+      failures.add(
+          why, format("%s %s: %d calls, %d runs, %d iterations", where.c_str(),
+                      warm ? "warm" : "cold", r.support_calls, r.subalgorithm_runs, r.iterations));
+  };
   for (const PaperExample& e : examples) {
     const Shape<double> a{Polytope<double>(*e.vertices_a)};
     const Shape<double> b{Polytope<double>(*e.vertices_b)};
@@ -397,12 +406,60 @@ TEST(PaperExperiment, WarmStartAgreesWithColdStart) {
       failures.add("warm distance off the exact one", where);
     warm_iterations += warm.iterations;
     cold_iterations += cold.iterations;
+    check_counts(warm, warm.warm_started, where);
+    check_counts(cold, false, where);
+    warm_supports += warm.support_calls;
+    cold_supports += cold.support_calls;
+    warm_runs += warm.subalgorithm_runs;
+    cold_runs += cold.subalgorithm_runs;
   }
-  std::printf("\nWarm start: %zu examples, %d warm-started, iterations warm %d vs cold %d\n",
-              examples.size(), warm_flags, warm_iterations, cold_iterations);
-  // The point of a warm start: fewer iterations in total after a small motion.
+  std::printf(
+      "\nWarm start: %zu examples, %d warm-started, iterations warm %d vs cold %d, support calls "
+      "%ld vs %ld, subalgorithm runs %ld vs %ld\n",
+      examples.size(), warm_flags, warm_iterations, cold_iterations, warm_supports, cold_supports,
+      warm_runs, cold_runs);
+  // The point of a warm start: fewer iterations, support calls and subalgorithm runs in total
+  // after a small motion.
   EXPECT_LT(warm_iterations, cold_iterations);
+  EXPECT_LT(warm_supports, cold_supports);
+  EXPECT_LT(warm_runs, cold_runs);
   EXPECT_EQ(failures.total(), 0) << failures.report();
+}
+
+// The cost counters on a pair whose answer is known step by step: two cubes whose nearest
+// features are a corner each. Cold: the first support point (along the centroids' offset) is
+// already the corner pair, step 2 runs on that one point, and the second support call repeats it
+// (g = 0): two support calls, one run, no iteration. Warm from that answer, even after a small
+// motion that keeps the corners nearest: the cached pair is rebuilt without a support call, and
+// one support call confirms it.
+TEST(PaperExperiment, CostCountersFollowTheLoopOnACornerPair) {
+  const Shape<double> cube{nearpoint::Box<double>{}};
+  Pose<double> pose_b = Pose<double>::identity();
+  pose_b.translation = Vec3<double>(3, 3, 3);
+  DistanceOptions<double> options;
+  options.near_points = true;
+  for (const auto subalgorithm :
+       {nearpoint::Subalgorithm::signed_volumes, nearpoint::Subalgorithm::johnson}) {
+    options.subalgorithm = subalgorithm;
+    SimplexCache cache;
+    const DistanceResult<double> cold =
+        nearpoint::distance(cube, Pose<double>::identity(), cube, pose_b, options, &cache);
+    ASSERT_EQ(cold.status, Status::separated);
+    EXPECT_NEAR(cold.distance, std::sqrt(3.0), 1e-15);
+    EXPECT_EQ(cold.iterations, 0);
+    EXPECT_EQ(cold.support_calls, 2);
+    EXPECT_EQ(cold.subalgorithm_runs, 1);
+
+    pose_b.translation += Vec3<double>(0.01, -0.02, 0.015);
+    const DistanceResult<double> warm =
+        nearpoint::distance(cube, Pose<double>::identity(), cube, pose_b, options, &cache);
+    ASSERT_TRUE(warm.warm_started);
+    EXPECT_EQ(warm.iterations, 0);
+    EXPECT_EQ(warm.support_calls, 1);
+    EXPECT_EQ(warm.subalgorithm_runs, 1);
+    EXPECT_NEAR(warm.distance, (pose_b.translation - Vec3<double>(2, 2, 2)).norm(), 1e-15);
+    pose_b.translation = Vec3<double>(3, 3, 3);
+  }
 }
 
 // The cold start from the support point and the centroids' point (ColdStart::with_centroids, the

@@ -10,6 +10,7 @@
 #include <random>
 #include <set>
 
+#include "common/checks.hpp"
 #include "common/exact_distance.hpp"
 #include "nearpoint/distance.hpp"
 #include "stiff/stiff_cases.hpp"
@@ -62,6 +63,9 @@ void check_case(const StiffCase<S>& c, Subalgorithm method) {
   EXPECT_GE(r.distance, 0);
   EXPECT_LE(r.iterations, kDefaultMaxIterations);
   EXPECT_NE(r.status, Status::iteration_limit) << "polytopes end in finitely many steps";
+  if (const char* why = testkit::cost_counters_violation(r, false))
+    ADD_FAILURE() << why << ": " << r.support_calls << " support calls, " << r.subalgorithm_runs
+                  << " subalgorithm runs, " << r.iterations << " iterations";
 
   const double error = std::abs(double(r.distance) - truth);
   const double bound = double(r.error_bound);

@@ -58,6 +58,10 @@ struct CompoundResult {
   /// Of the evaluated pairs, those that stopped as soon as a support plane proved them farther
   /// than the best distance found before them (their GJK ran with that as its cutoff).
   int pairs_stopped_at_best = 0;
+  /// DistanceResult::support_calls and subalgorithm_runs summed over the evaluated pairs: the
+  /// whole query's cost (`nearest` counts only its own pair's).
+  int support_calls = 0;
+  int subalgorithm_runs = 0;
 };
 
 /// Distance between compound objects. `caches` is either empty (cold starts) or holds one

@@ -88,6 +88,12 @@ struct DistanceResult {
   Scalar diameter_bound = 0;
   /// GJK iterations: support points added after the initial simplex.
   int iterations = 0;
+  /// What the query cost, counted in the paper's two operations: support calls of K (each one
+  /// support query on both shapes, eq. 21) and runs of step 2 on a simplex (the distance
+  /// subalgorithm, and the Backup Procedure each time it ran). A warm start whose simplex is still
+  /// optimal typically costs one of each.
+  int support_calls = 0;
+  int subalgorithm_runs = 0;
   /// How the loop ended.
   Termination termination = Termination::tolerance;
   /// The simplex came from the warm-start cache.
