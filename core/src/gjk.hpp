@@ -175,7 +175,9 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   Nearest<S> spare;
   Nearest<S>* nearest = &out.nearest;
   Nearest<S>* previous = &spare;
-  Vec3<S> y, on_a, on_b;
+  // Zeroed although every read follows a support call that wrote them: GCC 12 at -O3 cannot see
+  // that a step-4 descent implies step 3's call (ν ≠ 0) and warned on the float build.
+  Vec3<S> y = Vec3<S>::Zero(), on_a = Vec3<S>::Zero(), on_b = Vec3<S>::Zero();
   std::int32_t ia = 0, ib = 0;
   // The cost counters (LoopOutcome::support_calls, subalgorithm_runs) are derived at the end from
   // k and a few events counted off the common path: increments in the loop itself measurably
