@@ -9,8 +9,15 @@ namespace nearpoint::formats {
 namespace {
 
 // Paths and keys are quoted in messages the way they appear in JSON, so "a.pose" reads as a name.
+// Built by appending: a literal prepended to a temporary (`"\"" + std::string(path)`) draws a
+// false -Wrestrict warning from GCC 12 in -O3 builds.
 std::string in_quotes(std::string_view path) {
-  return "\"" + std::string(path) + "\"";
+  std::string quoted;
+  quoted.reserve(path.size() + 2);
+  quoted += '"';
+  quoted += path;
+  quoted += '"';
+  return quoted;
 }
 
 std::string member(std::string_view path, std::string_view key) {
