@@ -364,7 +364,7 @@ TEST(PaperExperiment, WarmStartAgreesWithColdStart) {
   int warm_iterations = 0, cold_iterations = 0, warm_flags = 0;
   long warm_supports = 0, cold_supports = 0, warm_runs = 0, cold_runs = 0;
   // The cost counters against the loop's structure (also checked on the stiff cases, where the
-  // Backup Procedure runs): see testkit::check_cost_counters.
+  // Backup Procedure runs): see testkit::cost_counters_violation.
   auto check_counts = [&](const DistanceResult<double>& r, bool warm, const std::string& where) {
     if (const char* why = nearpoint::testkit::cost_counters_violation(r, warm))
       failures.add(
