@@ -11,7 +11,8 @@
 #
 # Environment: BUILD_DIR (default build-bench), JOBS (build parallelism, default 1: the machine is
 # shared), PYTHON (default /usr/bin/python3, which needs python3-matplotlib: deploy/install-deps.sh
-# --bench installs it).
+# --bench installs it), NEARPOINT_ARCH (default empty, the portable build; e.g. x86-64-v3 to
+# measure a build for this CPU, see CMakeLists.txt; use another BUILD_DIR for it).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -20,7 +21,7 @@ quick=0
 for arg in "$@"; do
   case "$arg" in
     --quick) quick=1 ;;
-    -h|--help) sed -n '2,16p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
     *) echo "bench/run.sh: unknown option '$arg'" >&2; exit 2 ;;
   esac
 done
@@ -35,7 +36,7 @@ fi
 
 start=$(date +%s)
 options=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DNEARPOINT_BUILD_BENCH=ON -DNEARPOINT_BENCH_PEERS=ON
-         -DNEARPOINT_BUILD_CLIENT=OFF -DNEARPOINT_WITH_GRPC=OFF)
+         -DNEARPOINT_BUILD_CLIENT=OFF -DNEARPOINT_WITH_GRPC=OFF -DNEARPOINT_ARCH="${NEARPOINT_ARCH:-}")
 # The bench links the tests' kit (tests/CMakeLists.txt). Should the test tree not configure (it
 # needs GoogleTest, and is work in progress at times), the bench builds the kit from the same
 # sources instead.
@@ -75,6 +76,9 @@ mkdir -p "$out"
   echo "cores,$(nproc)"
   echo "kernel,$(uname -r)"
   echo "compiler,\"$(c++ --version | head -n 1)\""
+  # NEARPOINT_ARCH from the build's cache (a build configured for a known CPU; see CMakeLists.txt).
+  arch=$(sed -n 's/^NEARPOINT_ARCH:STRING=//p' "$build/CMakeCache.txt")
+  echo "arch,\"${arch:+-march=$arch -ffp-contract=fast}${arch:-portable (compiler default)}\""
   echo "date,$(date -u +%Y-%m-%dT%H:%MZ)"
   echo "commit,$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
   # The run's own outputs (results of an earlier run, or of this one so far) do not count.

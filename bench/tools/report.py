@@ -583,6 +583,7 @@ class Report:
                    ["machine", f"{m.get('cpu', '?')}, {m.get('cores', '?')} cores (shared with other "
                                "users' compilations: see the load)"],
                    ["kernel / compiler", f"{m.get('kernel', '?')} / {m.get('compiler', '?')}"],
+                   ["nearpoint compiled for", m.get("arch", "portable")],
                    ["date (UTC)", m.get("date", "?")],
                    ["commit", f"{m.get('commit', '?')} (working tree {m.get('working_tree', '?')})"],
                    ["command", f"`{m.get('command', '?')}`"],

@@ -15,6 +15,16 @@
 
 namespace nearpoint::testkit {
 
+/// Whether this build contracts a·b + c into fused multiply-adds (configured with NEARPOINT_ARCH
+/// for a CPU with FMA): two evaluations of one formula may then be fused differently and differ in
+/// the last bits, so tests that hold two code paths to the same bits compare within rounding.
+inline constexpr bool kFusedMultiplyAdd =
+#ifdef __FP_FAST_FMA
+    true;
+#else
+    false;
+#endif
+
 /// Every floating-point field of a result is finite (the engine promises "never NaN").
 template <class S>
 bool all_finite(const DistanceResult<S>& r) {
