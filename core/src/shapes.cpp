@@ -214,14 +214,6 @@ __attribute__((target("avx2"))) std::size_t argmax_dot_avx2(const float* xs, con
                                                             float dx, float dy, float dz) {
   return argmax_dot(xs, ys, zs, n, dx, dy, dz);
 }
-template <class S>
-__attribute__((target("avx2"))) detail::IndexPair argmax_dot_pair_avx2(const S* const a[3],
-                                                                       std::size_t na, S ax, S ay,
-                                                                       S az, const S* const b[3],
-                                                                       std::size_t nb, S bx, S by,
-                                                                       S bz) {
-  return argmax_dot_pair(a, na, ax, ay, az, b, nb, bx, by, bz);
-}
 bool cpu_has_avx2() {
   static const bool has = [] {
     __builtin_cpu_init();
@@ -235,12 +227,6 @@ template <class S>
 std::size_t argmax_dot_baseline(const S* xs, const S* ys, const S* zs, std::size_t n, S dx, S dy,
                                 S dz) {
   return argmax_dot(xs, ys, zs, n, dx, dy, dz);
-}
-
-template <class S>
-detail::IndexPair argmax_dot_pair_baseline(const S* const a[3], std::size_t na, S ax, S ay, S az,
-                                           const S* const b[3], std::size_t nb, S bx, S by, S bz) {
-  return argmax_dot_pair(a, na, ax, ay, az, b, nb, bx, by, bz);
 }
 
 /// Climbing seeds are the extreme vertices along the integer directions (x, y, z) ∈
@@ -490,22 +476,44 @@ struct Climb {
 };
 
 template <class S>
-detail::IndexPair detail::PairScan::support_indices(const Polytope<S>& a, S ax, S ay, S az,
+std::atomic<detail::PairScan::Search<S>> detail::PairScan::chosen{&detail::PairScan::resolve<S>};
+
+template <class S>
+detail::IndexPair detail::PairScan::resolve(const Polytope<S>& a, S ax, S ay, S az,
+                                            std::int32_t hint_a, const Polytope<S>& b, S bx, S by,
+                                            S bz, std::int32_t hint_b) {
+  Search<S> search = &search_baseline<S>;
+#ifdef NEARPOINT_HAVE_AVX2_CLONE
+  if (cpu_has_avx2()) search = &search_avx2<S>;
+#endif
+  chosen<S>.store(search, std::memory_order_relaxed);
+  return search(a, ax, ay, az, hint_a, b, bx, by, bz, hint_b);
+}
+
+template <class S>
+detail::IndexPair detail::PairScan::search_baseline(const Polytope<S>& a, S ax, S ay, S az,
                                                     std::int32_t hint_a, const Polytope<S>& b, S bx,
                                                     S by, S bz, std::int32_t hint_b) {
   if (a.climbs() || b.climbs())
     return climb_indices(a, Vec3<S>(ax, ay, az), hint_a, b, Vec3<S>(bx, by, bz), hint_b);
   const S* const coords_a[3] = {a.xs_.data(), a.ys_.data(), a.zs_.data()};
   const S* const coords_b[3] = {b.xs_.data(), b.ys_.data(), b.zs_.data()};
-  // The polytope's own scan pointer says which build this CPU runs (chosen once per process).
-#ifdef NEARPOINT_HAVE_AVX2_CLONE
-  if (a.scan_ != &argmax_dot_baseline<S>)
-    return argmax_dot_pair_avx2<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx,
-                                   by, bz);
-#endif
-  return argmax_dot_pair_baseline<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx,
-                                     by, bz);
+  return argmax_dot_pair<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx, by, bz);
 }
+
+#ifdef NEARPOINT_HAVE_AVX2_CLONE
+// The same search with the interleaved scans compiled for AVX2 (see argmax_dot_avx2).
+template <class S>
+__attribute__((target("avx2"))) detail::IndexPair detail::PairScan::search_avx2(
+    const Polytope<S>& a, S ax, S ay, S az, std::int32_t hint_a, const Polytope<S>& b, S bx, S by,
+    S bz, std::int32_t hint_b) {
+  if (a.climbs() || b.climbs())
+    return climb_indices(a, Vec3<S>(ax, ay, az), hint_a, b, Vec3<S>(bx, by, bz), hint_b);
+  const S* const coords_a[3] = {a.xs_.data(), a.ys_.data(), a.zs_.data()};
+  const S* const coords_b[3] = {b.xs_.data(), b.ys_.data(), b.zs_.data()};
+  return argmax_dot_pair<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx, by, bz);
+}
+#endif
 
 template <class S>
 detail::IndexPair detail::PairScan::climb_indices(const Polytope<S>& a, const Vec3<S>& direction_a,
@@ -587,8 +595,7 @@ Vec3<S> support(const Shape<S>& shape, const Vec3<S>& direction, int& index) {
   template Vec3<S> core_center(const Shape<S>&);                         \
   template S core_extent(const Shape<S>&);                               \
   template Vec3<S> support(const Shape<S>&, const Vec3<S>&, int& index); \
-  template detail::IndexPair detail::PairScan::support_indices(          \
-      const Polytope<S>&, S, S, S, std::int32_t, const Polytope<S>&, S, S, S, std::int32_t);
+  template std::atomic<detail::PairScan::Search<S>> detail::PairScan::chosen<S>;
 NEARPOINT_INSTANTIATE(double)
 NEARPOINT_INSTANTIATE(float)
 #undef NEARPOINT_INSTANTIATE
