@@ -40,7 +40,7 @@ struct PairScan {
   /// Directions by component, so that they travel in registers rather than through memory (the
   /// call is on GJK's critical path). One indirect call, straight into the build of the search
   /// this CPU runs (AVX2 or the baseline): a dispatching function in between cost a second call
-  /// and return per support call (measured: 2–3% of a query on the paper set).
+  /// and return per support call (measured: about 2% of a query on the paper set).
   template <class S>
   [[gnu::always_inline]] static IndexPair support_indices(const Polytope<S>& a, S ax, S ay, S az,
                                                           std::int32_t hint_a, const Polytope<S>& b,
