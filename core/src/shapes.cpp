@@ -491,14 +491,21 @@ detail::IndexPair detail::PairScan::resolve(const Polytope<S>& a, S ax, S ay, S 
 }
 
 template <class S>
-detail::IndexPair detail::PairScan::search_baseline(const Polytope<S>& a, S ax, S ay, S az,
-                                                    std::int32_t hint_a, const Polytope<S>& b, S bx,
-                                                    S by, S bz, std::int32_t hint_b) {
+[[gnu::always_inline]] inline detail::IndexPair detail::PairScan::search(
+    const Polytope<S>& a, S ax, S ay, S az, std::int32_t hint_a, const Polytope<S>& b, S bx, S by,
+    S bz, std::int32_t hint_b) {
   if (a.climbs() || b.climbs())
     return climb_indices(a, Vec3<S>(ax, ay, az), hint_a, b, Vec3<S>(bx, by, bz), hint_b);
   const S* const coords_a[3] = {a.xs_.data(), a.ys_.data(), a.zs_.data()};
   const S* const coords_b[3] = {b.xs_.data(), b.ys_.data(), b.zs_.data()};
   return argmax_dot_pair<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx, by, bz);
+}
+
+template <class S>
+detail::IndexPair detail::PairScan::search_baseline(const Polytope<S>& a, S ax, S ay, S az,
+                                                    std::int32_t hint_a, const Polytope<S>& b, S bx,
+                                                    S by, S bz, std::int32_t hint_b) {
+  return search(a, ax, ay, az, hint_a, b, bx, by, bz, hint_b);
 }
 
 #ifdef NEARPOINT_HAVE_AVX2_CLONE
@@ -507,11 +514,7 @@ template <class S>
 __attribute__((target("avx2"))) detail::IndexPair detail::PairScan::search_avx2(
     const Polytope<S>& a, S ax, S ay, S az, std::int32_t hint_a, const Polytope<S>& b, S bx, S by,
     S bz, std::int32_t hint_b) {
-  if (a.climbs() || b.climbs())
-    return climb_indices(a, Vec3<S>(ax, ay, az), hint_a, b, Vec3<S>(bx, by, bz), hint_b);
-  const S* const coords_a[3] = {a.xs_.data(), a.ys_.data(), a.zs_.data()};
-  const S* const coords_b[3] = {b.xs_.data(), b.ys_.data(), b.zs_.data()};
-  return argmax_dot_pair<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx, by, bz);
+  return search(a, ax, ay, az, hint_a, b, bx, by, bz, hint_b);
 }
 #endif
 

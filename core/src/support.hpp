@@ -60,6 +60,10 @@ struct PairScan {
   template <class S>
   static IndexPair resolve(const Polytope<S>& a, S ax, S ay, S az, std::int32_t hint_a,
                            const Polytope<S>& b, S bx, S by, S bz, std::int32_t hint_b);
+  /// The search: both climbs, or both scans interleaved. Inlined into its two builds below.
+  template <class S>
+  static IndexPair search(const Polytope<S>& a, S ax, S ay, S az, std::int32_t hint_a,
+                          const Polytope<S>& b, S bx, S by, S bz, std::int32_t hint_b);
   /// The search compiled for the baseline and (x86) for AVX2.
   template <class S>
   static IndexPair search_baseline(const Polytope<S>& a, S ax, S ay, S az, std::int32_t hint_a,
