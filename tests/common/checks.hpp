@@ -25,6 +25,12 @@ inline constexpr bool kFusedMultiplyAdd =
     false;
 #endif
 
+/// The slack for holding two evaluations of one formula to each other: exactly 0 (bit for bit)
+/// in a portable build, `relative` × (1 + |value|) where multiply-adds are fused.
+inline double fused_rounding_slack(double value, double relative) {
+  return kFusedMultiplyAdd ? relative * (1 + std::abs(value)) : 0.0;
+}
+
 /// Every floating-point field of a result is finite (the engine promises "never NaN").
 template <class S>
 bool all_finite(const DistanceResult<S>& r) {

@@ -113,7 +113,7 @@ TEST(HillClimb, ReachesTheScanMaximumFromAnyStart) {
       // (the climb and the scan may then round their inner products differently).
       const double scan_max = scanning.centered_vertex(s).dot(d);
       EXPECT_NEAR(climbing.centered_vertex(c).dot(d), scan_max,
-                  testkit::kFusedMultiplyAdd ? 1e-15 * (1 + std::abs(scan_max)) : 0.0)
+                  testkit::fused_rounding_slack(scan_max, 1e-15))
           << "n=" << n << " d=" << d.transpose();
     }
   }

@@ -173,15 +173,14 @@ TEST(Subalgorithm, DeltaUpdatesMatchTheRecursionForEveryOccupancyAndSlot) {
             if (!(s & (1u << i))) continue;
             // Bit for bit, unless the build fuses multiply-adds (testkit::kFusedMultiplyAdd):
             // then within a rounding of the terms, which are O(1) here.
-            const double slack =
-                testkit::kFusedMultiplyAdd ? 1e-13 * (1 + std::abs(expected[s][i])) : 0.0;
+            const double slack = testkit::fused_rounding_slack(expected[s][i], 1e-13);
             EXPECT_NEAR(inc.delta[s][i], expected[s][i], slack)
                 << "update: occupancy " << used << ", slot " << slot << ", subset " << s << ", i "
                 << i;
             EXPECT_NEAR(fresh.delta[s][i], expected[s][i], slack)
                 << "rebuild: occupancy " << used << ", subset " << s << ", i " << i;
             const double dot = inc.y[slot].dot(inc.y[i]);
-            const double dot_slack = testkit::kFusedMultiplyAdd ? 1e-14 * (1 + std::abs(dot)) : 0.0;
+            const double dot_slack = testkit::fused_rounding_slack(dot, 1e-14);
             EXPECT_NEAR(inc.dot[slot][i], dot, dot_slack);
             EXPECT_NEAR(inc.dot[i][slot], dot, dot_slack);
           }
