@@ -276,10 +276,11 @@ struct ReasonVisitor {
 }  // namespace
 
 template <class S>
-Polytope<S>::Polytope(std::span<const Vec3<S>> vertices, std::span<const std::vector<int>> faces)
+Polytope<S>::Polytope(std::span<const Vec3<S>> vertices, std::span<const std::vector<int>> faces,
+                      FacesCheck check)
     : Polytope(vertices) {
   if (invalid_reason_) return;
-  invalid_reason_ = check_faces(faces);
+  invalid_reason_ = check_faces(faces, check);
   if (invalid_reason_ || size_ < kHillClimbThreshold) return;
 
   // The edge graph: each undirected edge once per end (check_faces proved every directed edge
@@ -311,7 +312,8 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices, std::span<const std::ve
 }
 
 template <class S>
-const char* Polytope<S>::check_faces(std::span<const std::vector<int>> faces) const {
+const char* Polytope<S>::check_faces(std::span<const std::vector<int>> faces,
+                                     FacesCheck check) const {
   if (faces.empty()) return "polytope faces: none given";
   // Directed edges (from, to) as 64-bit keys, each with its face and the vertex that follows it
   // in that face; sorted by key, each must occur once, with its twin.
@@ -356,16 +358,28 @@ const char* Polytope<S>::check_faces(std::span<const std::vector<int>> faces) co
   const long long euler =
       (long long)size_ - (long long)(edges.size() / 2) + (long long)faces.size();
   if (euler != 2) return "polytope faces: the surface is not a sphere (V - E + F != 2)";
+  if (check == FacesCheck::topology) return nullptr;
 
   // Geometry: every face planar and every edge convex, up to roundoff. Each face is represented
   // by its largest fan triangle (p, q, r); "d above the plane" is the sign of the orientation
-  // determinant (q − p)×(r − p)·(d − p), trusted only beyond its rounding-error bound, so sliver
-  // triangles of a fine hull pass while a real dent (a vertex above a neighbouring face) fails.
+  // determinant D = (q − p)×(r − p)·(d − p) = (u×v)·w, trusted only beyond its rounding-error
+  // bound, so sliver triangles of a fine hull pass while a real dent (a vertex above a
+  // neighbouring face) fails. Two roundings bound it:
+  //  - evaluating D from the stored vertices: 32 ε |u||v||w|;
+  //  - the stored vertices themselves, z − z̄ rounded (eq. 34's centring): each coordinate is off
+  //    by up to ε/2 |z_k − z̄_k| ≤ ε/2 · extent, so each point moves by δ ≤ 0.87 ε · extent, an
+  //    error that does not shrink with the triangle. D's gradient with respect to d, q, r is u×v,
+  //    v×w, w×u (and minus their sum for p), so moving the four points by δ changes D by at most
+  //    2δ(|u||v| + |v||w| + |w||u|) to first order; 4 ε · extent covers it with a margin for the
+  //    higher-order terms. Without this term, exactly convex hulls with slivers next to nearly
+  //    coplanar faces (the paper's polytopes with rotated caps) were refused as not convex.
   auto height = [&](const std::array<std::uint32_t, 3>& t, std::uint32_t d, S& bound) {
     const Vec3<S> p = centered_vertex(t[0]);
     const Vec3<S> u = centered_vertex(t[1]) - p, v = centered_vertex(t[2]) - p;
     const Vec3<S> w = centered_vertex(d) - p;
-    bound = S(32) * std::numeric_limits<S>::epsilon() * u.norm() * v.norm() * w.norm();
+    const S eps = std::numeric_limits<S>::epsilon();
+    const S nu = u.norm(), nv = v.norm(), nw = w.norm();
+    bound = S(32) * eps * nu * nv * nw + S(4) * eps * extent_ * (nu * nv + nv * nw + nw * nu);
     return u.cross(v).dot(w);
   };
   std::vector<std::array<std::uint32_t, 3>> planes;

@@ -57,6 +57,17 @@ struct Ellipsoid {
   Vec3<Scalar> radii = Vec3<Scalar>::Ones();
 };
 
+/// How much of a faces list Polytope's constructor checks.
+enum class FacesCheck : unsigned char {
+  /// The surface's topology and its geometry (planar faces, convex edges, to within the rounding
+  /// of the stored vertices): for faces from a caller.
+  full,
+  /// The topology only: for faces computed with exact predicates from exactly these vertices
+  /// (`nearpoint::convex_hull`), whose convexity is proved; a floating-point re-check could
+  /// only refuse a valid hull.
+  topology,
+};
+
 /// The convex hull of a vertex list (the paper's co Z, eq. 19). Vertices need not be on the hull:
 /// interior points, duplicates and coplanar sets are fine and cost only their scan time.
 ///
@@ -79,10 +90,12 @@ class Polytope {
   /// vertices and `faces` its faces, each a cycle of vertex indices counter-clockwise seen from
   /// outside (what `nearpoint::convex_hull` in nearpoint/hull.hpp returns). The faces are checked:
   /// indices in range, every vertex on a face, a closed oriented surface of sphere topology
-  /// (V − E + F = 2), planar faces and convex edges to within a few ulps of the extent². A set
-  /// that fails any check leaves the polytope invalid with the reason. Below
+  /// (V − E + F = 2), planar faces and convex edges to within the rounding of the centred vertices.
+  /// A set that fails any check leaves the polytope invalid with the reason; `FacesCheck::topology`
+  /// skips the geometric checks for faces proved convex by exact predicates. Below
   /// `kHillClimbThreshold` vertices the faces are checked but the scan is used: it is faster there.
-  Polytope(std::span<const Vec3<Scalar>> vertices, std::span<const std::vector<int>> faces);
+  Polytope(std::span<const Vec3<Scalar>> vertices, std::span<const std::vector<int>> faces,
+           FacesCheck check = FacesCheck::full);
 
   /// From this many vertices on, a polytope built with faces climbs instead of scanning (the
   /// crossover measured by bench/ experiment `large`).
@@ -119,7 +132,7 @@ class Polytope {
 
  private:
   friend struct detail::PairScan;
-  const char* check_faces(std::span<const std::vector<int>> faces) const;
+  const char* check_faces(std::span<const std::vector<int>> faces, FacesCheck check) const;
   std::size_t climb(const Vec3<Scalar>& direction, std::int32_t hint) const;
 
   // The vectorised scan compiled for this CPU (AVX2 or the baseline), chosen once per process and

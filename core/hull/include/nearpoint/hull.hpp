@@ -24,7 +24,11 @@ struct Hull {
 };
 
 /// The convex hull of `points` (non-empty, finite). Predicates are exact, so near-degenerate
-/// inputs (needles, slivers, 1e-12-thin tetrahedra) get their true combinatorial hull.
+/// inputs (needles, slivers, 1e-12-thin tetrahedra, flat sets with sub-normal offsets) get their
+/// true combinatorial hull. The result is canonical, so the same input gives the same hull bit for
+/// bit in any process state: vertices in the order of their first occurrence in the input (each
+/// with that occurrence's coordinates), each face starting at its smallest vertex index, faces in
+/// lexicographic order.
 Hull convex_hull(std::span<const Vec3<double>> points);
 
 /// The polytope co(points), reduced to the hull's vertices and, for a solid hull, given its faces
