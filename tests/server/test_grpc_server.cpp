@@ -5,9 +5,13 @@
 #include <atomic>
 #include <functional>
 #include <future>
+#include <limits>
+#include <random>
 #include <thread>
 
+#include "common/exact_distance.hpp"
 #include "common/held_workers.hpp"
+#include "common/paper_family.hpp"
 #include "scene_fixture.hpp"
 #include "tsan_handoff.hpp"
 
@@ -462,6 +466,60 @@ void expect_error(const grpc::Status& status, grpc::StatusCode code, const std::
   if (!field.empty()) {
     EXPECT_EQ(status.error_message().rfind(field + ": ", 0), 0u)
         << "message '" << status.error_message() << "' does not start with '" << field << ": '";
+  }
+}
+
+// Guards the server's hull path (RegisterGeometry builds the hull of a polytope of 64+ vertices
+// and gives its faces to the engine): exact hulls were refused as "the surface is not convex"
+// when rounding of the centred vertices exceeded the convexity check's allowance. The paper's
+// M = 100 polytopes placed in world coordinates (the first set below was refused before the fix,
+// the others sit 1 km and 100 km from the origin) must be accepted, and a query on each must give
+// CGAL's exact distance.
+TEST_F(GrpcServerTest, LargePolytopesInWorldCoordinatesAreAcceptedAndExact) {
+  const auto paper = testkit::paper_polytopes();
+  struct Placement {
+    int number;
+    std::uint64_t seed;
+    double reach;
+  };
+  for (const Placement& at :
+       {Placement{12, 749, 1.0}, Placement{11, 3, 1e3}, Placement{12, 4, 1e5}}) {
+    SCOPED_TRACE(::testing::Message() << "polytope " << at.number << " at " << at.reach);
+    std::mt19937_64 rng(at.seed);
+    std::normal_distribution<double> normal;
+    const Eigen::Quaterniond q(normal(rng), normal(rng), normal(rng), normal(rng));
+    const Pose<double> pose =
+        Pose<double>::from_quaternion(q, at.reach * testkit::random_unit_vector(rng));
+    std::vector<Vec3<double>> world;
+    for (const Vec3<double>& v : *paper[std::size_t(at.number - 1)].vertices)
+      world.push_back(pose.apply(v));
+    ASSERT_EQ(world.size(), 100u);
+    std::vector<Vec3<double>> probe = box_vertices(Vec3<double>(0.5, 0.3, 0.2));
+    for (Vec3<double>& v : probe) v += world[0] + Vec3<double>(2.5, -1.0, 0.5);
+
+    const std::string hull_id = register_geometry(stub(), polytope_geometry("paper", world));
+    const std::string probe_id = register_geometry(stub(), polytope_geometry("probe", probe));
+    ASSERT_FALSE(hull_id.empty());
+    v1::CreateSceneRequest create;
+    create.add_objects()->set_id("paper");
+    create.mutable_objects(0)->set_geometry_id(hull_id);
+    create.add_objects()->set_id("probe");
+    create.mutable_objects(1)->set_geometry_id(probe_id);
+    v1::CreateSceneResponse created;
+    ASSERT_TRUE(stub().CreateScene(make_context().get(), create, &created).ok());
+    v1::QueryRequest query;
+    query.set_scene_id(created.scene_id());
+    v1::DistanceReport report;
+    const grpc::Status status = stub().Query(make_context().get(), query, &report);
+    ASSERT_TRUE(status.ok()) << status.error_message();
+    ASSERT_EQ(report.pairs_size(), 1);
+    const testkit::ExactDistance exact = testkit::exact_distance<double>(
+        world, Pose<double>::identity(), probe, Pose<double>::identity());
+    ASSERT_FALSE(exact.intersecting);
+    // Beyond the reported bound, the rounding of world coordinates of magnitude `reach`.
+    EXPECT_LE(
+        std::abs(report.pairs(0).distance() - exact.distance),
+        report.pairs(0).error_bound() + 4 * std::numeric_limits<double>::epsilon() * at.reach);
   }
 }
 
