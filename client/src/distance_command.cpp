@@ -30,12 +30,9 @@ std::string in_quotes(std::string_view name) {
   return "\"" + std::string(name) + "\"";
 }
 
-// nlohmann's parse messages start with "[json.exception.parse_error.101] parse error at line 1,
-// column 5: "; the line is ours to number, so keep the column and the explanation.
-std::string parse_error_text(const nlohmann::json::exception& e) {
-  std::string text = e.what();
-  if (const std::size_t bracket = text.find("] "); bracket != std::string::npos)
-    text.erase(0, bracket + 2);
+// parse_json's messages say "parse error at line 1, column 5: "; the line is ours to number, so
+// keep the column and the explanation.
+std::string without_line_one(std::string text) {
   if (const std::size_t at = text.find("line 1, "); at != std::string::npos)
     text.erase(at, std::string_view("line 1, ").size());  // "parse error at column 5: …"
   return text;
@@ -94,7 +91,7 @@ LineOptions parse_options(const Json& options) {
     } else if (name == "depth") {
       out.penetration = Penetration::depth;
     } else {
-      throw LineError{expected + " (got " + penetration.dump() + ")"};
+      throw LineError{expected + " (got " + user_key(name) + ")"};
     }
   }
   out.engine.penetration_bound = out.penetration == Penetration::bound;
@@ -145,13 +142,14 @@ Json DistanceSession::answer_json(std::string_view text, long line_number) {
   Json out = Json::object();
   out["id"] = nullptr;
   try {
+    // Nesting is bounded (formats::kMaxNestingDepth) before anything is built: the id is copied
+    // into the answer and dumped, recursively, and a line nested 100,000 deep overflowed the stack.
     Json line;
-    try {
-      line = Json::parse(text);
-    } catch (const nlohmann::json::exception& e) {
-      const std::string detail = parse_error_text(e);
+    int error_id = 0;
+    if (std::string error = formats::parse_json(text, line, &error_id); !error.empty()) {
+      const std::string detail = without_line_one(std::move(error));
       std::string message = "not valid JSON: " + detail;
-      if (e.id == 406 ||
+      if (error_id == 406 ||
           (detail.find("invalid literal") != std::string::npos && mentions_non_finite(text)))
         message += " (JSON has no NaN or Infinity: every number must be finite)";
       throw LineError{std::move(message)};

@@ -1,6 +1,8 @@
 #include "nearpoint/formats/json_shapes.hpp"
 
+#include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <exception>
 #include <utility>
 #include <vector>
@@ -321,12 +323,84 @@ std::string parse_pose_or_throw(const Json& value, std::string_view path, Pose<d
 
 }  // namespace
 
+std::string short_prefix(std::string_view text, std::size_t max_bytes) {
+  if (text.size() <= max_bytes) return std::string(text);
+  std::size_t cut = max_bytes;
+  while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
+  return std::string(text.substr(0, cut)) + "...";
+}
+
 std::string user_key(const std::string& key) {
   constexpr std::size_t kMaxBytes = 60;
-  if (key.size() <= kMaxBytes) return Json(key).dump();
-  std::size_t cut = kMaxBytes;
-  while (cut > 0 && (static_cast<unsigned char>(key[cut]) & 0xC0) == 0x80) --cut;
-  return Json(key.substr(0, cut) + "...").dump();
+  // Replace, not throw, on invalid UTF-8: keys from YAML files are not validated by a JSON parser.
+  std::string cut = key.size() <= kMaxBytes ? key : short_prefix(key, kMaxBytes);
+  return Json(std::move(cut)).dump(-1, ' ', false, Json::error_handler_t::replace);
+}
+
+namespace {
+
+// One pass over the text before nlohmann's parser sees it: the nesting depth of arrays and
+// objects (outside strings) and numbers that overflow a double, each reported with its line and
+// column. nlohmann parses any depth without recursion, but the values it builds are then copied,
+// compared and dumped recursively; and its overflow error (out_of_range 406) names no position.
+// Brackets are only counted, not matched: the parser reports mismatches.
+std::string scan_json(std::string_view text, int* error_id) {
+  int depth = 0;
+  std::size_t line = 1, line_start = 0;
+  auto where = [&](std::size_t at) {
+    return " at line " + std::to_string(line) + ", column " + std::to_string(at - line_start + 1);
+  };
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+      line_start = i + 1;
+    } else if (c == '"') {
+      // Skip the string (escapes included); an unterminated one is the parser's to report.
+      for (++i; i < text.size() && text[i] != '"'; ++i)
+        if (text[i] == '\\') ++i;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxNestingDepth) {
+        if (error_id != nullptr) *error_id = 0;
+        return "nesting deeper than " + std::to_string(kMaxNestingDepth) + " levels" + where(i);
+      }
+    } else if (c == ']' || c == '}') {
+      if (depth > 0) --depth;
+    } else if (c == '-' || (c >= '0' && c <= '9')) {
+      std::size_t end = i + 1;
+      while (end < text.size() &&
+             (std::isdigit(static_cast<unsigned char>(text[end])) || text[end] == '.' ||
+              text[end] == 'e' || text[end] == 'E' || text[end] == '+' || text[end] == '-'))
+        ++end;
+      const std::string token(text.substr(i, end - i));
+      if (std::isinf(std::strtod(token.c_str(), nullptr))) {
+        if (error_id != nullptr) *error_id = 406;
+        return "number " + short_prefix(token, 40) +
+               " is out of range (JSON numbers must be finite doubles)" + where(i);
+      }
+      i = end - 1;
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+std::string parse_json(std::string_view text, Json& out, int* error_id) noexcept {
+  try {
+    if (std::string error = scan_json(text, error_id); !error.empty()) return error;
+    out = Json::parse(text);
+    return {};
+  } catch (const Json::exception& e) {
+    if (error_id != nullptr) *error_id = e.id;
+    std::string message = e.what();
+    if (const std::size_t bracket = message.find("] "); bracket != std::string::npos)
+      message.erase(0, bracket + 2);  // "[json.exception.parse_error.101] "
+    return short_prefix(message, 200);
+  } catch (const std::exception& e) {  // exhausted memory
+    if (error_id != nullptr) *error_id = 0;
+    return std::string("cannot parse: ") + e.what();
+  }
 }
 
 std::string describe_type(const Json& value) {

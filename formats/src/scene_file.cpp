@@ -1,5 +1,6 @@
 #include "nearpoint/formats/scene_file.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -28,7 +29,7 @@ std::string element(const std::string& path, std::size_t index) {
 }
 
 std::string unknown_key(const std::string& path, const std::string& key, const char* allowed) {
-  return quoted(path) + " has the unknown key " + Json(key).dump() + " (allowed: " + allowed + ")";
+  return quoted(path) + " has the unknown key " + user_key(key) + " (allowed: " + allowed + ")";
 }
 
 std::string read_string(const Json& value, const std::string& path, std::string& out) {
@@ -45,9 +46,17 @@ std::string read_bool(const Json& value, const std::string& path, bool& out) {
   return {};
 }
 
+// A value for a message: a number or a string as written (cut short), anything else by its type.
+// Never the whole value: a hostile file's value may be huge or deeply nested.
+std::string short_value(const Json& value) {
+  if (value.is_number()) return value.dump();
+  if (value.is_string()) return user_key(value.get_ref<const std::string&>());
+  return describe_type(value);
+}
+
 std::string read_uint32(const Json& value, const std::string& path, std::uint32_t& out) {
   if (!value.is_number_unsigned() && !(value.is_number_integer() && value.get<long long>() >= 0))
-    return quoted(path) + " must be an integer in [0, 4294967295] (got " + value.dump() + ")";
+    return quoted(path) + " must be an integer in [0, 4294967295] (got " + short_value(value) + ")";
   const auto n = value.get<unsigned long long>();
   if (n > 0xFFFFFFFFull) return quoted(path) + " must be at most 4294967295";
   out = std::uint32_t(n);
@@ -196,7 +205,7 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
       bool known = false;
       for (const auto& [name, ignored] : file.geometries) known = known || name == geometry_name;
       if (!known)
-        return quoted(member(path, "geometry")) + ": no geometry " + Json(geometry_name).dump() +
+        return quoted(member(path, "geometry")) + ": no geometry " + user_key(geometry_name) +
                " in \"geometries\"";
     }
     file.geometry_names.push_back(geometry_name);
@@ -231,22 +240,46 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
 }
 
 #ifdef NEARPOINT_WITH_YAML
+// Values a YAML document may expand to when its aliases are copied out: at least this many, and
+// four per byte of the file (a file without aliases has fewer values than bytes). A 600-byte
+// "billion laughs" document expands to 10⁹ values and grew past 6 GB.
+constexpr std::size_t kMinYamlValueBudget = 1'000'000;
+
 // YAML → JSON: plain scalars become numbers or booleans when they read as such (YAML 1.2's core
-// schema), quoted scalars stay strings.
-Json yaml_to_json(const YAML::Node& node) {
+// schema), quoted scalars stay strings. yaml-cpp keeps an alias as a second reference to its
+// anchor's node, so the document is a graph (a cycle for `a: &a [*a]`) that this conversion
+// unfolds into a tree: `depth` (of the node being converted, the root's 1) stops cycles and deep
+// nesting at kMaxNestingDepth, `budget` (values left) stops exponential alias expansion. Both
+// throw a YAML::ParserException at the offending node, so the message has its line.
+Json yaml_to_json(const YAML::Node& node, int depth, std::size_t& budget) {
+  if (budget == 0)
+    throw YAML::ParserException(
+        node.Mark(),
+        "the document expands to too many values once its aliases are copied out "
+        "(an alias bomb?); write the values out instead of aliasing them");
+  --budget;
+  const bool container =
+      node.Type() == YAML::NodeType::Sequence || node.Type() == YAML::NodeType::Map;
+  if (container && depth > kMaxNestingDepth)
+    throw YAML::ParserException(node.Mark(), "nesting deeper than " +
+                                                 std::to_string(kMaxNestingDepth) +
+                                                 " levels (or an alias that contains itself)");
   switch (node.Type()) {
     case YAML::NodeType::Null:
     case YAML::NodeType::Undefined:
       return nullptr;
     case YAML::NodeType::Sequence: {
       Json array = Json::array();
-      for (const YAML::Node& item : node) array.push_back(yaml_to_json(item));
+      for (const YAML::Node& item : node) array.push_back(yaml_to_json(item, depth + 1, budget));
       return array;
     }
     case YAML::NodeType::Map: {
       Json object = Json::object();
-      for (const auto& item : node)
-        object[item.first.as<std::string>()] = yaml_to_json(item.second);
+      for (const auto& item : node) {
+        if (!item.first.IsScalar())
+          throw YAML::ParserException(item.first.Mark(), "a key must be a plain string");
+        object[item.first.Scalar()] = yaml_to_json(item.second, depth + 1, budget);
+      }
       return object;
     }
     case YAML::NodeType::Scalar:
@@ -379,20 +412,26 @@ std::string read_structured_file(const std::filesystem::path& file, Json& out) {
   if (extension == ".yaml" || extension == ".yml") {
 #ifdef NEARPOINT_WITH_YAML
     try {
-      out = yaml_to_json(YAML::Load(text.str()));
+      // yaml-cpp's parser bounds its own recursion (YAML::DeepRecursion, a ParserException).
+      const std::string content = text.str();
+      std::size_t budget = std::max(kMinYamlValueBudget, 4 * content.size());
+      out = yaml_to_json(YAML::Load(content), 1, budget);
       return {};
     } catch (const YAML::Exception& e) {
-      return file.string() + ": line " + std::to_string(e.mark.line + 1) + ": " + e.msg;
+      const std::string where =
+          e.mark.is_null() ? std::string() : "line " + std::to_string(e.mark.line + 1) + ": ";
+      return file.string() + ": " + where + short_prefix(e.msg, 200);
+    } catch (const std::exception& e) {  // exhausted memory
+      return file.string() + ": cannot read: " + e.what();
     }
 #else
     return file.string() + ": YAML files need nearpoint built with yaml-cpp (libyaml-cpp-dev)";
 #endif
   }
-  try {
-    out = Json::parse(text.str());
-  } catch (const Json::parse_error& e) {
-    return file.string() + ": not valid JSON: " + e.what();
-  }
+  // Every parser failure comes back as a message with the file (and line): nlohmann's
+  // out_of_range for 1e999 escaped the catch of parse_error and aborted nearpointd --scene.
+  if (std::string error = parse_json(text.str(), out); !error.empty())
+    return file.string() + ": not valid JSON: " + error;
   return {};
 }
 

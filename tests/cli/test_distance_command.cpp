@@ -283,6 +283,15 @@ std::vector<BadLine> bad_lines() {
       {"NaN as a string",
        R"({"a": {"sphere": {}, "radius": "NaN"}, )" + b + "}",
        {"\"a.radius\"", "got a string"}},
+      // Nesting is bounded before anything is built (issue 21, item 13): an id nested 100,000
+      // deep overflowed the stack when it was copied into the answer and dumped.
+      {"id nested 100,000 deep",
+       "{\"id\": " + std::string(100'000, '[') + std::string(100'000, ']') + ", " + b + "}",
+       {"not valid JSON", "nesting deeper than 64 levels at column 71"}},
+      {"shape nested 100,000 deep",
+       R"({"a": {"polytope": )" + std::string(100'000, '[') + std::string(100'000, ']') + "}, " +
+           b + "}",
+       {"not valid JSON", "nesting deeper than 64 levels"}},
       {"not an object", "[1, 2, 3]", {"JSON object", "got an array"}},
       {"missing a", "{" + b + "}", {"missing \"a\""}},
       {"missing b", R"({"a": {"sphere": {}}})", {"missing \"b\""}},

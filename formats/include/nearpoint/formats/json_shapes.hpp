@@ -84,6 +84,25 @@ std::string parse_pose(const Json& value, std::string_view path, Pose<double>& o
 /// messages of the form "must be … (got a string)".
 std::string describe_type(const Json& value);
 
+/// The deepest nesting of arrays and objects accepted in a JSON line or a structured file (JSON or
+/// YAML). Real inputs nest 6 levels at most; the bound keeps the recursive code that copies,
+/// compares, dumps and converts values far from the end of the stack on hostile input (a line
+/// nested 100,000 deep overflowed it).
+inline constexpr int kMaxNestingDepth = 64;
+
+/// Parses the JSON text `text` into `out`. Before the parser builds anything, refuses nesting
+/// deeper than kMaxNestingDepth and numbers beyond the range of a double (`1e999`), with the line
+/// and column. Returns "" or a message such as "nesting deeper than 64 levels at line 1, column
+/// 65", "number 1e999 is out of range (JSON numbers must be finite doubles) at line 3, column 12"
+/// or the parser's own "parse error at line 1, column 5: …" (without nlohmann's "[json.exception…]"
+/// prefix, cut to a short prefix). `error_id`, when given, gets nlohmann's exception id (101 a
+/// syntax error, 406 a number out of range) or 0 (too deep, or another failure). Never throws.
+std::string parse_json(std::string_view text, Json& out, int* error_id = nullptr) noexcept;
+
+/// At most `max_bytes` of `text`, cut at a UTF-8 boundary and marked "...": for quoting user input
+/// in messages without flooding them.
+std::string short_prefix(std::string_view text, std::size_t max_bytes = 120);
+
 /// A key written by the user, JSON-escaped and cut to 60 bytes (at a UTF-8 boundary, marked
 /// "..."), for messages such as `unknown key "colour"`: a hostile key cannot flood or break them.
 std::string user_key(const std::string& key);
