@@ -14,6 +14,7 @@
 
 #include "nearpoint/server/log.hpp"
 #include "nearpoint_dds.hpp"
+#include "validation.hpp"
 #include "wire_numbers.hpp"
 
 namespace nearpoint::server {
@@ -327,6 +328,19 @@ struct DdsBridge::Impl {
     std::string client_id = own(sample.client_id);
     std::lock_guard lock(mutex);
     ++stats.updates_taken;
+    // The same id and name rules as on gRPC, checked before the strings become a stream key, a
+    // log value or the key of a report: an over-long or malformed scene id is answered (keyed by
+    // its first bytes, for the writer's GUID) without opening a stream.
+    std::optional<Error> malformed = check_id(input.scene_id, "scene_id");
+    if (!malformed) malformed = check_name(client_id, "client_id");
+    if (malformed) {
+      dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, publication);
+      if (!endpoint) return std::nullopt;  // the writer has gone: nobody to answer
+      Addressee to{input.scene_id.substr(0, kQuotedBytes), client_id.substr(0, kMaxNameBytes), {}};
+      std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
+      dds_builtintopic_free_endpoint(endpoint);
+      return reject(nullptr, std::move(to), input.sequence, *malformed);
+    }
     const StreamKey key{publication, input.scene_id};
     auto found = streams.find(key);
     if (found == streams.end()) {

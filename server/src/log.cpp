@@ -12,6 +12,11 @@ namespace {
 
 std::atomic<LogLevel> g_level{LogLevel::info};
 
+/// The longest value a line carries. Callers quote client-sent strings short already (see
+/// `quoted`); this is the backstop that keeps one line one write of bounded size whatever a
+/// caller passes.
+constexpr std::size_t kMaxValueBytes = 1024;
+
 const char* name(LogLevel level) {
   switch (level) {
     case LogLevel::debug:
@@ -29,7 +34,9 @@ const char* name(LogLevel level) {
 bool needs_quotes(std::string_view value) {
   if (value.empty()) return true;
   for (const char c : value)
-    if (c == ' ' || c == '"' || c == '=' || c == '\\' || c == '\n' || c == '\t') return true;
+    if (c == ' ' || c == '"' || c == '=' || c == '\\' || static_cast<unsigned char>(c) < 0x20 ||
+        c == 0x7F)
+      return true;
   return false;
 }
 
@@ -71,8 +78,15 @@ LogLine::LogLine(LogLevel level, std::string_view event) : enabled_(level >= g_l
   line_.append(" event=").append(event);
 }
 
-LogLine& LogLine::kv(std::string_view key, std::string_view value) {
+LogLine& LogLine::kv(std::string_view key, std::string_view whole) {
   if (!enabled_) return *this;
+  if (whole.size() > kMaxValueBytes) {
+    // Cut, and say so inside the value: "…" and the length (the suffix fits the room left).
+    std::string cut(whole.substr(0, kMaxValueBytes - 32));
+    cut.append("\u2026 (").append(std::to_string(whole.size())).append(" bytes)");
+    return kv(key, std::string_view(cut));
+  }
+  const std::string_view value = whole;
   line_.append(" ").append(key).append("=");
   if (!needs_quotes(value)) {
     line_.append(value);
@@ -87,6 +101,13 @@ LogLine& LogLine::kv(std::string_view key, std::string_view value) {
       line_.append("\\n");
     } else if (c == '\t') {
       line_.append("\\t");
+    } else if (static_cast<unsigned char>(c) < 0x20 || c == 0x7F) {
+      // Other control characters (a carriage return, a terminal escape) as \xNN, so that a
+      // value can neither forge a line nor drive a terminal.
+      constexpr char kHex[] = "0123456789abcdef";
+      line_.append("\\x");
+      line_.push_back(kHex[static_cast<unsigned char>(c) >> 4]);
+      line_.push_back(kHex[c & 15]);
     } else {
       line_.push_back(c);
     }

@@ -9,9 +9,6 @@
 namespace nearpoint::server {
 namespace {
 
-constexpr std::size_t kMaxNameBytes = 256;
-constexpr std::size_t kMaxObjectIdBytes = 128;
-
 /// The work one pool task should carry before an evaluation is split further, in "vertex
 /// visits" (a support call on a polytope visits each of its vertices once; a primitive counts as
 /// 8). A pair costs roughly (M_A + M_B) per support call and a few calls per update, so 4096
@@ -52,6 +49,30 @@ const char* to_string(ErrorCode code) {
       return "internal";
   }
   return "internal";
+}
+
+std::string quoted(std::string_view value, std::size_t max_bytes) {
+  const std::string_view shown = value.substr(0, max_bytes);
+  std::string out;
+  out.reserve(shown.size() + 32);
+  out.push_back('\'');
+  for (const char c : shown) {
+    const auto byte = static_cast<unsigned char>(c);
+    if (byte >= 0x20 && byte < 0x7F) {
+      out.push_back(c);
+    } else {
+      // Escaped so that a quoted value never carries a line break, a terminal escape or a
+      // partial UTF-8 sequence into a log line or a message.
+      constexpr char kHex[] = "0123456789abcdef";
+      out.append("\\x");
+      out.push_back(kHex[byte >> 4]);
+      out.push_back(kHex[byte & 15]);
+    }
+  }
+  if (shown.size() < value.size()) out.append("\u2026");  // …
+  out.push_back('\'');
+  if (shown.size() < value.size()) out.append(text(" (", value.size(), " bytes)"));
+  return out;
 }
 
 // ---- scenes ----
@@ -155,9 +176,10 @@ Expected<GeometryInfo> SceneService::register_geometry(const GeometryInput& geom
 }
 
 Outcome SceneService::remove_geometry(const std::string& geometry_id) {
+  if (auto error = check_id(geometry_id, "geometry_id")) return *error;
   std::unique_lock lock(geometries_mutex_);
   if (geometries_.erase(geometry_id) == 0)
-    return not_found("geometry_id", text("no geometry '", geometry_id, "'"));
+    return not_found("geometry_id", text("no geometry ", quoted(geometry_id)));
   return {};
 }
 
@@ -179,15 +201,9 @@ std::vector<GeometryInfo> SceneService::list_geometries() const {
 // ---- scenes ----
 
 Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
-  if (input.name.size() > kMaxNameBytes)
-    return invalid_argument("name", text("is longer than ", kMaxNameBytes, " bytes"));
-  if (!input.requested_id.empty()) {
-    const bool printable = std::all_of(input.requested_id.begin(), input.requested_id.end(),
-                                       [](char c) { return c > ' ' && c < 127; });
-    if (input.requested_id.size() > kMaxObjectIdBytes || !printable)
-      return invalid_argument("scene_id", text("must be 1-", kMaxObjectIdBytes,
-                                               " bytes of printable ASCII without spaces"));
-  }
+  if (auto error = check_name(input.name, "name")) return *error;
+  if (!input.requested_id.empty())
+    if (auto error = check_id(input.requested_id, "scene_id")) return *error;
   if (input.objects.empty()) return invalid_argument("objects", "must hold at least one object");
   if (input.objects.size() > limits_.max_objects_per_scene)
     return resource_exhausted("objects",
@@ -199,12 +215,13 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
   for (std::size_t i = 0; i < input.objects.size(); ++i) {
     const ObjectInput& object = input.objects[i];
     const std::string field = text("objects[", i, ']');
-    if (object.id.empty() || object.id.size() > kMaxObjectIdBytes)
-      return invalid_argument(field + ".id", text("must be 1-", kMaxObjectIdBytes, " bytes long"));
+    if (auto error = check_id(object.id, field + ".id")) return *error;
     if (const auto [it, inserted] = scene->index_by_id.emplace(object.id, std::uint32_t(i));
         !inserted)
       return invalid_argument(
-          field + ".id", text("'", object.id, "' is already the id of objects[", it->second, "]"));
+          field + ".id",
+          text(quoted(object.id), " is already the id of objects[", it->second, "]"));
+    if (auto error = check_id(object.geometry_id, field + ".geometry_id")) return *error;
     std::shared_ptr<const StoredGeometry> geometry;
     {
       std::shared_lock lock(geometries_mutex_);
@@ -212,7 +229,7 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
       if (found != geometries_.end()) geometry = found->second;
     }
     if (!geometry)
-      return not_found(field + ".geometry_id", text("no geometry '", object.geometry_id, "'"));
+      return not_found(field + ".geometry_id", text("no geometry ", quoted(object.geometry_id)));
     Expected<Pose<double>> pose = check_pose(object.pose, field + ".pose");
     if (!pose) return pose.error();
     scene->objects.push_back(SceneObject{object.id, std::move(geometry), pose.value(),
@@ -245,12 +262,16 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
   auto resolve_pair =
       [&](const std::pair<std::string, std::string>& pair,
           const std::string& field) -> Expected<std::pair<std::uint32_t, std::uint32_t>> {
+    if (auto error = check_id(pair.first, field + ".object_a")) return *error;
+    if (auto error = check_id(pair.second, field + ".object_b")) return *error;
     const std::int64_t a = scene->find_object(pair.first);
     if (a < 0)
-      return not_found(field + ".object_a", text("no object '", pair.first, "' in the scene"));
+      return not_found(field + ".object_a",
+                       text("no object ", quoted(pair.first), " in the scene"));
     const std::int64_t b = scene->find_object(pair.second);
     if (b < 0)
-      return not_found(field + ".object_b", text("no object '", pair.second, "' in the scene"));
+      return not_found(field + ".object_b",
+                       text("no object ", quoted(pair.second), " in the scene"));
     if (a == b) return invalid_argument(field, "must name two different objects");
     return std::pair(std::uint32_t(a), std::uint32_t(b));
   };
@@ -305,7 +326,7 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
   if (!input.requested_id.empty()) {
     if (scenes_.count(input.requested_id))
       return Error{ErrorCode::already_exists, "scene_id",
-                   text("a scene '", input.requested_id, "' already exists")};
+                   text("a scene ", quoted(input.requested_id), " already exists")};
     scene->id = input.requested_id;
   } else {
     // Skip numbers a client took by asking for "scene-N" itself.
@@ -318,11 +339,12 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
 }
 
 Outcome SceneService::delete_scene(const std::string& scene_id) {
+  if (auto error = check_id(scene_id, "scene_id")) return *error;
   std::shared_ptr<Scene> scene;
   {
     std::unique_lock lock(scenes_mutex_);
     const auto found = scenes_.find(scene_id);
-    if (found == scenes_.end()) return not_found("scene_id", text("no scene '", scene_id, "'"));
+    if (found == scenes_.end()) return not_found("scene_id", text("no scene ", quoted(scene_id)));
     scene = std::move(found->second);
     scenes_.erase(found);
   }
@@ -342,13 +364,14 @@ Expected<std::vector<Pose<double>>> SceneService::apply_poses(
   std::vector<char> seen(scene.objects.size(), 0);
   for (std::size_t j = 0; j < updates.size(); ++j) {
     const std::string entry = text(field, '[', j, ']');
+    if (auto error = check_id(updates[j].object_id, entry + ".object_id")) return *error;
     const std::int64_t index = scene.find_object(updates[j].object_id);
     if (index < 0)
-      return not_found(entry + ".object_id",
-                       text("no object '", updates[j].object_id, "' in scene '", scene.id, "'"));
+      return not_found(entry + ".object_id", text("no object ", quoted(updates[j].object_id),
+                                                  " in scene ", quoted(scene.id)));
     if (seen[std::size_t(index)]++)
       return invalid_argument(entry + ".object_id",
-                              text("object '", updates[j].object_id, "' is listed twice"));
+                              text("object ", quoted(updates[j].object_id), " is listed twice"));
     Expected<Pose<double>> pose = check_pose(updates[j].pose, entry + ".pose");
     if (!pose) return pose.error();
     poses[std::size_t(index)] = pose.value();
@@ -358,8 +381,9 @@ Expected<std::vector<Pose<double>>> SceneService::apply_poses(
 
 Outcome SceneService::query(const QueryInput& query, Clock::time_point received,
                             ReportCallback done) {
+  if (auto error = check_id(query.scene_id, "scene_id")) return *error;
   std::shared_ptr<Scene> scene = find_scene(query.scene_id);
-  if (!scene) return not_found("scene_id", text("no scene '", query.scene_id, "'"));
+  if (!scene) return not_found("scene_id", text("no scene ", quoted(query.scene_id)));
   const std::shared_ptr<const SceneDefinition>& definition = scene->definition();
   Expected<ResolvedOptions> options =
       resolve_options(definition->default_options, query.options, "options");
@@ -418,18 +442,20 @@ PoseStream::~PoseStream() {
 Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
                                              Clock::time_point received) {
   std::shared_ptr<Scene> scene = scene_;
+  if (!scene || !update.scene_id.empty())
+    if (auto error = check_id(update.scene_id, "scene_id")) return *error;
   if (!scene) {
     scene = service_.find_scene(update.scene_id);
-    if (!scene) return not_found("scene_id", text("no scene '", update.scene_id, "'"));
+    if (!scene) return not_found("scene_id", text("no scene ", quoted(update.scene_id)));
   } else if (!update.scene_id.empty() && update.scene_id != scene->definition()->id) {
     return Error{
         ErrorCode::failed_precondition, "scene_id",
-        text("this stream is bound to scene '", scene->definition()->id,
-             "' by its first update; open another stream for scene '", update.scene_id, "'")};
+        text("this stream is bound to scene ", quoted(scene->definition()->id),
+             " by its first update; open another stream for scene ", quoted(update.scene_id))};
   }
   const SceneDefinition& definition = *scene->definition();
   if (scene->deleted())
-    return not_found("scene_id", text("scene '", definition.id, "' was deleted"));
+    return not_found("scene_id", text("scene ", quoted(definition.id), " was deleted"));
   if (!scene_ && update.flow_control == FlowControl::unknown)
     return invalid_argument("flow_control", "unknown FlowControl value");
   if (has_sequence_ && update.sequence <= last_sequence_)

@@ -15,7 +15,6 @@ namespace {
 /// Coordinates and lengths beyond this are refused: squares and differences of such values stay
 /// far from overflow, and no real scene (a site 10⁶ m across) comes near it. Metres.
 constexpr double kMaxMagnitude = 1e12;
-constexpr std::size_t kMaxNameBytes = 256;
 constexpr std::uint64_t kMaxIterationsCap = 100'000;
 
 constexpr char kAxis[3] = {'x', 'y', 'z'};
@@ -103,7 +102,62 @@ Expected<Shape<double>> build_shape(const PieceInput& piece, const std::string& 
   return std::visit(Visitor{field, piece.radius}, piece.shape);
 }
 
+/// Well-formed UTF-8 (no overlong forms, surrogates or code points beyond U+10FFFF) whose code
+/// points are no control characters (C0, DEL, C1).
+bool is_printable_utf8(std::string_view text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto byte = static_cast<unsigned char>(text[i]);
+    if (byte < 0x80) {
+      if (byte < 0x20 || byte == 0x7F) return false;
+      ++i;
+      continue;
+    }
+    std::size_t length = 0;
+    std::uint32_t code = 0;
+    if ((byte & 0xE0) == 0xC0) {
+      length = 2, code = byte & 0x1F;
+    } else if ((byte & 0xF0) == 0xE0) {
+      length = 3, code = byte & 0x0F;
+    } else if ((byte & 0xF8) == 0xF0) {
+      length = 4, code = byte & 0x07;
+    } else {
+      return false;
+    }
+    if (i + length > text.size()) return false;
+    for (std::size_t k = 1; k < length; ++k) {
+      const auto next = static_cast<unsigned char>(text[i + k]);
+      if ((next & 0xC0) != 0x80) return false;
+      code = (code << 6) | (next & 0x3F);
+    }
+    constexpr std::uint32_t kSmallest[5] = {0, 0, 0x80, 0x800, 0x10000};
+    if (code < kSmallest[length] || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF) ||
+        (code >= 0x80 && code <= 0x9F))
+      return false;
+    i += length;
+  }
+  return true;
+}
+
 }  // namespace
+
+std::optional<Error> check_id(std::string_view id, const std::string& field) {
+  const bool printable =
+      std::all_of(id.begin(), id.end(), [](char c) { return c > ' ' && c < 127; });
+  if (id.empty() || id.size() > kMaxIdBytes || !printable)
+    return invalid_argument(
+        field, text("must be 1-", kMaxIdBytes, " bytes of printable ASCII without spaces (got ",
+                    id.empty() ? std::string("an empty id") : quoted(id), ")"));
+  return std::nullopt;
+}
+
+std::optional<Error> check_name(std::string_view name, const std::string& field) {
+  if (name.size() > kMaxNameBytes || !is_printable_utf8(name))
+    return invalid_argument(
+        field, text("must be at most ", kMaxNameBytes,
+                    " bytes of UTF-8 text without control characters (got ", quoted(name), ")"));
+  return std::nullopt;
+}
 
 Expected<Pose<double>> check_pose(const PoseInput& pose, const std::string& field) {
   const auto& q = pose.rotation_wxyz;
@@ -179,8 +233,7 @@ Expected<ResolvedOptions> resolve_options(const ResolvedOptions& base,
 
 Expected<std::shared_ptr<StoredGeometry>> build_geometry(const GeometryInput& geometry,
                                                          const ServiceLimits& limits) {
-  if (geometry.name.size() > kMaxNameBytes)
-    return invalid_argument("geometry.name", text("is longer than ", kMaxNameBytes, " bytes"));
+  if (auto error = check_name(geometry.name, "geometry.name")) return *error;
   if (geometry.pieces.empty())
     return invalid_argument("geometry.pieces", "must hold at least one piece");
   if (geometry.pieces.size() > limits.max_pieces_per_geometry)

@@ -2,7 +2,9 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
 
 #include "nearpoint/server/errors.hpp"
 #include "nearpoint/server/limits.hpp"
@@ -10,6 +12,14 @@
 #include "nearpoint/server/scene_types.hpp"
 
 namespace nearpoint::server {
+
+/// An id (scene, object, geometry): 1–kMaxIdBytes bytes of printable ASCII without spaces.
+/// INVALID_ARGUMENT naming `field`, quoting at most a short prefix of what was sent.
+std::optional<Error> check_id(std::string_view id, const std::string& field);
+
+/// A name (a label, a DDS client_id): at most kMaxNameBytes bytes of UTF-8 text without control
+/// characters (empty allowed).
+std::optional<Error> check_name(std::string_view name, const std::string& field);
 
 /// A checked pose: finite, quaternion of unit length within kQuaternionNormTolerance (then
 /// normalised). `field` names the pose ("poses[3].pose"); errors name ".rotation"/".translation".

@@ -203,7 +203,10 @@ TEST(DdsBridge, StreamAnswersEveryUpdateWithTheCoresDistances) {
 }
 
 // Bad samples are answered with an error report on the report topic naming the sequence number
-// and the field, and the server — and the stream — go on.
+// and the field, and the server — and the stream — go on. The id and name rules are gRPC's
+// (check_id, check_name before a sample's strings become a stream key, a log value or a report
+// key): a 10 kB scene id, an object id with a space and a client id with a line break are
+// refused as malformed, every message quoting at most a short prefix.
 TEST(DdsBridge, BadSamplesGetErrorReportsAndTheStreamGoesOn) {
   Server server = start(kDomainBadSamples, "bad");
   ASSERT_TRUE(server.bridge);
@@ -227,6 +230,9 @@ TEST(DdsBridge, BadSamplesGetErrorReportsAndTheStreamGoesOn) {
       {"quaternion far from unit", 3, "poses[0].pose.rotation"},
       {"exact depth not supported", 3, "options.penetration"},
       {"infinite rotation", 3, "poses[0].pose.rotation.w"},
+      {"scene id of 10 kB", 3, "scene_id"},
+      {"object id with a space", 3, "poses[0].object_id"},
+      {"client id with a line break", 3, "client_id"},
       {"good again", 0, ""},
   };
   std::uint64_t sequence = 0;
@@ -244,6 +250,9 @@ TEST(DdsBridge, BadSamplesGetErrorReportsAndTheStreamGoesOn) {
     if (what == "quaternion far from unit") update.poses[0].rotation_wxyz = {2, 0, 0, 0};
     if (what == "exact depth not supported") update.options.penetration = 3;
     if (what == "infinite rotation") update.poses[0].rotation_wxyz[0] = INFINITY;
+    if (what == "scene id of 10 kB") update.scene_id = std::string(10'000, 's');
+    if (what == "object id with a space") update.poses[0].object_id = "left arm";
+    if (what == "client id with a line break") update.client_id = "robot\nlevel=error";
     ASSERT_TRUE(client->publish(update.sample(), error)) << error;
     const std::vector<ReceivedReport> reports = collect_reports(*client, 1);
     ASSERT_EQ(reports.size(), 1u) << "every sample is answered, bad ones included";
@@ -255,10 +264,11 @@ TEST(DdsBridge, BadSamplesGetErrorReportsAndTheStreamGoesOn) {
     } else {
       EXPECT_TRUE(reports[0].pairs.empty());
       EXPECT_FALSE(reports[0].message.empty());
+      EXPECT_LT(reports[0].message.size(), 300u) << reports[0].message.substr(0, 300);
     }
   }
   server.bridge->shutdown();
-  EXPECT_EQ(server.bridge->stats().updates_rejected, 7u);
+  EXPECT_EQ(server.bridge->stats().updates_rejected, 10u);
 }
 
 // A publisher faster than the server: DDS cannot hold it back, so updates beyond --max-in-flight

@@ -2,10 +2,14 @@
 // their own form in one place each (gRPC: `to_grpc_status` in the service adapter).
 #pragma once
 
+#include <cstddef>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <variant>
+
+#include "nearpoint/server/limits.hpp"
 
 namespace nearpoint::server {
 
@@ -42,6 +46,12 @@ std::string text(const Parts&... parts) {
   (out << ... << parts);
   return out.str();
 }
+
+/// A client-sent id or name for a message or a log line: at most `max_bytes` of it, in single
+/// quotes, bytes outside printable ASCII as \xNN, and when cut its length: 'abc…' (8192 bytes).
+/// Messages never echo a client's string whole: an 8 kB id would not fit gRPC's metadata, and a
+/// 10 MB one would make a 10 MB log line.
+std::string quoted(std::string_view value, std::size_t max_bytes = kQuotedBytes);
 
 inline Error invalid_argument(std::string field, std::string message) {
   return {ErrorCode::invalid_argument, std::move(field), std::move(message)};

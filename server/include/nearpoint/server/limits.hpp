@@ -5,6 +5,19 @@
 
 namespace nearpoint::server {
 
+// Fixed rules for the strings of a request (not configurable: clients rely on them). Every id and
+// name is echoed somewhere — in reports, error messages, logs, DDS instance keys — so each has a
+// bound, and ids a character set that needs no escaping anywhere.
+
+/// Ids (scene, object, geometry): 1–128 bytes of printable ASCII without spaces (0x21–0x7E).
+inline constexpr std::size_t kMaxIdBytes = 128;
+/// Names (a geometry's or a scene's label, a DDS client_id): at most 256 bytes of UTF-8 text
+/// without control characters.
+inline constexpr std::size_t kMaxNameBytes = 256;
+/// Error messages and logs quote at most this many bytes of an id or name the client sent, then
+/// its length: "no scene 'abc…' (8192 bytes)".
+inline constexpr std::size_t kQuotedBytes = 64;
+
 struct ServiceLimits {
   /// Stored geometries. Each costs its vertices (24 B each) plus a few hundred bytes.
   std::size_t max_geometries = 10'000;
