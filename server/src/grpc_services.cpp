@@ -2,6 +2,7 @@
 
 #include <deque>
 #include <memory>
+#include <optional>
 #include <variant>
 #include <vector>
 
@@ -30,6 +31,19 @@ void reject(grpc::ServerUnaryReactor* reactor, CallRegistry& calls,
       .kv("field", error.field)
       .kv("message", error.message);
   finish(reactor, calls, to_grpc_status(error));
+}
+
+/// A report larger than the server sends cannot go out (gRPC would fail the call with "Sent
+/// message larger than max", and a stream's update would get no answer at all). Scenes and
+/// requests whose reports could be that large are refused up front (SceneService), so this is
+/// the backstop: the error that replaces such a report, or nullopt when it fits.
+std::optional<Error> check_report_fits(const v1::DistanceReport& report, std::size_t limit) {
+  const std::size_t size = report.ByteSizeLong();
+  if (size <= limit) return std::nullopt;
+  return resource_exhausted(
+      "",
+      text("the report of sequence ", report.sequence(), " takes ", size, " bytes, more than the ",
+           limit, " bytes the server sends in one message (--max-message-bytes)"));
 }
 
 /// The reactor of a unary call refused because the server is draining.
@@ -243,6 +257,10 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
   void OnReport(Report report) {
     v1::DistanceReport message;
     to_proto(report, message);  // outside the lock: it may be large
+    if (auto error = check_report_fits(message, service_.max_message_bytes())) {
+      log_error("report_too_large").kv("stream", number_).kv("message", error->message);
+      to_proto(*error, report.sequence, message);  // the update is answered all the same
+    }
     std::lock_guard lock(mutex_);
     evaluating_ = false;
     if (!broken_) outgoing_.push_back(std::move(message));
@@ -480,6 +498,12 @@ grpc::ServerUnaryReactor* DistanceServiceImpl::Query(grpc::CallbackServerContext
   Outcome started =
       scenes_.query(to_input(*request), Clock::now(), [this, reactor, response](Report report) {
         to_proto(report, *response);
+        if (auto error = check_report_fits(*response, max_message_bytes_)) {
+          log_error("report_too_large").kv("rpc", "Query").kv("message", error->message);
+          response->Clear();
+          finish(reactor, calls_, to_grpc_status(*error));
+          return;
+        }
         finish(reactor, calls_, grpc::Status::OK);
       });
   if (!started) reject(reactor, calls_, context, "Query", started.error());

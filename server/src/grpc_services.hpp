@@ -49,7 +49,10 @@ class CallRegistry {
 
 class DistanceServiceImpl final : public v1::DistanceService::CallbackService {
  public:
-  explicit DistanceServiceImpl(SceneService& scenes) : scenes_(scenes) {}
+  /// `max_message_bytes`: the server's send limit; a report larger than that is answered with an
+  /// error instead (see the service's send-time check).
+  DistanceServiceImpl(SceneService& scenes, std::size_t max_message_bytes)
+      : scenes_(scenes), max_message_bytes_(max_message_bytes) {}
 
   grpc::ServerUnaryReactor* RegisterGeometry(grpc::CallbackServerContext* context,
                                              const v1::RegisterGeometryRequest* request,
@@ -74,9 +77,11 @@ class DistanceServiceImpl final : public v1::DistanceService::CallbackService {
 
   SceneService& scenes() { return scenes_; }
   CallRegistry& calls() { return calls_; }
+  std::size_t max_message_bytes() const { return max_message_bytes_; }
 
  private:
   SceneService& scenes_;
+  const std::size_t max_message_bytes_;
   CallRegistry calls_;
   std::atomic<std::uint64_t> next_stream_number_{1};
 };

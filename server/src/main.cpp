@@ -147,6 +147,8 @@ int main(int argc, char** argv) {
   sigaddset(&shutdown_signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &shutdown_signals, nullptr);
 
+  // A scene whose reports could not be sent in one gRPC message is refused at creation.
+  config.limits.max_report_bytes = config.max_message_bytes;
   auto scenes = std::make_shared<SceneService>(config.limits, config.workers);
   // Preloaded scenes exist before any transport serves, so a client's first update finds them.
   for (const std::string& file : scene_files) {

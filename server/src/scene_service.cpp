@@ -4,6 +4,7 @@
 #include <unordered_set>
 
 #include "evaluation.hpp"
+#include "report_size.hpp"
 #include "validation.hpp"
 
 namespace nearpoint::server {
@@ -23,6 +24,55 @@ std::size_t pair_cost(const GeometryInfo& a, const GeometryInfo& b) {
     return g.vertex_count + kVisitsPerPrimitive * g.piece_count;
   };
   return b.piece_count * effective(a) + a.piece_count * effective(b);
+}
+
+/// The most one report of `scene` with `options` can take on the wire (see report_size.hpp).
+std::size_t report_bytes_bound(const SceneDefinition& scene,
+                               const DistanceOptions<double>& options) {
+  return scene.report_bytes_base +
+         scene.pairs.size() * report_size::pair_options(
+                                  options.near_points, options.penetration_bound, options.gradient);
+}
+
+/// "near points and gradients", or "" when the options ask for neither of the three extras.
+std::string extras(const DistanceOptions<double>& options) {
+  std::string out;
+  auto add = [&](bool on, const char* what) {
+    if (!on) return;
+    if (!out.empty()) out += " and ";
+    out += what;
+  };
+  add(options.near_points, "near points");
+  add(options.penetration_bound, "penetration bounds");
+  add(options.gradient, "gradients");
+  return out;
+}
+
+/// RESOURCE_EXHAUSTED when a report of `scene` with `options` could be larger than `limit`: such
+/// a report could never be sent, so the scene (at creation) or the request is refused instead.
+/// The message names the limit, the bound and what would fit. `field` is "" at creation.
+std::optional<Error> check_report_bytes(const SceneDefinition& scene,
+                                        const DistanceOptions<double>& options, std::size_t limit,
+                                        const std::string& field) {
+  const std::size_t bound = report_bytes_bound(scene, options);
+  if (bound <= limit) return std::nullopt;
+  const std::size_t pairs = std::max<std::size_t>(1, scene.pairs.size());
+  const std::size_t per_pair =
+      std::max<std::size_t>(1, (bound - report_size::kReportEnvelope) / pairs);
+  const std::size_t fitting =
+      limit > report_size::kReportEnvelope ? (limit - report_size::kReportEnvelope) / per_pair : 0;
+  const std::string with = extras(options);
+  const std::string what =
+      text("a report of ", field.empty() ? std::string("this scene") : "scene " + quoted(scene.id),
+           with.empty() ? std::string() : " with " + with, " could take up to ", bound, " bytes (",
+           scene.pairs.size(), " pairs, object ids up to ", scene.longest_object_id,
+           " bytes), more than the ", limit,
+           " bytes the server sends in one message (--max-message-bytes); about ", fitting,
+           " pairs of this size fit: ");
+  if (field.empty())
+    return resource_exhausted(field, what + "select fewer pairs or use shorter object ids");
+  return resource_exhausted(
+      field, what + "ask for fewer outputs, or create a scene with fewer pairs or shorter ids");
 }
 
 double microseconds(Clock::duration d) {
@@ -311,6 +361,20 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
     }
   }
 
+  // A report that could not be sent could never answer an update: refuse the scene now, while
+  // the client can still choose fewer pairs or shorter ids. Requests asking for more than the
+  // scene's defaults are checked the same way (query, PoseStream::prepare).
+  scene->report_bytes_base = report_size::kReportEnvelope;
+  for (const SceneObject& object : objects)
+    scene->longest_object_id = std::max(scene->longest_object_id, object.id.size());
+  for (const ScenePair& pair : scene->pairs)
+    scene->report_bytes_base +=
+        report_size::kPairEntryOverhead + report_size::kPairFixed +
+        report_size::pair_ids(objects[pair.object_a].id.size(), objects[pair.object_b].id.size());
+  if (auto error =
+          check_report_bytes(*scene, scene->default_options.engine, limits_.max_report_bytes, ""))
+    return *error;
+
   std::size_t visits = 0;
   for (const ScenePair& pair : scene->pairs)
     visits +=
@@ -388,6 +452,9 @@ Outcome SceneService::query(const QueryInput& query, Clock::time_point received,
   Expected<ResolvedOptions> options =
       resolve_options(definition->default_options, query.options, "options");
   if (!options) return options.error();
+  if (auto error =
+          check_report_bytes(*definition, options->engine, limits_.max_report_bytes, "options"))
+    return *error;
   std::vector<Pose<double>> initial;
   initial.reserve(definition->objects.size());
   for (const SceneObject& object : definition->objects) initial.push_back(object.initial_pose);
@@ -464,6 +531,9 @@ Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
   Expected<ResolvedOptions> options =
       resolve_options(definition.default_options, update.options, "options");
   if (!options) return options.error();
+  if (auto error = check_report_bytes(definition, options->engine,
+                                      service_.limits_.max_report_bytes, "options"))
+    return *error;
   std::vector<Pose<double>> start;
   if (scene_) {
     start = current_poses_;

@@ -35,9 +35,14 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
   std::unique_ptr<GrpcServer> self(new GrpcServer());
   Impl& impl = *self->impl_;
   impl.config = config;
-  impl.scenes =
-      scenes ? std::move(scenes) : std::make_shared<SceneService>(config.limits, config.workers);
-  impl.distance = std::make_unique<DistanceServiceImpl>(*impl.scenes);
+  if (!scenes) {
+    // Scenes are refused when their reports could not be sent (ServiceLimits::max_report_bytes).
+    ServiceLimits limits = config.limits;
+    limits.max_report_bytes = std::min(limits.max_report_bytes, config.max_message_bytes);
+    scenes = std::make_shared<SceneService>(limits, config.workers);
+  }
+  impl.scenes = std::move(scenes);
+  impl.distance = std::make_unique<DistanceServiceImpl>(*impl.scenes, config.max_message_bytes);
   if (config.diagnostics) impl.diagnostics = std::make_unique<DiagnosticsServiceImpl>();
 
   grpc::EnableDefaultHealthCheckService(true);

@@ -10,10 +10,36 @@
 #include <tuple>
 
 #include "nearpoint/server/log.hpp"
+#include "report_size.hpp"
 #include "scene_fixture.hpp"
 
 namespace nearpoint::server::testing {
 namespace {
+
+/// The issue's shape: 447 objects select 99 681 pairs, just under --max-pairs-per-scene.
+constexpr int kObjects = 447;
+constexpr int kPairs = kObjects * (kObjects - 1) / 2;
+
+/// An id of exactly `length` bytes, unique per `index`.
+std::string padded_id(int index, std::size_t length) {
+  std::string id = "o" + std::to_string(index) + "-";
+  id.resize(length, 'x');
+  return id;
+}
+
+/// `kObjects` unit spheres on a grid (all separated), ids of `id_length` bytes, all pairs.
+v1::CreateSceneRequest sphere_grid(const std::string& geometry_id, std::size_t id_length) {
+  v1::CreateSceneRequest request;
+  for (int i = 0; i < kObjects; ++i) {
+    v1::SceneObject& object = *request.add_objects();
+    object.set_id(padded_id(i, id_length));
+    object.set_geometry_id(geometry_id);
+    v1::Vector3& t = *object.mutable_pose()->mutable_translation();
+    t.set_x(3.0 * (i % 20));
+    t.set_y(3.0 * (i / 20));
+  }
+  return request;
+}
 
 std::string register_sphere(v1::DistanceService::Stub& stub) {
   v1::RegisterGeometryRequest request;
@@ -28,6 +54,210 @@ std::string register_sphere(v1::DistanceService::Stub& stub) {
 
 bool contains(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;
+}
+
+// ---- item 3: reports larger than a message ----
+
+// Guards the creation-time bound on a scene's report size (SceneService::create_scene with
+// ServiceLimits::max_report_bytes = --max-message-bytes): 447 objects with 120-byte ids are
+// within every count limit, but each report would take ~30 MB, more than the 16 MiB the server
+// sends. The scene used to be accepted and then every Query failed with "Sent message larger
+// than max" and every stream update went unanswered; now CreateScene refuses it, naming the
+// limit, the bound and what would fit. The same pairs with short ids fit and are answered whole.
+TEST(ReportLimits, SceneWhoseReportsCannotBeSentIsRefusedAtCreation) {
+  RunningServer running = start_server();  // the default --max-message-bytes, 16 MiB
+  ASSERT_TRUE(running.server);
+  v1::DistanceService::Stub& stub = *running.stub;
+  const std::string sphere = register_sphere(stub);
+
+  v1::CreateSceneResponse created;
+  const grpc::Status refused =
+      stub.CreateScene(make_context().get(), sphere_grid(sphere, 120), &created);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  const std::string& message = refused.error_message();
+  EXPECT_TRUE(contains(message, "--max-message-bytes")) << message;
+  EXPECT_TRUE(contains(message, std::to_string(16u << 20) + " bytes")) << message;
+  EXPECT_TRUE(contains(message, std::to_string(kPairs) + " pairs")) << message;
+  EXPECT_TRUE(contains(message, "object ids up to 120 bytes")) << message;
+  EXPECT_TRUE(contains(message, "fewer pairs")) << message;
+
+  // 8-byte ids: the same 99 681 pairs fit, and a Query is answered with every pair.
+  ASSERT_TRUE(stub.CreateScene(make_context().get(), sphere_grid(sphere, 8), &created).ok());
+  EXPECT_EQ(created.pair_count(), std::uint32_t(kPairs));
+  v1::QueryRequest query;
+  query.set_scene_id(created.scene_id());
+  v1::DistanceReport report;
+  const grpc::Status answered = stub.Query(make_context().get(), query, &report);
+  ASSERT_TRUE(answered.ok()) << answered.error_message();
+  EXPECT_EQ(report.pairs_size(), kPairs);
+}
+
+// Guards the per-request check (SceneService::query, PoseStream::prepare): a scene that fits
+// with its default options would not with near points on (40-byte ids: ~14 MB without, ~21 MB
+// with). A Query asking for them is refused naming the options and the limit (it used to fail
+// with "Sent message larger than max"), and a stream update asking for them gets an error
+// report with its sequence number (it used to get no report at all) while the stream goes on.
+TEST(ReportLimits, RequestsAskingForMoreThanFitsAreAnsweredWithAnError) {
+  RunningServer running = start_server();
+  ASSERT_TRUE(running.server);
+  v1::DistanceService::Stub& stub = *running.stub;
+  const std::string sphere = register_sphere(stub);
+  v1::CreateSceneResponse created;
+  ASSERT_TRUE(stub.CreateScene(make_context().get(), sphere_grid(sphere, 40), &created).ok());
+
+  v1::QueryRequest query;
+  query.set_scene_id(created.scene_id());
+  query.mutable_options()->set_near_points(true);
+  v1::DistanceReport report;
+  const grpc::Status refused = stub.Query(make_context().get(), query, &report);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_TRUE(contains(refused.error_message(), "options: ")) << refused.error_message();
+  EXPECT_TRUE(contains(refused.error_message(), "with near points")) << refused.error_message();
+  EXPECT_TRUE(contains(refused.error_message(), "--max-message-bytes")) << refused.error_message();
+
+  StreamClient stream(stub, std::chrono::seconds(60));
+  v1::PoseUpdate update;
+  update.set_scene_id(created.scene_id());
+  update.set_sequence(7);
+  update.mutable_options()->set_near_points(true);
+  ASSERT_TRUE(stream.write(update));
+  update.set_sequence(8);
+  update.clear_options();
+  ASSERT_TRUE(stream.write(update));
+  v1::DistanceReport first, second;
+  ASSERT_TRUE(stream.read(first)) << "the update asking for near points got no report";
+  EXPECT_EQ(first.sequence(), 7u);
+  ASSERT_TRUE(first.has_error());
+  EXPECT_EQ(first.error().code(), v1::ERROR_CODE_RESOURCE_EXHAUSTED);
+  EXPECT_EQ(first.error().field(), "options");
+  EXPECT_TRUE(contains(first.error().message(), "--max-message-bytes")) << first.error().message();
+  ASSERT_TRUE(stream.read(second));
+  EXPECT_EQ(second.sequence(), 8u);
+  EXPECT_FALSE(second.has_error()) << second.error().message();
+  EXPECT_EQ(second.pairs_size(), kPairs);
+  EXPECT_TRUE(stream.finish().ok());
+}
+
+// Guards the send-time backstop in the gRPC service (check_report_fits): when a report turns out
+// larger than the server's send limit anyway — here a SceneService configured with a larger
+// report limit than the gRPC server's message limit — the update is answered with an error
+// report carrying its sequence number instead of nothing (the stream used to end CANCELLED
+// with the update unanswered), the stream goes on, and a Query gets RESOURCE_EXHAUSTED with a
+// message naming the limit.
+TEST(ReportLimits, AReportTooLargeToSendIsReplacedByAnErrorReport) {
+  // The scene service keeps its default report limit (16 MiB); the gRPC server sends 1 MiB.
+  auto scenes = std::make_shared<SceneService>(ServiceLimits{}, 2);
+  ServerConfig config = test_config();
+  config.max_message_bytes = 1u << 20;
+  auto started = GrpcServer::start(config, scenes);
+  ASSERT_TRUE(started) << started.error().describe();
+  const std::string address = "127.0.0.1:" + std::to_string(started.value()->port());
+  grpc::ChannelArguments arguments;
+  arguments.SetMaxReceiveMessageSize(64 << 20);
+  auto channel = grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), arguments);
+  auto stub = v1::DistanceService::NewStub(channel);
+
+  // 100 objects with 100-byte ids: 4950 pairs, ~1.1 MB per report.
+  const std::string sphere = register_sphere(*stub);
+  v1::CreateSceneRequest request;
+  for (int i = 0; i < 100; ++i) {
+    v1::SceneObject& object = *request.add_objects();
+    object.set_id(padded_id(i, 100));
+    object.set_geometry_id(sphere);
+    object.mutable_pose()->mutable_translation()->set_x(3.0 * i);
+  }
+  v1::CreateSceneResponse created;
+  ASSERT_TRUE(stub->CreateScene(make_context().get(), request, &created).ok());
+
+  StreamClient stream(*stub);
+  for (std::uint64_t sequence : {11u, 12u}) {
+    v1::PoseUpdate update;
+    update.set_scene_id(created.scene_id());
+    update.set_sequence(sequence);
+    ASSERT_TRUE(stream.write(update));
+  }
+  for (std::uint64_t sequence : {11u, 12u}) {
+    v1::DistanceReport report;
+    ASSERT_TRUE(stream.read(report)) << "update " << sequence << " got no report";
+    EXPECT_EQ(report.sequence(), sequence);
+    ASSERT_TRUE(report.has_error());
+    EXPECT_EQ(report.error().code(), v1::ERROR_CODE_RESOURCE_EXHAUSTED);
+    EXPECT_TRUE(contains(report.error().message(), "--max-message-bytes"))
+        << report.error().message();
+  }
+  EXPECT_TRUE(stream.finish().ok());
+
+  v1::QueryRequest query;
+  query.set_scene_id(created.scene_id());
+  v1::DistanceReport report;
+  const grpc::Status refused = stub->Query(make_context().get(), query, &report);
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_TRUE(contains(refused.error_message(), "--max-message-bytes")) << refused.error_message();
+}
+
+// Guards report_size.hpp against the proto: on a report whose every field holds its longest
+// value, protobuf's own size stays within the bound, and within a few bytes per pair of it (a
+// bound that loose would refuse scenes that fit). If a field is added to PairDistance or
+// DistanceReport the field counts fail first: the bound must learn the new field.
+TEST(ReportLimits, TheReportSizeBoundHoldsForWorstCaseReports) {
+  namespace size = report_size;
+  EXPECT_EQ(v1::PairDistance::descriptor()->field_count(), 21);
+  EXPECT_EQ(v1::DistanceReport::descriptor()->field_count(), 6);
+  EXPECT_EQ(v1::ReportTiming::descriptor()->field_count(), 4);
+
+  auto fill = [](v1::Vector3& v) {
+    v.set_x(-1.5e300);
+    v.set_y(2.5e-300);
+    v.set_z(3.25);
+  };
+  for (const auto& [near_points, penetration, gradient] :
+       {std::tuple{false, false, false}, std::tuple{true, false, false},
+        std::tuple{true, true, true}, std::tuple{false, true, true}}) {
+    for (const std::size_t id_length : {std::size_t(1), std::size_t(127), std::size_t(128)}) {
+      constexpr int kPairCount = 50;
+      v1::DistanceReport report;
+      report.set_sequence(~std::uint64_t(0));
+      report.set_coalesced_updates(~std::uint32_t(0));
+      report.set_coalesced_from_sequence(~std::uint64_t(0));
+      v1::ReportTiming& timing = *report.mutable_timing();
+      timing.set_server_us(1.5), timing.set_queue_us(1.5), timing.set_evaluation_us(1.5);
+      timing.set_geometry_us(1.5);
+      std::size_t bound = size::kReportEnvelope;
+      for (int i = 0; i < kPairCount; ++i) {
+        v1::PairDistance& pair = *report.add_pairs();
+        pair.set_object_a(std::string(id_length, 'a'));
+        pair.set_object_b(std::string(id_length, 'b'));
+        pair.set_status(v1::PAIR_STATUS_ENGINE_ERROR);
+        pair.set_distance(1.5), pair.set_distance_lower_bound(1.5), pair.set_error_bound(1.5);
+        pair.set_iterations(~0u), pair.set_piece_pairs_evaluated(~0u);
+        pair.set_piece_a(~0u), pair.set_piece_b(~0u);
+        pair.set_warm_started(true);
+        if (near_points) {
+          pair.set_has_near_points(true);
+          fill(*pair.mutable_point_a()), fill(*pair.mutable_point_b());
+          fill(*pair.mutable_normal());
+        }
+        if (penetration) {
+          pair.set_has_penetration_bound(true);
+          pair.set_penetration_bound(1.5);
+        }
+        if (gradient) {
+          pair.set_has_gradient(true);
+          for (v1::PoseGradient* g : {pair.mutable_gradient_a(), pair.mutable_gradient_b()})
+            fill(*g->mutable_translation()), fill(*g->mutable_rotation());
+        }
+        bound += size::kPairEntryOverhead + size::kPairFixed +
+                 size::pair_ids(id_length, id_length) +
+                 size::pair_options(near_points, penetration, gradient);
+      }
+      const std::size_t actual = report.ByteSizeLong();
+      SCOPED_TRACE(::testing::Message()
+                   << "near points " << near_points << ", penetration " << penetration
+                   << ", gradient " << gradient << ", ids " << id_length << " bytes");
+      EXPECT_LE(actual, bound);
+      EXPECT_LE(bound - actual, std::size_t(kPairCount) * 1 + 4);
+    }
+  }
 }
 
 // ---- item 4: ids echoed without bound ----

@@ -30,8 +30,15 @@ struct ServiceLimits {
   std::size_t max_scenes = 1'000;
   /// Objects of one scene.
   std::size_t max_objects_per_scene = 1'000;
-  /// Selected object pairs of one scene: one PairDistance each per report (≈100 B on the wire).
+  /// Selected object pairs of one scene: one PairDistance each per report (≈100 B on the wire,
+  /// plus the two object ids; near points and gradients add up to 215 B).
   std::size_t max_pairs_per_scene = 100'000;
+  /// The largest report a scene may produce, bytes of its nearpoint.v1.DistanceReport encoding
+  /// (an upper bound computed from the pair count, the object ids and the options asked for).
+  /// A scene whose reports could exceed it is refused at creation, and a query or update whose
+  /// options would make its report exceed it is refused: a report too large to send could never
+  /// be answered. nearpointd sets it to --max-message-bytes, the most gRPC sends in one message.
+  std::size_t max_report_bytes = 16u << 20;
   /// Piece pairs over a scene's selected pairs: each stream holds one 36-byte cache per piece
   /// pair, so this bounds a stream's memory (262 144 → 9.4 MB).
   std::size_t max_piece_pairs_per_scene = 262'144;

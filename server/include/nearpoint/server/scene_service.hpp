@@ -65,6 +65,11 @@ class SceneDefinition {
   ResolvedOptions default_options;
   /// Sum of cache_count over the pairs: the size of one warm-start cache array.
   std::size_t piece_pair_count = 0;
+  /// An upper bound on the bytes of this scene's reports without near points, penetration
+  /// bounds or gradients (the envelope plus each pair's ids and fixed fields), and the longest
+  /// object id; see report_size.hpp.
+  std::size_t report_bytes_base = 0;
+  std::size_t longest_object_id = 0;
   /// How many pool tasks one evaluation is split into (1 … workers), from the scene's estimated
   /// GJK cost: splitting only pays when each task outweighs the cost of waking a worker.
   std::size_t tasks_per_evaluation = 1;
