@@ -66,9 +66,9 @@ LineOptions parse_options(const Json& options) {
   }
   if (options.contains("epsilon")) {
     const Json& epsilon = options["epsilon"];
-    if (!epsilon.is_number() || !(epsilon.get<double>() > 0) ||
-        !std::isfinite(epsilon.get<double>()))
-      throw LineError{R"("options.epsilon" must be a positive number (got )" +
+    // The server's rule (nearpoint::is_valid_epsilon): a line the CLI answers, nearpointd answers.
+    if (!epsilon.is_number() || !is_valid_epsilon(epsilon.get<double>()))
+      throw LineError{R"("options.epsilon" must be a number in [0, 1) (got )" +
                       (epsilon.is_number() ? epsilon.dump() : describe_type(epsilon)) + ")"};
     out.engine.epsilon = epsilon.get<double>();
   }

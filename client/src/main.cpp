@@ -72,7 +72,8 @@ SHAPE: exactly one kind, plus optional "radius" and "pose":
 OPTIONS (defaults are the engine's):
   )" << pad(R"("epsilon": )" + epsilon.dump())
        << R"(stopping tolerance of eq. (35) in the paper: stop when
-                                    the duality gap g <= epsilon * D(K)^2
+                                    the duality gap g <= epsilon * D(K)^2; a number in
+                                    [0, 1), as for nearpointd
   )" << pad(std::string(R"("near_points": )") + near_points)
        << R"(add point_a, point_b (world frame) and the unit
                                     normal from A towards B

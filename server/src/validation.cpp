@@ -186,7 +186,7 @@ Expected<ResolvedOptions> resolve_options(const ResolvedOptions& base,
   ResolvedOptions out = base;
   if (overrides.epsilon) {
     const double epsilon = *overrides.epsilon;
-    if (!(std::isfinite(epsilon) && epsilon >= 0 && epsilon < 1))
+    if (!is_valid_epsilon(epsilon))  // the rule `nearpoint distance` applies too
       return invalid_argument(field + ".epsilon",
                               text("must be finite and in [0, 1) (got ", epsilon, ")"));
     out.engine.epsilon = epsilon;

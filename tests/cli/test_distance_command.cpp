@@ -168,6 +168,30 @@ TEST(DistanceCommand, EpsilonIsPassedToTheEngine) {
   EXPECT_EQ(default_out["iterations"].get<int>(), fine.iterations);
 }
 
+// Guards the shared epsilon rule (nearpoint::is_valid_epsilon, also nearpointd's): epsilon 0 is
+// a valid tolerance — eq. (35) then never fires and the loop ends by its other stopping rules, on
+// a curved pair well before the iteration cap — so the command answers it as the engine does,
+// bit for bit. It used to refuse 0 ("must be a positive number") while the server accepted it.
+TEST(DistanceCommand, EpsilonZeroIsAToleranceLikeAnyOther) {
+  DistanceOptions<double> options;
+  options.epsilon = 0;
+  const Shape<double> a(Ellipsoid<double>{Vec(1, 0.5, 0.25)});
+  const Shape<double> b(Ellipsoid<double>{Vec(0.3, 0.7, 0.4)});
+  const Pose<double> pose_b = pose(0.1, 0.7, 0.1, 0.7, Vec(2, 0.3, -0.2));
+  const DistanceResult<double> exact = distance(a, Pose<double>{}, b, pose_b, options);
+  ASSERT_EQ(exact.status, Status::separated);
+  ASSERT_LT(exact.iterations, kDefaultMaxIterations);
+
+  const Json out = computed(
+      R"({"a": {"ellipsoid": [1, 0.5, 0.25]}, "b": {"ellipsoid": [0.3, 0.7, 0.4], "pose": )"
+      R"({"rotation": [0.1, 0.7, 0.1, 0.7], "translation": [2, 0.3, -0.2]}}, )"
+      R"("options": {"epsilon": 0}})");
+  EXPECT_EQ(out["status"], "separated") << out.dump();
+  EXPECT_EQ(out["distance"].get<double>(), exact.distance);
+  EXPECT_EQ(out["error_bound"].get<double>(), exact.error_bound);
+  EXPECT_EQ(out["iterations"].get<int>(), exact.iterations);
+}
+
 // A cube and an octahedron overlapping: the final simplex is a tetrahedron around the origin.
 const char* kOverlappingPair =
     R"("a": {"polytope": [[-1,-1,-1],[1,-1,-1],[-1,1,-1],[1,1,-1],[-1,-1,1],[1,-1,1],[-1,1,1],)"
@@ -369,12 +393,15 @@ std::vector<BadLine> bad_lines() {
       {"unknown penetration",
        R"({"a": {"sphere": {}}, )" + b + R"(, "options": {"penetration": "exact"}})",
        {"\"options.penetration\"", "\"exact\""}},
-      {"zero epsilon",
-       R"({"a": {"sphere": {}}, )" + b + R"(, "options": {"epsilon": 0}})",
-       {"\"options.epsilon\"", "positive"}},
+      {"epsilon of 1",
+       R"({"a": {"sphere": {}}, )" + b + R"(, "options": {"epsilon": 1}})",
+       {"\"options.epsilon\"", "[0, 1)"}},
+      {"negative epsilon",
+       R"({"a": {"sphere": {}}, )" + b + R"(, "options": {"epsilon": -1e-300}})",
+       {"\"options.epsilon\"", "[0, 1)"}},
       {"epsilon a string",
        R"({"a": {"sphere": {}}, )" + b + R"(, "options": {"epsilon": "1"}})",
-       {"\"options.epsilon\"", "positive"}},
+       {"\"options.epsilon\"", "[0, 1)"}},
       {"unknown top-level key",
        R"({"a": {"sphere": {}}, )" + b + R"(, "c": {"sphere": {}}})",
        {"unknown key", "\"c\""}},

@@ -14,6 +14,7 @@
 
 #include "common/time_scale.hpp"
 #include "demo.hpp"
+#include "distance_command.hpp"
 #include "local_server.hpp"
 #include "nearpoint/client/client.hpp"
 #include "nearpoint/compound.hpp"
@@ -206,6 +207,39 @@ TEST_F(WithServer, ErrorsAreValuesCarryingTheServersMessage) {
   auto query = client->query("no-such-scene", {});
   ASSERT_FALSE(query.ok());
   EXPECT_EQ(query.status().code_name(), "NOT_FOUND");
+}
+
+// Guards the one epsilon rule (nearpoint::is_valid_epsilon) at both entry points: for each value,
+// `nearpoint distance` answers a line with it exactly when a real nearpointd accepts it in a
+// Query — and the rule is [0, 1). They used to disagree at both ends: the CLI refused 0, which
+// the server accepts, and accepted 1 and above, which the server refuses.
+TEST_F(WithServer, TheCliAndTheServerAcceptTheSameEpsilons) {
+  auto client = client::Client::connect(server_->target());
+  const std::string scene_id = create_two_cube_scene(*client);
+  ASSERT_FALSE(scene_id.empty());
+  for (const double epsilon : {0.0, 1e-300, 4.9e-32, 1e-4, 0.999, 1.0, 2.0, -1e-300, -1.0}) {
+    SCOPED_TRACE(epsilon);
+    client::QueryOptions options;
+    options.epsilon = epsilon;
+    auto report = client->query(scene_id, {}, options);
+    const bool server_accepts = report.ok();
+    if (!server_accepts) {
+      EXPECT_EQ(report.status().code_name(), "INVALID_ARGUMENT");
+    }
+
+    std::ostringstream line;
+    line.precision(17);
+    line << R"({"a": {"sphere": {}}, "b": {"sphere": {}, "pose": {"translation": [3, 0, 0]}}, )"
+         << R"("options": {"epsilon": )" << epsilon << "}}\n";
+    std::istringstream in(line.str());
+    std::ostringstream out;
+    ASSERT_EQ(run_distance(in, out, {}), kExitOk);
+    const Json answer = parse_json(out.str());
+    const bool cli_accepts = answer["status"] != "error";
+
+    EXPECT_EQ(cli_accepts, server_accepts) << out.str();
+    EXPECT_EQ(server_accepts, epsilon >= 0 && epsilon < 1);
+  }
 }
 
 TEST_F(WithServer, QueryAgreesWithTheEngine) {

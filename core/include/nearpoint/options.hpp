@@ -36,6 +36,17 @@ inline constexpr Scalar kDefaultEpsilon =
 template <class Scalar>
 inline constexpr Scalar kPaperEpsilon = Scalar(100) * std::numeric_limits<Scalar>::epsilon();
 
+/// The ε a caller may ask for at nearpoint's boundaries (nearpointd's QueryOptions, `nearpoint
+/// distance`): finite and in [0, 1). One rule for every entry point. ε = 0 is meaningful — eq.
+/// (35) then never stops the loop, which ends by its other rules (the support point repeats a
+/// simplex vertex, no further descent, the roundoff floor), where the default
+/// kDefaultEpsilon ≈ 0 ends too. ε ≥ 1 would accept a gap as large as the shapes themselves: no
+/// tolerance at all, surely a mistake.
+template <class Scalar>
+constexpr bool is_valid_epsilon(Scalar epsilon) {
+  return epsilon >= Scalar(0) && epsilon < Scalar(1);  // false for NaN and ±inf as well
+}
+
 /// An upper limit on GJK iterations. Polytopes end in 3–6 iterations (paper, Section VII) and never
 /// need more than a few dozen; smooth shapes converge geometrically and meet eq. (35) within ~40.
 /// The cap only guards against pathological input: a capped run says so in its status.
