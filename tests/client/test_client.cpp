@@ -242,6 +242,54 @@ TEST_F(WithServer, TheCliAndTheServerAcceptTheSameEpsilons) {
   }
 }
 
+// Guards the clients' default receive limit (ClientOptions::max_message_bytes =
+// server::kDefaultMaxMessageBytes, nearpointd's send limit): a report of ~5.7 MB (300 spheres
+// with 40-byte ids, 44 850 pairs) reaches the C++ client and `nearpoint query` whole, where
+// gRPC's default of 4 MiB fails it with RESOURCE_EXHAUSTED — which a client limited to 4 MiB
+// shows here, so the report really is beyond it.
+TEST_F(WithServer, ReportsLargerThan4MiBReachTheClientAndTheCli) {
+  auto client = client::Client::connect(server_->target());
+  client::Geometry sphere;
+  client::Piece point;
+  point.shape = Point{};
+  point.radius = 1;
+  sphere.pieces.push_back(point);
+  auto geometry = client->register_geometry(sphere);
+  ASSERT_TRUE(geometry.ok()) << geometry.status().describe();
+  client::Scene scene;
+  for (int i = 0; i < 300; ++i) {
+    std::string id = "o" + std::to_string(i) + "-";
+    id.resize(40, 'x');
+    scene.objects.push_back(
+        {id,
+         geometry->geometry_id,
+         client::to_pose_input(Eigen::Quaterniond::Identity(),
+                               Eigen::Vector3d(3.0 * (i % 20), 3.0 * (i / 20), 0)),
+         {},
+         {}});
+  }
+  auto created = client->create_scene(scene);
+  ASSERT_TRUE(created.ok()) << created.status().describe();
+  constexpr std::size_t kPairs = 300 * 299 / 2;
+
+  auto report = client->query(created->scene_id, {});
+  ASSERT_TRUE(report.ok()) << report.status().describe();
+  EXPECT_EQ(report->pairs.size(), kPairs);
+
+  client::ClientOptions small;
+  small.max_message_bytes = 4 << 20;
+  auto refused = client::Client::connect(server_->target(), small)->query(created->scene_id, {});
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().code_name(), "RESOURCE_EXHAUSTED");
+
+  QueryCommandOptions query;
+  query.remote = remote();
+  query.scene = created->scene_id;
+  std::ostringstream out, err;
+  ASSERT_EQ(run_query(query, out, err), 0) << err.str();
+  EXPECT_EQ(parse_json(out.str())["pairs"].size(), kPairs);
+}
+
 TEST_F(WithServer, QueryAgreesWithTheEngine) {
   auto client = client::Client::connect(server_->target());
   auto a = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));

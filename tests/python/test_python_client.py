@@ -189,6 +189,29 @@ class PythonClientTest(unittest.TestCase):
         self.assertIn("ghost", reports[2].error.message)
         self.check_pair(reports[3].pairs[0], 0.5, "update 4")
 
+    def test_a_report_larger_than_4_mib_arrives(self):
+        """Guards the client's receive limit (DEFAULT_MAX_MESSAGE_BYTES, the server's send limit):
+        with gRPC's default of 4 MiB, this scene's reports (~5.7 MB: 300 spheres with 40-byte ids,
+        44 850 pairs) failed with RESOURCE_EXHAUSTED "Received message larger than max" although
+        the server sent them; now a query and a stream update both arrive whole."""
+        sphere = self.client.register_geometry([npc.sphere(1.0)], name="unit sphere")
+        objects = {f"o{i}-".ljust(40, "x"): (sphere, (3.0 * (i % 20), 3.0 * (i // 20), 0))
+                   for i in range(300)}
+        scene = self.client.create_scene(objects)
+        report = self.client.query(scene, {})
+        self.assertEqual(len(report.pairs), 300 * 299 // 2)
+        # The premise: with gRPC's old default the same query does not arrive.
+        small = npc.connect(self.target, timeout=10, max_message_bytes=4 * 1024 * 1024)
+        try:
+            with self.assertRaises(npc.NearpointError) as raised:
+                small.query(scene, {})
+            self.assertEqual(raised.exception.code.name, "RESOURCE_EXHAUSTED")
+        finally:
+            small.close()
+        reports = list(self.client.stream(scene, iter([npc.Update(1, {})]), timeout=60))
+        self.assertEqual([r.sequence for r in reports], [1])
+        self.assertEqual(len(reports[0].pairs), 300 * 299 // 2)
+
     def test_unknown_scene_raises_with_the_servers_message(self):
         with self.assertRaises(npc.NearpointError) as raised:
             self.client.query("scene-does-not-exist", {})

@@ -14,6 +14,7 @@ in build/client/python (add that directory to PYTHONPATH).
 """
 
 from .client import (
+    DEFAULT_MAX_MESSAGE_BYTES,
     DEFAULT_TIMEOUT,
     Client,
     NearpointError,
@@ -35,7 +36,7 @@ from .client import (
 )
 
 __all__ = [
-    "DEFAULT_TIMEOUT", "Client", "NearpointError", "PairDistance", "Report", "Update",
+    "DEFAULT_MAX_MESSAGE_BYTES", "DEFAULT_TIMEOUT", "Client", "NearpointError", "PairDistance", "Report", "Update",
     "UpdateError", "box", "capsule", "cone", "connect", "cylinder", "ellipsoid", "polytope",
     "pose", "query_options", "rotation_about_z", "sphere",
 ]

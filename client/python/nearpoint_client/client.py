@@ -25,6 +25,11 @@ Quat = Tuple[float, float, float, float]
 
 #: Seconds a unary call may take before it fails with DEADLINE_EXCEEDED.
 DEFAULT_TIMEOUT = 10.0
+# The largest message sent or received, bytes: nearpointd's --max-message-bytes default (16 MiB,
+# server/include/nearpoint/server/limits.hpp), so that every report the server can send arrives.
+# gRPC's own default receive limit, 4 MiB, would fail a large scene's reports with
+# RESOURCE_EXHAUSTED "Received message larger than max".
+DEFAULT_MAX_MESSAGE_BYTES = 16 * 1024 * 1024
 
 
 class NearpointError(Exception):
@@ -421,11 +426,16 @@ class Client:
             responses.cancel()  # the caller stopped early: end the call, not leave it open
 
 
-def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT) -> Client:
+def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT,
+            max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Client:
     """Connects to nearpointd at `target` ("host:port"), waiting up to `timeout` seconds for the
     channel to be ready (NearpointError UNAVAILABLE otherwise). `timeout` is also each unary
-    call's deadline. Plain-text channel: nearpointd listens on 127.0.0.1 by default."""
-    channel = grpc.insecure_channel(target)
+    call's deadline. `max_message_bytes` bounds the messages sent and received; the default is
+    the server's. Plain-text channel: nearpointd listens on 127.0.0.1 by default."""
+    channel = grpc.insecure_channel(target, options=[
+        ("grpc.max_receive_message_length", max_message_bytes),
+        ("grpc.max_send_message_length", max_message_bytes),
+    ])
     try:
         grpc.channel_ready_future(channel).result(timeout=timeout)
     except grpc.FutureTimeoutError:

@@ -33,6 +33,7 @@
 
 #include <Eigen/Geometry>
 
+#include "nearpoint/server/limits.hpp"
 #include "nearpoint/server/scene_types.hpp"
 
 namespace nearpoint::client {
@@ -219,8 +220,9 @@ class Session {
 struct ClientOptions {
   /// Deadline of each unary call (register, create, query, …).
   std::chrono::milliseconds call_timeout{10000};
-  /// Largest message sent or received.
-  int max_message_bytes = 16 << 20;
+  /// Largest message sent or received: by default the server's (--max-message-bytes), so that
+  /// every report it can send arrives.
+  int max_message_bytes = static_cast<int>(server::kDefaultMaxMessageBytes);
 };
 
 class Client {

@@ -18,6 +18,11 @@ inline constexpr std::size_t kMaxNameBytes = 256;
 /// its length: "no scene 'abc…' (8192 bytes)".
 inline constexpr std::size_t kQuotedBytes = 64;
 
+/// The largest gRPC message nearpointd receives or sends by default (--max-message-bytes), and
+/// the default of the C++ client, the CLI and the Python client, so that any report the server
+/// can send reaches them (gRPC's own default receive limit is 4 MiB).
+inline constexpr std::size_t kDefaultMaxMessageBytes = 16u << 20;
+
 struct ServiceLimits {
   /// Stored geometries. Each costs its vertices (24 B each) plus a few hundred bytes.
   std::size_t max_geometries = 10'000;
@@ -38,7 +43,7 @@ struct ServiceLimits {
   /// A scene whose reports could exceed it is refused at creation, and a query or update whose
   /// options would make its report exceed it is refused: a report too large to send could never
   /// be answered. nearpointd sets it to --max-message-bytes, the most gRPC sends in one message.
-  std::size_t max_report_bytes = 16u << 20;
+  std::size_t max_report_bytes = kDefaultMaxMessageBytes;
   /// Piece pairs over a scene's selected pairs: each stream holds one 36-byte cache per piece
   /// pair, so this bounds a stream's memory (262 144 → 9.4 MB).
   std::size_t max_piece_pairs_per_scene = 262'144;

@@ -22,7 +22,7 @@ struct ServerConfig {
   std::size_t workers = 0;
   ServiceLimits limits;
   /// Largest message received or sent, bytes. Larger requests fail with RESOURCE_EXHAUSTED.
-  std::size_t max_message_bytes = 16u << 20;
+  std::size_t max_message_bytes = kDefaultMaxMessageBytes;
   /// At shutdown, how long streams get to answer the updates already read before they are
   /// cancelled.
   std::chrono::milliseconds drain_timeout{5000};
