@@ -416,5 +416,18 @@ TEST(IdLimits, IdsAndNamesOutsideTheirCharacterSetsAreRejectedNamingTheField) {
   }
 }
 
+// Guards the log's own backstop (LogLine::kv): whatever a caller passes, a value is cut at 1 kB
+// with its length, and control characters are escaped, so that one line stays one bounded write
+// that no value can split or forge (a carriage return, a terminal escape, a newline).
+TEST(IdLimits, LogValuesAreCappedAndControlCharactersEscaped) {
+  ::testing::internal::CaptureStderr();
+  log_warn("test_event").kv("huge", std::string(10u << 20, 'v')).kv("sly", "a\rb\x1b[2Jc\nd");
+  const std::string log = ::testing::internal::GetCapturedStderr();
+  EXPECT_LT(log.size(), 1300u);
+  EXPECT_EQ(std::count(log.begin(), log.end(), '\n'), 1) << log;
+  EXPECT_TRUE(contains(log, "(" + std::to_string(10u << 20) + " bytes)\"")) << log;
+  EXPECT_TRUE(contains(log, R"(sly="a\x0db\x1b[2Jc\nd")")) << log;
+}
+
 }  // namespace
 }  // namespace nearpoint::server::testing
