@@ -228,8 +228,12 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
     }
     const bool idle = pending_.empty() && !evaluating_ && outgoing_.empty() && !writing_;
     if (idle && draining_) {
+      // "draining" tells a client this is a drain, not a crash: nothing it sent was lost
+      // unanswered, and the count says exactly which updates were read (the first N it sent).
       End(grpc::Status(grpc::StatusCode::UNAVAILABLE,
-                       "server is shutting down: every update read was answered"),
+                       text("server is draining (shutting down): all ", updates_read_,
+                            " updates read on this stream were answered; later ones were not "
+                            "read")),
           "drained");
       return;
     }

@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
   std::string port_file;
   std::string log_level = "info";
   long long drain_timeout_ms = config.drain_timeout.count();
+  long long flush_timeout_ms = config.flush_timeout.count();
   bool no_diagnostics = false;
   std::vector<std::string> scene_files;
   auto& limits = config.limits;
@@ -117,6 +118,11 @@ int main(int argc, char** argv) {
                  "At shutdown, time streams get to answer what they have read")
       ->capture_default_str()
       ->check(CLI::Range(0LL, 600'000LL));
+  app.add_option("--flush-timeout-ms", flush_timeout_ms,
+                 "At shutdown, after the streams have ended, time their connections get to "
+                 "deliver what was written before they are closed")
+      ->capture_default_str()
+      ->check(CLI::Range(0LL, 600'000LL));
   app.add_option("--scene", scene_files,
                  "Preload a scene file (JSON or YAML, as for `nearpoint scene create`) under the "
                  "id it requests; repeatable (how a DDS-only client gets its scene)")
@@ -137,6 +143,7 @@ int main(int argc, char** argv) {
   nearpoint::server::parse_log_level(log_level, level);
   nearpoint::server::set_log_level(level);
   config.drain_timeout = std::chrono::milliseconds(drain_timeout_ms);
+  config.flush_timeout = std::chrono::milliseconds(flush_timeout_ms);
   config.diagnostics = !no_diagnostics;
 
   // Block the shutdown signals in every thread (gRPC's and the pool's inherit this mask); this

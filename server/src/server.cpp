@@ -100,10 +100,13 @@ void GrpcServer::shutdown() {
   const auto deadline = Clock::now() + impl.config.drain_timeout;
   bool drained = impl.distance->calls().wait_idle(deadline);
   if (impl.diagnostics) drained = impl.diagnostics->calls().wait_idle(deadline) && drained;
-  // Our calls are over (or the drain timed out): close the listener and the connections now.
-  // With a later deadline gRPC would also wait for the clients to close their connections, which
-  // idle clients never do.
-  impl.server->Shutdown(std::chrono::system_clock::now());
+  // Our calls are over (or the drain timed out), but over means only that gRPC has taken their
+  // last reports and final statuses: bytes held back by HTTP/2 flow control (a client that reads
+  // slowly) are still in the transport, and closing the connections at once drops them (the
+  // client sees "Broken pipe" and fewer reports than were written). So shut down gracefully:
+  // GOAWAY, then give the transport flush_timeout to deliver while clients read and close their
+  // connections; connections still open then (idle clients keep theirs) are closed by force.
+  impl.server->Shutdown(std::chrono::system_clock::now() + impl.config.flush_timeout);
   impl.server->Wait();
   log_info("shutdown_complete")
       .kv("drained", drained ? "all" : "timed_out")

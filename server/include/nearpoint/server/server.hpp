@@ -26,6 +26,11 @@ struct ServerConfig {
   /// At shutdown, how long streams get to answer the updates already read before they are
   /// cancelled.
   std::chrono::milliseconds drain_timeout{5000};
+  /// At shutdown, once the streams have ended, how long the connections stay open so that what
+  /// the streams wrote (reports held back by HTTP/2 flow control, final statuses) reaches clients
+  /// that are still reading; connections their clients close end sooner. gRPC's "write done"
+  /// only means the transport took the bytes, so closing at once would drop them.
+  std::chrono::milliseconds flush_timeout{1000};
   /// Serve nearpoint.v1.Diagnostics (the echo stream that measures the transport floor).
   bool diagnostics = true;
 };
@@ -44,8 +49,9 @@ class GrpcServer {
   int port() const;
   /// Graceful shutdown: health goes NOT_SERVING, new calls are refused, every open stream stops
   /// reading, answers the updates it has read and ends with UNAVAILABLE; streams still busy
-  /// after `drain_timeout` are cancelled. Returns when every call has ended. Idempotent and
-  /// thread-safe.
+  /// after `drain_timeout` are cancelled; then the connections get `flush_timeout` to deliver
+  /// what was written before they are closed. Returns when every connection is closed.
+  /// Idempotent and thread-safe.
   void shutdown();
   SceneService& scenes();
 
