@@ -9,29 +9,58 @@
 #include "nearpoint/server/log.hpp"
 #include "proto_convert.hpp"
 #include "tsan_handoff.hpp"
+#include "wire_parse.hpp"
 
 namespace nearpoint::server {
 namespace {
 
 constexpr const char* kShuttingDown = "server is shutting down";
 
-/// Finishes a unary call begun with `calls.begin_unary()`.
-void finish(grpc::ServerUnaryReactor* reactor, CallRegistry& calls, const grpc::Status& status) {
-  reactor->Finish(status);
-  calls.end_unary();
-}
+/// One unary call whose request we parsed (see RawDistanceService). Its typed handler fills
+/// `response` and ends the call exactly once, with finish() or reject(), possibly later and on
+/// another thread (Query ends from the pool); the call object lives until then.
+template <class Request, class Response>
+class UnaryCall {
+ public:
+  UnaryCall(grpc::ServerUnaryReactor* reactor, CallRegistry& calls,
+            grpc::CallbackServerContext* context, const char* rpc, grpc::ByteBuffer* response_bytes)
+      : context(context),
+        rpc(rpc),
+        reactor_(reactor),
+        calls_(calls),
+        response_bytes_(response_bytes) {}
 
-/// Finishes a unary call with `error` and logs it (one line per rejected request).
-void reject(grpc::ServerUnaryReactor* reactor, CallRegistry& calls,
-            grpc::CallbackServerContext* context, const char* rpc, const Error& error) {
-  log_warn("request_rejected")
-      .kv("rpc", rpc)
-      .kv("peer", context->peer())
-      .kv("code", to_string(error.code))
-      .kv("field", error.field)
-      .kv("message", error.message);
-  finish(reactor, calls, to_grpc_status(error));
-}
+  /// Ends the call: `status`, with the serialised response when OK.
+  void finish(grpc::Status status) {
+    if (status.ok()) {
+      bool own_buffer = false;
+      status =
+          grpc::SerializationTraits<Response>::Serialize(response, response_bytes_, &own_buffer);
+    }
+    reactor_->Finish(status);
+    calls_.end_unary();
+  }
+  /// Ends the call with `error` and logs it (one line per rejected request).
+  void reject(const Error& error) {
+    log_warn("request_rejected")
+        .kv("rpc", rpc)
+        .kv("peer", context->peer())
+        .kv("code", to_string(error.code))
+        .kv("field", error.field)
+        .kv("message", error.message);
+    finish(to_grpc_status(error));
+  }
+
+  grpc::CallbackServerContext* const context;
+  const char* const rpc;
+  Request request;
+  Response response;
+
+ private:
+  grpc::ServerUnaryReactor* const reactor_;
+  CallRegistry& calls_;
+  grpc::ByteBuffer* const response_bytes_;
+};
 
 /// A report larger than the server sends cannot go out (gRPC would fail the call with "Sent
 /// message larger than max", and a stream's update would get no answer at all). Scenes and
@@ -49,6 +78,24 @@ std::optional<Error> check_report_fits(const v1::DistanceReport& report, std::si
 /// The reactor of a unary call refused because the server is draining.
 grpc::ServerUnaryReactor* refuse(grpc::ServerUnaryReactor* reactor) {
   reactor->Finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, kShuttingDown));
+  return reactor;
+}
+
+/// The raw unary method's body: refuse while draining, parse the request (INVALID_ARGUMENT with
+/// the reason when it does not parse), then hand the call to `handler`, which ends it.
+template <class Request, class Response, class Handler>
+grpc::ServerUnaryReactor* serve_unary(CallRegistry& calls, grpc::CallbackServerContext* context,
+                                      const char* rpc, const grpc::ByteBuffer* request_bytes,
+                                      grpc::ByteBuffer* response_bytes, Handler&& handler) {
+  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
+  if (!calls.begin_unary()) return refuse(reactor);
+  auto call =
+      std::make_shared<UnaryCall<Request, Response>>(reactor, calls, context, rpc, response_bytes);
+  if (std::string why = parse_message(*request_bytes, call->request); !why.empty()) {
+    call->reject(invalid_argument("", text("request ", why)));
+    return reactor;
+  }
+  handler(call);
   return reactor;
 }
 
@@ -72,7 +119,7 @@ grpc::ServerUnaryReactor* refuse(grpc::ServerUnaryReactor* reactor) {
 /// Locking: `mutex_` guards every member below it. gRPC never runs a reaction inline inside
 /// StartRead/StartWrite/Finish (their tags are not inlineable), so calling them under the lock
 /// is safe; OnDone takes the lock once before deleting, so whoever called Finish has let go.
-class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v1::DistanceReport>,
+class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>,
                                 public DrainableStream {
  public:
   PoseStreamReactor(DistanceServiceImpl& service, grpc::CallbackServerContext* context,
@@ -116,8 +163,24 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
       Pump();
       return;
     }
+    if (std::string why = parse_message(incoming_, parsed_); !why.empty()) {
+      // Not an update we can answer or refuse by sequence number: stop reading, answer what was
+      // read before it, then end the stream INVALID_ARGUMENT (never OK after input we could not
+      // read).
+      unparsable_ = text("message ", updates_read_ + 1, " of the stream (after sequence ",
+                         last_sequence_, ") ", why, "; the ", updates_read_,
+                         " updates before it were answered and nothing after it was read");
+      log_warn("stream_message_unparsable")
+          .kv("stream", number_)
+          .kv("peer", peer_)
+          .kv("message", unparsable_);
+      reads_done_ = true;
+      Pump();
+      return;
+    }
     ++updates_read_;
-    const PoseUpdateInput update = to_input(incoming_);
+    const PoseUpdateInput update = to_input(parsed_);
+    last_sequence_ = update.sequence;
     Expected<PreparedUpdate> prepared = stream_->prepare(update, Clock::now());
     if (!prepared) {
       ++updates_rejected_;
@@ -211,10 +274,20 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
       stream_->evaluate(std::move(next), [this](Report report) { OnReport(std::move(report)); });
     }
     if (!broken_ && !writing_ && !outgoing_.empty()) {
-      current_write_ = std::move(outgoing_.front());
+      bool own_buffer = false;
+      current_write_.Clear();  // the serialiser writes into an empty buffer only
+      const grpc::Status serialised = grpc::SerializationTraits<v1::DistanceReport>::Serialize(
+          outgoing_.front(), &current_write_, &own_buffer);
       outgoing_.pop_front();
-      writing_ = true;
-      StartWrite(&current_write_);
+      if (serialised.ok()) {
+        writing_ = true;
+        StartWrite(&current_write_);
+      } else {
+        broken_ = true;  // cannot happen below protobuf's 2 GB; end rather than skip a report
+        log_error("report_unserialisable")
+            .kv("stream", number_)
+            .kv("message", serialised.error_message());
+      }
     }
 
     if (broken_) {
@@ -235,6 +308,10 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
                             " updates read on this stream were answered; later ones were not "
                             "read")),
           "drained");
+      return;
+    }
+    if (idle && !unparsable_.empty()) {
+      End(grpc::Status(grpc::StatusCode::INVALID_ARGUMENT, unparsable_), "invalid_argument");
       return;
     }
     if (idle && reads_done_) {
@@ -280,8 +357,9 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
   bool registered_ = false;
 
   std::mutex mutex_;
-  v1::PoseUpdate incoming_;
-  v1::DistanceReport current_write_;
+  grpc::ByteBuffer incoming_;
+  v1::PoseUpdate parsed_;
+  grpc::ByteBuffer current_write_;
   /// Read and not yet answered, in read order: updates to evaluate, and the error reports of
   /// rejected updates waiting for their turn.
   std::deque<std::variant<PreparedUpdate, v1::DistanceReport>> pending_;
@@ -294,6 +372,9 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<v1::PoseUpdate, v
   bool draining_ = false;
   bool finished_ = false;
   const char* finish_reason_ = "";
+  /// Why a message did not parse (the stream then ends INVALID_ARGUMENT); empty while all did.
+  std::string unparsable_;
+  std::uint64_t last_sequence_ = 0;
   std::uint64_t updates_read_ = 0;
   std::uint64_t updates_rejected_ = 0;
   std::uint64_t updates_coalesced_ = 0;
@@ -412,109 +493,131 @@ bool CallRegistry::wait_idle(std::chrono::steady_clock::time_point deadline) {
 
 // ---- DistanceService ----
 
-grpc::ServerUnaryReactor* DistanceServiceImpl::RegisterGeometry(
-    grpc::CallbackServerContext* context, const v1::RegisterGeometryRequest* request,
-    v1::RegisterGeometryResponse* response) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (!calls_.begin_unary()) return refuse(reactor);
-  Expected<GeometryInfo> info = scenes_.register_geometry(to_input(request->geometry()));
-  if (!info) {
-    reject(reactor, calls_, context, "RegisterGeometry", info.error());
-    return reactor;
-  }
-  to_proto(info.value(), *response->mutable_geometry());
+namespace {
+
+// The typed handlers: each ends its call once (see UnaryCall).
+
+using RegisterGeometryCall = UnaryCall<v1::RegisterGeometryRequest, v1::RegisterGeometryResponse>;
+void register_geometry(SceneService& scenes, RegisterGeometryCall& call) {
+  Expected<GeometryInfo> info = scenes.register_geometry(to_input(call.request.geometry()));
+  if (!info) return call.reject(info.error());
+  to_proto(info.value(), *call.response.mutable_geometry());
   log_info("geometry_registered")
       .kv("geometry", info->geometry_id)
       .kv("name", info->name)
       .kv("pieces", info->piece_count)
       .kv("vertices", info->vertex_count)
       .kv("bounding_radius", info->bounding_radius);
-  finish(reactor, calls_, grpc::Status::OK);
-  return reactor;
+  call.finish(grpc::Status::OK);
 }
 
-grpc::ServerUnaryReactor* DistanceServiceImpl::RemoveGeometry(
-    grpc::CallbackServerContext* context, const v1::RemoveGeometryRequest* request,
-    v1::RemoveGeometryResponse*) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (!calls_.begin_unary()) return refuse(reactor);
-  if (Outcome removed = scenes_.remove_geometry(request->geometry_id()); !removed) {
-    reject(reactor, calls_, context, "RemoveGeometry", removed.error());
-    return reactor;
-  }
-  log_info("geometry_removed").kv("geometry", request->geometry_id());
-  finish(reactor, calls_, grpc::Status::OK);
-  return reactor;
+using RemoveGeometryCall = UnaryCall<v1::RemoveGeometryRequest, v1::RemoveGeometryResponse>;
+void remove_geometry(SceneService& scenes, RemoveGeometryCall& call) {
+  if (Outcome removed = scenes.remove_geometry(call.request.geometry_id()); !removed)
+    return call.reject(removed.error());
+  log_info("geometry_removed").kv("geometry", call.request.geometry_id());
+  call.finish(grpc::Status::OK);
 }
 
-grpc::ServerUnaryReactor* DistanceServiceImpl::ListGeometries(
-    grpc::CallbackServerContext* context, const v1::ListGeometriesRequest*,
-    v1::ListGeometriesResponse* response) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (!calls_.begin_unary()) return refuse(reactor);
-  for (const GeometryInfo& info : scenes_.list_geometries())
-    to_proto(info, *response->add_geometries());
-  finish(reactor, calls_, grpc::Status::OK);
-  return reactor;
+using ListGeometriesCall = UnaryCall<v1::ListGeometriesRequest, v1::ListGeometriesResponse>;
+void list_geometries(SceneService& scenes, ListGeometriesCall& call) {
+  for (const GeometryInfo& info : scenes.list_geometries())
+    to_proto(info, *call.response.add_geometries());
+  call.finish(grpc::Status::OK);
+}
+
+using CreateSceneCall = UnaryCall<v1::CreateSceneRequest, v1::CreateSceneResponse>;
+void create_scene(SceneService& scenes, CreateSceneCall& call) {
+  const v1::CreateSceneRequest& request = call.request;
+  Expected<SceneInfo> info = scenes.create_scene(to_input(request));
+  if (!info) return call.reject(info.error());
+  call.response.set_scene_id(info->scene_id);
+  call.response.set_pair_count(std::uint32_t(info->pair_count));
+  log_info("scene_created")
+      .kv("scene", info->scene_id)
+      .kv("name", request.name())
+      .kv("objects", request.objects_size())
+      .kv("pairs", info->pair_count);
+  call.finish(grpc::Status::OK);
+}
+
+using DeleteSceneCall = UnaryCall<v1::DeleteSceneRequest, v1::DeleteSceneResponse>;
+void delete_scene(SceneService& scenes, DeleteSceneCall& call) {
+  if (Outcome deleted = scenes.delete_scene(call.request.scene_id()); !deleted)
+    return call.reject(deleted.error());
+  log_info("scene_deleted").kv("scene", call.request.scene_id());
+  call.finish(grpc::Status::OK);
+}
+
+using QueryCall = UnaryCall<v1::QueryRequest, v1::DistanceReport>;
+void query(SceneService& scenes, std::size_t max_message_bytes,
+           const std::shared_ptr<QueryCall>& call) {
+  // The geometry runs on the pool; the call is ended from there (and kept alive until then).
+  Outcome started =
+      scenes.query(to_input(call->request), Clock::now(), [call, max_message_bytes](Report report) {
+        to_proto(report, call->response);
+        if (auto error = check_report_fits(call->response, max_message_bytes)) {
+          log_error("report_too_large").kv("rpc", "Query").kv("message", error->message);
+          call->response.Clear();
+          call->finish(to_grpc_status(*error));
+          return;
+        }
+        call->finish(grpc::Status::OK);
+      });
+  if (!started) call->reject(started.error());
+}
+
+}  // namespace
+
+grpc::ServerUnaryReactor* DistanceServiceImpl::RegisterGeometry(
+    grpc::CallbackServerContext* context, const grpc::ByteBuffer* request,
+    grpc::ByteBuffer* response) {
+  return serve_unary<v1::RegisterGeometryRequest, v1::RegisterGeometryResponse>(
+      calls_, context, "RegisterGeometry", request, response,
+      [this](const auto& call) { register_geometry(scenes_, *call); });
+}
+
+grpc::ServerUnaryReactor* DistanceServiceImpl::RemoveGeometry(grpc::CallbackServerContext* context,
+                                                              const grpc::ByteBuffer* request,
+                                                              grpc::ByteBuffer* response) {
+  return serve_unary<v1::RemoveGeometryRequest, v1::RemoveGeometryResponse>(
+      calls_, context, "RemoveGeometry", request, response,
+      [this](const auto& call) { remove_geometry(scenes_, *call); });
+}
+
+grpc::ServerUnaryReactor* DistanceServiceImpl::ListGeometries(grpc::CallbackServerContext* context,
+                                                              const grpc::ByteBuffer* request,
+                                                              grpc::ByteBuffer* response) {
+  return serve_unary<v1::ListGeometriesRequest, v1::ListGeometriesResponse>(
+      calls_, context, "ListGeometries", request, response,
+      [this](const auto& call) { list_geometries(scenes_, *call); });
 }
 
 grpc::ServerUnaryReactor* DistanceServiceImpl::CreateScene(grpc::CallbackServerContext* context,
-                                                           const v1::CreateSceneRequest* request,
-                                                           v1::CreateSceneResponse* response) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (!calls_.begin_unary()) return refuse(reactor);
-  Expected<SceneInfo> info = scenes_.create_scene(to_input(*request));
-  if (!info) {
-    reject(reactor, calls_, context, "CreateScene", info.error());
-    return reactor;
-  }
-  response->set_scene_id(info->scene_id);
-  response->set_pair_count(std::uint32_t(info->pair_count));
-  log_info("scene_created")
-      .kv("scene", info->scene_id)
-      .kv("name", request->name())
-      .kv("objects", request->objects_size())
-      .kv("pairs", info->pair_count);
-  finish(reactor, calls_, grpc::Status::OK);
-  return reactor;
+                                                           const grpc::ByteBuffer* request,
+                                                           grpc::ByteBuffer* response) {
+  return serve_unary<v1::CreateSceneRequest, v1::CreateSceneResponse>(
+      calls_, context, "CreateScene", request, response,
+      [this](const auto& call) { create_scene(scenes_, *call); });
 }
 
 grpc::ServerUnaryReactor* DistanceServiceImpl::DeleteScene(grpc::CallbackServerContext* context,
-                                                           const v1::DeleteSceneRequest* request,
-                                                           v1::DeleteSceneResponse*) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (!calls_.begin_unary()) return refuse(reactor);
-  if (Outcome deleted = scenes_.delete_scene(request->scene_id()); !deleted) {
-    reject(reactor, calls_, context, "DeleteScene", deleted.error());
-    return reactor;
-  }
-  log_info("scene_deleted").kv("scene", request->scene_id());
-  finish(reactor, calls_, grpc::Status::OK);
-  return reactor;
+                                                           const grpc::ByteBuffer* request,
+                                                           grpc::ByteBuffer* response) {
+  return serve_unary<v1::DeleteSceneRequest, v1::DeleteSceneResponse>(
+      calls_, context, "DeleteScene", request, response,
+      [this](const auto& call) { delete_scene(scenes_, *call); });
 }
 
 grpc::ServerUnaryReactor* DistanceServiceImpl::Query(grpc::CallbackServerContext* context,
-                                                     const v1::QueryRequest* request,
-                                                     v1::DistanceReport* response) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (!calls_.begin_unary()) return refuse(reactor);
-  // The geometry runs on the pool; the reactor is finished from there.
-  Outcome started =
-      scenes_.query(to_input(*request), Clock::now(), [this, reactor, response](Report report) {
-        to_proto(report, *response);
-        if (auto error = check_report_fits(*response, max_message_bytes_)) {
-          log_error("report_too_large").kv("rpc", "Query").kv("message", error->message);
-          response->Clear();
-          finish(reactor, calls_, to_grpc_status(*error));
-          return;
-        }
-        finish(reactor, calls_, grpc::Status::OK);
-      });
-  if (!started) reject(reactor, calls_, context, "Query", started.error());
-  return reactor;
+                                                     const grpc::ByteBuffer* request,
+                                                     grpc::ByteBuffer* response) {
+  return serve_unary<v1::QueryRequest, v1::DistanceReport>(
+      calls_, context, "Query", request, response,
+      [this](const auto& call) { query(scenes_, max_message_bytes_, call); });
 }
 
-grpc::ServerBidiReactor<v1::PoseUpdate, v1::DistanceReport>* DistanceServiceImpl::StreamPoses(
+grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* DistanceServiceImpl::StreamPoses(
     grpc::CallbackServerContext* context) {
   return new PoseStreamReactor(*this, context, next_stream_number_.fetch_add(1));
 }

@@ -47,32 +47,50 @@ class CallRegistry {
   bool draining_ = false;
 };
 
-class DistanceServiceImpl final : public v1::DistanceService::CallbackService {
+/// DistanceService with every method raw (requests and responses as grpc::ByteBuffer). With
+/// the generated typed handlers gRPC parses before our code runs: a unary request that does not
+/// parse is answered UNIMPLEMENTED without a message (read as "no such method"), and a stream
+/// message that does not parse ends the reads like a half-close, so the stream ended OK. Parsing
+/// ourselves (wire_parse.hpp) answers INVALID_ARGUMENT with the reason instead.
+using RawDistanceService = v1::DistanceService::WithRawCallbackMethod_RegisterGeometry<
+    v1::DistanceService::WithRawCallbackMethod_RemoveGeometry<
+        v1::DistanceService::WithRawCallbackMethod_ListGeometries<
+            v1::DistanceService::WithRawCallbackMethod_CreateScene<
+                v1::DistanceService::WithRawCallbackMethod_DeleteScene<
+                    v1::DistanceService::WithRawCallbackMethod_Query<
+                        v1::DistanceService::WithRawCallbackMethod_StreamPoses<
+                            v1::DistanceService::Service>>>>>>>;
+
+class DistanceServiceImpl final : public RawDistanceService {
  public:
   /// `max_message_bytes`: the server's send limit; a report larger than that is answered with an
   /// error instead (see the service's send-time check).
   DistanceServiceImpl(SceneService& scenes, std::size_t max_message_bytes)
       : scenes_(scenes), max_message_bytes_(max_message_bytes) {}
 
+  // Each parses its request (INVALID_ARGUMENT when it does not parse), then runs the typed
+  // handler of the same name in grpc_services.cpp.
   grpc::ServerUnaryReactor* RegisterGeometry(grpc::CallbackServerContext* context,
-                                             const v1::RegisterGeometryRequest* request,
-                                             v1::RegisterGeometryResponse* response) override;
+                                             const grpc::ByteBuffer* request,
+                                             grpc::ByteBuffer* response) override;
   grpc::ServerUnaryReactor* RemoveGeometry(grpc::CallbackServerContext* context,
-                                           const v1::RemoveGeometryRequest* request,
-                                           v1::RemoveGeometryResponse* response) override;
+                                           const grpc::ByteBuffer* request,
+                                           grpc::ByteBuffer* response) override;
   grpc::ServerUnaryReactor* ListGeometries(grpc::CallbackServerContext* context,
-                                           const v1::ListGeometriesRequest* request,
-                                           v1::ListGeometriesResponse* response) override;
+                                           const grpc::ByteBuffer* request,
+                                           grpc::ByteBuffer* response) override;
   grpc::ServerUnaryReactor* CreateScene(grpc::CallbackServerContext* context,
-                                        const v1::CreateSceneRequest* request,
-                                        v1::CreateSceneResponse* response) override;
+                                        const grpc::ByteBuffer* request,
+                                        grpc::ByteBuffer* response) override;
   grpc::ServerUnaryReactor* DeleteScene(grpc::CallbackServerContext* context,
-                                        const v1::DeleteSceneRequest* request,
-                                        v1::DeleteSceneResponse* response) override;
+                                        const grpc::ByteBuffer* request,
+                                        grpc::ByteBuffer* response) override;
   grpc::ServerUnaryReactor* Query(grpc::CallbackServerContext* context,
-                                  const v1::QueryRequest* request,
-                                  v1::DistanceReport* response) override;
-  grpc::ServerBidiReactor<v1::PoseUpdate, v1::DistanceReport>* StreamPoses(
+                                  const grpc::ByteBuffer* request,
+                                  grpc::ByteBuffer* response) override;
+  /// Messages are parsed as nearpoint.v1.PoseUpdate; one that does not parse ends the stream
+  /// with INVALID_ARGUMENT once the updates read before it are answered.
+  grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* StreamPoses(
       grpc::CallbackServerContext* context) override;
 
   SceneService& scenes() { return scenes_; }

@@ -1,5 +1,6 @@
 // Integration tests: a real in-process server on 127.0.0.1:0, driven through the generated gRPC
 // client. Every reported distance is checked against the engine run locally on the same poses.
+#include <google/protobuf/descriptor.h>
 #include <grpcpp/generic/generic_stub.h>
 
 #include <atomic>
@@ -924,6 +925,222 @@ TEST_F(GrpcServerTest, DiagnosticsEchoWritesBackWhatItReads) {
   }
   stream->WritesDone();
   EXPECT_TRUE(stream->Finish().ok());
+}
+
+// ---- malformed messages (issue 21, items 5 and 6) ----
+
+std::string bytes_of(const grpc::ByteBuffer& buffer) {
+  std::vector<grpc::Slice> slices;
+  std::string bytes;
+  if (!buffer.Valid() || !buffer.Dump(&slices).ok()) return bytes;
+  for (const grpc::Slice& s : slices)
+    bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  return bytes;
+}
+
+/// A unary call through grpc::GenericStub: arbitrary bytes, as no generated client would send.
+grpc::Status raw_unary(grpc::GenericStub& generic, const std::string& method,
+                       const std::string& bytes) {
+  grpc::Slice slice(bytes);
+  grpc::ByteBuffer request(&slice, 1), response;
+  std::promise<grpc::Status> done;
+  auto context = make_context();
+  handoff_release(&done);  // the callback runs on a gRPC thread (see tsan_handoff.hpp)
+  generic.UnaryCall(context.get(), method, grpc::StubOptions(), &request, &response,
+                    [&](grpc::Status status) {
+                      handoff_acquire(&done);
+                      done.set_value(status);
+                    });
+  auto future = done.get_future();
+  if (future.wait_for(kCallDeadline + std::chrono::seconds(5)) != std::future_status::ready) {
+    ADD_FAILURE() << method << ": no answer";
+    context->TryCancel();
+  }
+  return future.get();
+}
+
+/// A bidirectional call through grpc::GenericStub, one operation at a time, every wait bounded:
+/// bytes in, bytes out.
+class RawStream {
+ public:
+  RawStream(const std::shared_ptr<grpc::Channel>& channel, const std::string& method)
+      : generic_(channel), context_(make_context()) {
+    call_ = generic_.PrepareCall(context_.get(), method, &queue_);
+    call_->StartCall(tag());
+    started_ = wait();
+  }
+  ~RawStream() {
+    context_->TryCancel();
+    queue_.Shutdown();
+    void* ignored;
+    bool ok;
+    while (queue_.Next(&ignored, &ok)) {
+    }
+  }
+  bool started() const { return started_; }
+  bool write(const std::string& bytes) {
+    grpc::Slice slice(bytes);
+    grpc::ByteBuffer buffer(&slice, 1);
+    call_->Write(buffer, tag());
+    return wait();
+  }
+  bool read(std::string& bytes) {
+    grpc::ByteBuffer buffer;
+    call_->Read(&buffer, tag());
+    if (!wait()) return false;
+    bytes = bytes_of(buffer);
+    return true;
+  }
+  grpc::Status finish() {
+    grpc::Status status;
+    call_->Finish(&status, tag());
+    wait();
+    return status;
+  }
+
+ private:
+  void* tag() { return reinterpret_cast<void*>(++last_tag_); }
+  bool wait() {
+    void* got = nullptr;
+    bool ok = false;
+    const auto deadline = std::chrono::system_clock::now() + kCallDeadline;
+    if (queue_.AsyncNext(&got, &ok, deadline) != grpc::CompletionQueue::GOT_EVENT) {
+      ADD_FAILURE() << "no completion within the deadline";
+      return false;
+    }
+    EXPECT_EQ(reinterpret_cast<std::intptr_t>(got), last_tag_);
+    return ok;
+  }
+
+  grpc::GenericStub generic_;
+  std::unique_ptr<grpc::ClientContext> context_;
+  grpc::CompletionQueue queue_;
+  std::unique_ptr<grpc::GenericClientAsyncReaderWriter> call_;
+  std::intptr_t last_tag_ = 0;
+  bool started_ = false;
+};
+
+/// Bytes that put invalid UTF-8 (0xC3 0x28) into the first string field reachable from `type`
+/// (at the top, or one message field down); "" and `path` empty when it has none.
+std::string invalid_utf8_bytes(const google::protobuf::Descriptor& type, std::string& path) {
+  auto length_delimited = [](int number, const std::string& payload) {
+    std::string out;
+    out.push_back(char((number << 3) | 2));
+    out.push_back(char(payload.size()));
+    return out + payload;
+  };
+  for (int i = 0; i < type.field_count(); ++i) {
+    const auto* field = type.field(i);
+    if (field->type() == google::protobuf::FieldDescriptor::TYPE_STRING && field->number() < 16) {
+      path = field->name();
+      return length_delimited(field->number(), "ok\xC3\x28");
+    }
+  }
+  for (int i = 0; i < type.field_count(); ++i) {
+    const auto* field = type.field(i);
+    if (field->type() != google::protobuf::FieldDescriptor::TYPE_MESSAGE || field->number() >= 16)
+      continue;
+    std::string inner_path;
+    const std::string inner = invalid_utf8_bytes(*field->message_type(), inner_path);
+    if (inner.empty() || inner_path.find('.') != std::string::npos) continue;
+    path = field->name() + "." + inner_path;
+    return length_delimited(field->number(), inner);
+  }
+  return "";
+}
+
+// gRPC's generated handlers parse a unary request before our code runs and answer a request
+// that does not parse UNIMPLEMENTED with no message, which users read as "no such method". The
+// service takes its methods raw and parses them itself (wire_parse.hpp): every method answers
+// INVALID_ARGUMENT naming the message type, and the field when one is to blame. Checked with raw
+// bytes from grpc::GenericStub: random bytes, invalid UTF-8 in a string field, 200 nested groups.
+TEST_F(GrpcServerTest, MalformedUnaryRequestsAreInvalidArgumentWithAReason) {
+  grpc::GenericStub generic(running_.channel);
+  const google::protobuf::ServiceDescriptor* found =
+      google::protobuf::DescriptorPool::generated_pool()->FindServiceByName(
+          v1::DistanceService::service_full_name());
+  ASSERT_NE(found, nullptr);
+  const google::protobuf::ServiceDescriptor& service = *found;
+  std::mt19937 random(21);
+  int checked = 0;
+  for (int m = 0; m < service.method_count(); ++m) {
+    const google::protobuf::MethodDescriptor& method = *service.method(m);
+    if (method.client_streaming()) continue;
+    const google::protobuf::Descriptor& type = *method.input_type();
+    const std::string name = "/" + service.full_name() + "/" + method.name();
+    std::unique_ptr<google::protobuf::Message> probe(
+        google::protobuf::MessageFactory::generated_factory()->GetPrototype(&type)->New());
+
+    std::vector<std::pair<std::string, std::string>> cases;  // bytes, expected in the message
+    std::string random_bytes;
+    do {  // bytes that really do not parse as this type (the seed fixes which)
+      random_bytes.clear();
+      for (int i = 0; i < 64; ++i) random_bytes.push_back(char(random() & 0xFF));
+    } while (probe->ParseFromString(random_bytes));
+    cases.emplace_back(random_bytes, "");
+    std::string path;
+    if (const std::string utf8 = invalid_utf8_bytes(type, path); !utf8.empty())
+      cases.emplace_back(utf8, "field " + path + " is not valid UTF-8");
+    // Field 15 as a group (start tag 0x7B, end tag 0x7C), nested 200 deep: protobuf stops at 100.
+    cases.emplace_back(std::string(200, '\x7B') + std::string(200, '\x7C'), "deeper than 100");
+
+    for (const auto& [bytes, reason] : cases) {
+      ASSERT_FALSE(probe->ParseFromString(bytes)) << name << ": the case must not parse";
+      const grpc::Status status = raw_unary(generic, name, bytes);
+      EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT)
+          << name << ": " << status.error_message();
+      EXPECT_NE(status.error_message().find("request does not parse as " + type.full_name()),
+                std::string::npos)
+          << name << ": " << status.error_message();
+      EXPECT_NE(status.error_message().find(reason), std::string::npos)
+          << name << ": " << status.error_message();
+      ++checked;
+    }
+  }
+  EXPECT_GE(checked, 6 * 2 + 5);  // six unary methods; all but ListGeometries have a string
+  // Well-formed bytes are still served: an empty ListGeometriesRequest.
+  EXPECT_TRUE(raw_unary(generic, "/nearpoint.v1.DistanceService/ListGeometries", "").ok());
+}
+
+// In gRPC's callback API a stream message that does not parse shows up as OnReadDone(false),
+// like the client's half-close, so a valid update, garbage, then another update ended the stream
+// OK with one report (the last update neither answered nor refused). The stream parses its
+// messages itself: it answers what it read before the garbage, stops reading, and ends
+// INVALID_ARGUMENT saying which message did not parse. Checked with a raw stream from
+// grpc::GenericStub, for random garbage and for invalid UTF-8 in scene_id.
+TEST_F(GrpcServerTest, MalformedStreamMessageEndsTheStreamInvalidArgument) {
+  const LocalScene scene = make_scene(stub());
+  std::string path;
+  const std::string utf8 = invalid_utf8_bytes(*v1::PoseUpdate::descriptor(), path);
+  ASSERT_EQ(path, "scene_id");
+  for (const auto& [garbage, reason] :
+       {std::pair<std::string, std::string>{std::string("\xFF\xFF\xFF\xFF\x0F", 5), "wire format"},
+        {utf8, "field scene_id is not valid UTF-8"}}) {
+    v1::PoseUpdate probe;
+    ASSERT_FALSE(probe.ParseFromString(garbage));
+    RawStream stream(running_.channel, "/nearpoint.v1.DistanceService/StreamPoses");
+    ASSERT_TRUE(stream.started());
+    ASSERT_TRUE(
+        stream.write(make_update(scene, 1, trajectory(scene.size(), 1)).SerializeAsString()));
+    ASSERT_TRUE(stream.write(garbage));
+    // The server may already have ended the stream; this update must then go unread, not OK.
+    stream.write(make_update(scene, 3, trajectory(scene.size(), 3)).SerializeAsString());
+    std::vector<v1::DistanceReport> reports;
+    for (std::string bytes; stream.read(bytes);) {
+      reports.emplace_back();
+      ASSERT_TRUE(reports.back().ParseFromString(bytes));
+    }
+    const grpc::Status status = stream.finish();
+    ASSERT_EQ(reports.size(), 1u);
+    EXPECT_EQ(reports[0].sequence(), 1u);
+    expect_matches_local(scene, trajectory(scene.size(), 1), reports[0], false);
+    EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+    EXPECT_NE(status.error_message().find("message 2 of the stream (after sequence 1) does not "
+                                          "parse as nearpoint.v1.PoseUpdate"),
+              std::string::npos)
+        << status.error_message();
+    EXPECT_NE(status.error_message().find(reason), std::string::npos) << status.error_message();
+  }
 }
 
 }  // namespace
