@@ -124,7 +124,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
  public:
   PoseStreamReactor(DistanceServiceImpl& service, grpc::CallbackServerContext* context,
                     std::uint64_t number)
-      : service_(service), number_(number), peer_(context->peer()) {
+      : service_(service), context_(context), number_(number), peer_(context->peer()) {
     const auto constructed = handoff_.construction();  // see tsan_handoff.hpp
     max_in_flight_ = std::max<std::size_t>(1, service.scenes().limits().max_in_flight_per_stream);
     Expected<std::unique_ptr<PoseStream>> stream = service.scenes().open_stream();
@@ -232,6 +232,11 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     { std::lock_guard lock(mutex_); }  // whoever called Finish has released the lock
     if (registered_) {
       service_.calls().remove(this);
+      // A client that vanishes (SIGKILL, lost network) ends the reads just like a half-close
+      // (OnReadDone(false)), so an idle stream went on to Finish(OK) and was logged "ok". Only
+      // now is it known whether the status reached the client: gRPC marks the call cancelled
+      // when it did not.
+      if (context_->IsCancelled()) finish_reason_ = "cancelled";
       log_info("stream_closed")
           .kv("stream", number_)
           .kv("updates", updates_read_)
@@ -350,6 +355,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
 
   ReactorHandoff handoff_;
   DistanceServiceImpl& service_;
+  grpc::CallbackServerContext* const context_;  // valid until OnDone returns
   const std::uint64_t number_;
   const std::string peer_;
   std::size_t max_in_flight_ = 1;

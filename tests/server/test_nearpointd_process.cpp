@@ -2,6 +2,7 @@
 // serves a stream, and on SIGTERM drains the stream and exits 0. Its stderr (structured logs) is
 // read through a pipe, which also tells when it is listening — no sleeping.
 #include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <filesystem>
@@ -173,6 +174,58 @@ TEST(NearpointdProcess, SigtermUnderLoadAnswersEveryUpdateReadOnEveryStream) {
   if (!::testing::Test::HasFailure()) {
     EXPECT_GE(rounds, 3) << "too few rounds in the time given";
   }
+}
+
+// Issue 21 item 7 (first point): a client killed with SIGKILL was logged `status=ok`. A vanished
+// client ends the server's reads exactly like a half-close (OnReadDone(false)); an idle stream
+// then finished OK, and the log could not tell a crash from a clean end. Guards the check of
+// the call's cancellation at OnDone. The client is a real process (forked before this process
+// touches gRPC), idle on an open stream when it is killed; a half-closing client, for contrast,
+// must still be logged ok.
+TEST(NearpointdProcess, ClientKilledWithSigkillIsLoggedCancelled) {
+  ChildProcess daemon({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "1"});
+  ASSERT_TRUE(daemon.started());
+  const std::string listening = daemon.wait_for_stderr("event=listening", std::chrono::seconds(20));
+  ASSERT_FALSE(listening.empty()) << daemon.stderr_text();
+  const std::string address =
+      "127.0.0.1:" + std::to_string(std::stoi(listening.substr(listening.find(" port=") + 6)));
+
+  const pid_t client = fork();
+  ASSERT_GE(client, 0);
+  if (client == 0) {  // the client: one update (refused: no such scene), then idle until killed
+    auto stub = v1::DistanceService::NewStub(
+        grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+    grpc::ClientContext context;
+    context.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(30));
+    auto stream = stub->StreamPoses(&context);
+    v1::PoseUpdate update;
+    update.set_scene_id("no-such-scene");
+    update.set_sequence(1);
+    v1::DistanceReport report;
+    if (stream->Write(update) && stream->Read(&report)) stream->Read(&report);  // blocks
+    _exit(0);
+  }
+  const bool answered =
+      !daemon.wait_for_stderr("event=update_rejected", std::chrono::seconds(20)).empty();
+  kill(client, SIGKILL);
+  int wait_status = 0;
+  waitpid(client, &wait_status, 0);
+  ASSERT_TRUE(answered) << daemon.stderr_text();
+  ASSERT_TRUE(WIFSIGNALED(wait_status));
+  const std::string killed =
+      daemon.wait_for_stderr("event=stream_closed", std::chrono::seconds(20));
+  EXPECT_NE(killed.find("stream=1 "), std::string::npos) << killed;
+  EXPECT_NE(killed.find("status=cancelled"), std::string::npos) << killed;
+
+  // Contrast: a client that half-closes and reads the status is logged ok.
+  auto stub = v1::DistanceService::NewStub(
+      grpc::CreateChannel(address, grpc::InsecureChannelCredentials()));
+  StreamClient stream(*stub);
+  EXPECT_TRUE(stream.finish().ok());
+  const std::string closed = daemon.wait_for_stderr("stream=2 updates", std::chrono::seconds(20));
+  EXPECT_NE(closed.find("status=ok"), std::string::npos) << closed;
+  daemon.signal(SIGTERM);
+  EXPECT_EQ(daemon.wait_exit(std::chrono::seconds(15)), 0) << daemon.stderr_text();
 }
 
 TEST(NearpointdProcess, SigintAlsoShutsDownCleanly) {
