@@ -83,6 +83,12 @@ Piece polytope_piece(std::vector<Eigen::Vector3d> vertices, const Eigen::Isometr
 ObjectPose::ObjectPose(std::string id, const Eigen::Isometry3d& pose)
     : object_id(std::move(id)), rotation(pose.rotation()), translation(pose.translation()) {}
 
+bool is_server_drain(const Status& status) {
+  // The server's drain status (see nearpoint.v1.DistanceService.StreamPoses) and the reports
+  // made from it below both carry the word.
+  return status.code == kUnavailable && status.message.find("draining") != std::string::npos;
+}
+
 namespace {
 
 Status from_grpc(const grpc::Status& status) {
@@ -549,10 +555,19 @@ void SessionImpl::read_loop() {
       return;
     }
     const bool lost = is_connection_loss(status);
-    fail_in_flight(
-        lost ? "connection to " + client_.target() + " lost before this update was answered (" +
-                   status.error_message() + ")"
-             : "the stream failed before this update was answered: " + status.error_message());
+    // A drain answers every update the server read, so the ones still in flight were never
+    // evaluated; after a crash nobody knows. The caller needs to tell the two apart.
+    if (is_server_drain(from_grpc(status)))
+      fail_in_flight("not evaluated: " + client_.target() +
+                     " is draining (shutting down) and did not read this update; push it again (" +
+                     status.error_message() + ")");
+    else
+      fail_in_flight(
+          lost ? "connection to " + client_.target() +
+                     " lost before this update was answered; it may or may not have been "
+                     "evaluated (" +
+                     status.error_message() + ")"
+               : "the stream failed before this update was answered: " + status.error_message());
     if (closing || !lost || !options_.reconnect) {
       std::lock_guard lock(mutex_);
       failure_ = status.ok() ? Status::error(kUnavailable, "the server ended the stream")

@@ -390,6 +390,7 @@ TEST(SessionReconnect, ReplaysTheSceneOnARestartedServer) {
     EXPECT_EQ(answer->sequence, expected_sequence++);
     if (!answer->error.ok()) {
       EXPECT_EQ(answer->error.code, client::kUnavailable) << answer->error.describe();
+      EXPECT_FALSE(client::is_server_drain(answer->error)) << "a crash is not a drain";
       ++lost;
       continue;
     }
@@ -407,6 +408,58 @@ TEST(SessionReconnect, ReplaysTheSceneOnARestartedServer) {
   EXPECT_LE(lost, 1u);  // at most the one update in flight at the drop
   EXPECT_TRUE((*session)->close(Clock::now() + seconds(10)).ok());
   EXPECT_EQ(second.stop(), 0);
+}
+
+// Issue 21 item 2, the client's side: a drain (SIGTERM) answers every update the server read and
+// ends the stream UNAVAILABLE "draining"; the updates still in flight were never read. The
+// session must say so (is_server_drain, "did not read this update") instead of "connection
+// lost", which after a crash means "may or may not have been evaluated". The server reads one
+// update at a time (--max-in-flight 1) of a scene heavy enough (60 boxes, 1770 pairs) that
+// updates are still unread when SIGTERM arrives.
+TEST(SessionDrain, UpdatesTheServerDidNotReadAreReportedNeverEvaluated) {
+  LocalServer server;
+  ASSERT_EQ(server.start(NEARPOINTD_PATH, 0, {"--workers", "1", "--max-in-flight", "1"}), "");
+  auto client = client::Client::connect(server.target());
+  auto geometry = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
+  ASSERT_TRUE(geometry.ok()) << geometry.status().describe();
+  client::Scene scene;
+  for (int i = 0; i < 60; ++i)
+    scene.objects.push_back({"box" + std::to_string(i), geometry->geometry_id, {}, {}, {}});
+  auto created = client->create_scene(scene);
+  ASSERT_TRUE(created.ok()) << created.status().describe();
+  client::SessionOptions options;
+  options.max_in_flight = 256;
+  options.reconnect = false;  // the server is gone for good: fail instead of retrying
+  auto session = client->open_session(created->scene_id, options);
+  ASSERT_TRUE(session.ok()) << session.status().describe();
+  constexpr std::uint64_t kUpdates = 200;
+  for (std::uint64_t i = 0; i < kUpdates; ++i) {
+    const client::ObjectPose moved("box0", Eigen::Isometry3d(Eigen::Translation3d(0.01 * i, 0, 0)));
+    ASSERT_TRUE((*session)->push({moved}, Clock::now() + seconds(10)).ok());
+  }
+  EXPECT_EQ(server.stop(), 0) << server.log();
+
+  std::uint64_t answered = 0, not_read = 0;
+  for (std::uint64_t sequence = 1; sequence <= kUpdates; ++sequence) {
+    auto report = (*session)->next(Clock::now() + seconds(20));
+    ASSERT_TRUE(report.ok()) << sequence << ": " << report.status().describe();
+    ASSERT_EQ(report->sequence, sequence);  // each update once, in order
+    if (report->error.ok()) {
+      EXPECT_EQ(not_read, 0u) << "an answer after an unread update";
+      ++answered;
+      continue;
+    }
+    EXPECT_TRUE(client::is_server_drain(report->error)) << report->error.describe();
+    EXPECT_NE(report->error.message.find("did not read this update"), std::string::npos)
+        << report->error.describe();
+    ++not_read;
+  }
+  EXPECT_GE(answered, 1u);
+  EXPECT_GE(not_read, 1u);
+  EXPECT_TRUE(client::is_server_drain((*session)->status())) << (*session)->status().describe();
+  // The server's count of updates read is what was answered.
+  EXPECT_NE(server.log().find("updates=" + std::to_string(answered) + " "), std::string::npos)
+      << server.log();
 }
 
 // ---- nearpointd --scene ----

@@ -63,6 +63,12 @@ inline constexpr int kAlreadyExists = 6;
 inline constexpr int kOutOfRange = 11;
 inline constexpr int kUnavailable = 14;
 
+/// True for the end of a stream by a draining server (SIGTERM: UNAVAILABLE, "draining"), and for
+/// the error reports of the updates it had not read: those were never evaluated and can be sent
+/// again as they are. Any other UNAVAILABLE is a lost connection: an update without a report
+/// may or may not have been evaluated.
+bool is_server_drain(const Status& status);
+
 /// A value or the Status that prevented it.
 template <class T>
 class [[nodiscard]] Expected {
@@ -179,7 +185,8 @@ struct SessionOptions {
   /// then not used. When empty, reports queue for next().
   std::function<void(const Report&)> on_report;
   /// On a dropped connection (UNAVAILABLE): reconnect, replay the scene's geometry registration
-  /// and creation, and go on. Updates in flight at the drop get an UNAVAILABLE error report.
+  /// and creation, and go on. Updates in flight at the drop get an UNAVAILABLE error report; when
+  /// the server drained (is_server_drain), that report says the update was never evaluated.
   bool reconnect = true;
   /// Give up (the session fails with UNAVAILABLE) after this long without a working connection.
   std::chrono::milliseconds reconnect_timeout{30000};
