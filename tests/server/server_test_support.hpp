@@ -3,6 +3,7 @@
 // deadlines, and an in-process server on 127.0.0.1:0.
 #pragma once
 
+#include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 #include <gtest/gtest.h>
 
@@ -173,5 +174,76 @@ inline std::string register_geometry(v1::DistanceService::Stub& stub,
   EXPECT_TRUE(status.ok()) << geometry.label << ": " << status.error_message();
   return response.geometry().geometry_id();
 }
+
+/// The bytes of a received message.
+inline std::string bytes_of(const grpc::ByteBuffer& buffer) {
+  std::vector<grpc::Slice> slices;
+  std::string bytes;
+  if (!buffer.Valid() || !buffer.Dump(&slices).ok()) return bytes;
+  for (const grpc::Slice& s : slices)
+    bytes.append(reinterpret_cast<const char*>(s.begin()), s.size());
+  return bytes;
+}
+
+/// A bidirectional call through grpc::GenericStub, one operation at a time, every wait bounded:
+/// bytes in, bytes out, so a test can send what no generated client would.
+class RawStream {
+ public:
+  RawStream(const std::shared_ptr<grpc::Channel>& channel, const std::string& method)
+      : generic_(channel), context_(make_context()) {
+    call_ = generic_.PrepareCall(context_.get(), method, &queue_);
+    call_->StartCall(tag());
+    started_ = wait();
+  }
+  ~RawStream() {
+    context_->TryCancel();
+    queue_.Shutdown();
+    void* ignored;
+    bool ok;
+    while (queue_.Next(&ignored, &ok)) {
+    }
+  }
+  bool started() const { return started_; }
+  bool write(const std::string& bytes) {
+    grpc::Slice slice(bytes);
+    grpc::ByteBuffer buffer(&slice, 1);
+    call_->Write(buffer, tag());
+    return wait();
+  }
+  bool read(std::string& bytes) {
+    grpc::ByteBuffer buffer;
+    call_->Read(&buffer, tag());
+    if (!wait()) return false;
+    bytes = bytes_of(buffer);
+    return true;
+  }
+  grpc::Status finish() {
+    grpc::Status status;
+    call_->Finish(&status, tag());
+    wait();
+    return status;
+  }
+
+ private:
+  void* tag() { return reinterpret_cast<void*>(++last_tag_); }
+  bool wait() {
+    void* got = nullptr;
+    bool ok = false;
+    const auto deadline = std::chrono::system_clock::now() + kCallDeadline;
+    if (queue_.AsyncNext(&got, &ok, deadline) != grpc::CompletionQueue::GOT_EVENT) {
+      ADD_FAILURE() << "no completion within the deadline";
+      return false;
+    }
+    EXPECT_EQ(reinterpret_cast<std::intptr_t>(got), last_tag_);
+    return ok;
+  }
+
+  grpc::GenericStub generic_;
+  std::unique_ptr<grpc::ClientContext> context_;
+  grpc::CompletionQueue queue_;
+  std::unique_ptr<grpc::GenericClientAsyncReaderWriter> call_;
+  std::intptr_t last_tag_ = 0;
+  bool started_ = false;
+};
 
 }  // namespace nearpoint::server::testing

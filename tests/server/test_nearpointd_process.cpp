@@ -228,6 +228,134 @@ TEST(NearpointdProcess, ClientKilledWithSigkillIsLoggedCancelled) {
   EXPECT_EQ(daemon.wait_exit(std::chrono::seconds(15)), 0) << daemon.stderr_text();
 }
 
+// Faults against a real nearpointd, all at once, bounded: 12 well-behaved streams (on 3 shared
+// connections, writer and reader threads each, sequence numbers and trajectories their own)
+// next to clients that vanish mid-stream (cancel), half-close at once, send garbage, send a
+// message over --max-message-bytes, and send 200 nested groups. Guards the per-stream isolation
+// of the reactor: every update of a well-behaved stream is answered exactly once, in order, with
+// its own stream's distances, and ends OK; each misbehaving stream gets its own status, and the
+// server serves a new stream afterwards and drains on SIGTERM.
+TEST(NearpointdProcess, EveryStreamAnswersItsOwnUpdatesOnceInOrderAmidMisbehavingClients) {
+  ChildProcess daemon({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "2",
+                       "--max-message-bytes", "65536"});
+  ASSERT_TRUE(daemon.started());
+  const std::string listening = daemon.wait_for_stderr("event=listening", std::chrono::seconds(20));
+  ASSERT_FALSE(listening.empty()) << daemon.stderr_text();
+  const std::string address =
+      "127.0.0.1:" + std::to_string(std::stoi(listening.substr(listening.find(" port=") + 6)));
+  std::vector<std::shared_ptr<grpc::Channel>> channels;
+  std::vector<std::unique_ptr<v1::DistanceService::Stub>> stubs;
+  for (int c = 0; c < 3; ++c) {
+    grpc::ChannelArguments arguments;
+    arguments.SetInt("nearpoint.test.connection", c);  // distinct arguments: distinct connections
+    channels.push_back(
+        grpc::CreateCustomChannel(address, grpc::InsecureChannelCredentials(), arguments));
+    stubs.push_back(v1::DistanceService::NewStub(channels.back()));
+  }
+  const LocalScene scene = make_scene(*stubs[0]);
+  constexpr int kGood = 12, kUpdates = 100;
+
+  std::vector<std::thread> threads;
+  std::vector<grpc::Status> good_status(kGood);
+  std::vector<std::string> good_failure(kGood);
+  for (int s = 0; s < kGood; ++s)
+    threads.emplace_back([&, s] {
+      StreamClient stream(*stubs[std::size_t(s % 3)]);
+      const std::uint64_t base = std::uint64_t(s + 1) * 100000;
+      std::thread writer([&] {
+        for (int i = 0; i < kUpdates; ++i)
+          if (!stream.write(make_update(scene, base + std::uint64_t(i),
+                                        trajectory(scene.size(), i, 0.37 * s))))
+            return;
+        stream.writes_done();
+      });
+      int i = 0;
+      for (v1::DistanceReport report; stream.read(report); ++i) {
+        if (i >= kUpdates || report.sequence() != base + std::uint64_t(i) || report.has_error()) {
+          good_failure[std::size_t(s)] =
+              "report " + std::to_string(i) + " has sequence " + std::to_string(report.sequence());
+          break;
+        }
+        if (i % 25 == 0)  // its own stream's poses (each stream has its own trajectory)
+          expect_matches_local(scene, trajectory(scene.size(), i, 0.37 * s), report, false);
+      }
+      writer.join();
+      std::vector<v1::DistanceReport> rest;  // none unless the loop above stopped early
+      good_status[std::size_t(s)] = stream.read_to_end(rest);  // half-closed by the writer
+      if (good_failure[std::size_t(s)].empty() && i != kUpdates)
+        good_failure[std::size_t(s)] = std::to_string(i) + " reports";
+    });
+
+  // Vanishes: 20 updates sent, 3 reports read, then the call is cancelled.
+  grpc::Status vanished;
+  threads.emplace_back([&] {
+    StreamClient stream(*stubs[0]);
+    for (int i = 0; i < 20; ++i)
+      stream.write(make_update(scene, 1 + std::uint64_t(i), trajectory(scene.size(), i)));
+    v1::DistanceReport report;
+    for (int i = 0; i < 3; ++i) stream.read(report);
+    stream.context().TryCancel();
+    vanished = stream.finish();
+  });
+  // Half-closes at once.
+  grpc::Status half_closed;
+  threads.emplace_back([&] { half_closed = StreamClient(*stubs[1]).finish(); });
+  // Over the receive limit: one update with a 100 kB scene id.
+  grpc::Status oversized;
+  threads.emplace_back([&] {
+    StreamClient stream(*stubs[2]);
+    v1::PoseUpdate update = make_update(scene, 1, trajectory(scene.size(), 0));
+    update.set_scene_id(std::string(100000, 'x'));
+    stream.write(update);
+    oversized = stream.finish();
+  });
+  // Garbage, and 200 nested groups, each after a valid update.
+  std::vector<grpc::Status> malformed(2);
+  std::vector<std::size_t> malformed_reports(2);
+  const std::string bad[2] = {std::string("\xFF\xFF\xFF\xFF\x0F", 5),
+                              std::string(200, '\x7B') + std::string(200, '\x7C')};
+  for (int m = 0; m < 2; ++m)
+    threads.emplace_back([&, m] {
+      RawStream stream(channels[std::size_t(m)], "/nearpoint.v1.DistanceService/StreamPoses");
+      stream.write(make_update(scene, 1, trajectory(scene.size(), 1)).SerializeAsString());
+      stream.write(bad[m]);
+      stream.write(make_update(scene, 2, trajectory(scene.size(), 2)).SerializeAsString());
+      for (std::string bytes; stream.read(bytes);) ++malformed_reports[std::size_t(m)];
+      malformed[std::size_t(m)] = stream.finish();
+    });
+  for (std::thread& thread : threads) thread.join();
+
+  for (int s = 0; s < kGood; ++s) {
+    EXPECT_TRUE(good_status[std::size_t(s)].ok())
+        << "stream " << s << ": " << good_status[std::size_t(s)].error_message();
+    EXPECT_EQ(good_failure[std::size_t(s)], "") << "stream " << s;
+  }
+  EXPECT_EQ(vanished.error_code(), grpc::StatusCode::CANCELLED) << vanished.error_message();
+  EXPECT_TRUE(half_closed.ok()) << half_closed.error_message();
+  EXPECT_EQ(oversized.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED)
+      << oversized.error_message();
+  for (int m = 0; m < 2; ++m) {
+    EXPECT_EQ(malformed[std::size_t(m)].error_code(), grpc::StatusCode::INVALID_ARGUMENT)
+        << malformed[std::size_t(m)].error_message();
+    EXPECT_EQ(malformed_reports[std::size_t(m)], 1u);  // the update before the bad message
+  }
+  EXPECT_NE(malformed[1].error_message().find("deeper than 100"), std::string::npos)
+      << malformed[1].error_message();
+
+  // Still serving: a new stream is answered.
+  StreamClient after(*stubs[0]);
+  ASSERT_TRUE(after.write(make_update(scene, 7, trajectory(scene.size(), 7))));
+  v1::DistanceReport report;
+  ASSERT_TRUE(after.read(report));
+  EXPECT_EQ(report.sequence(), 7u);
+  EXPECT_TRUE(after.finish().ok());
+  daemon.signal(SIGTERM);
+  EXPECT_EQ(daemon.wait_exit(std::chrono::seconds(20)), 0) << daemon.stderr_text();
+  const std::string log = daemon.stderr_text();
+  EXPECT_NE(log.find("status=cancelled"), std::string::npos) << log;
+  EXPECT_NE(log.find("status=invalid_argument"), std::string::npos) << log;
+}
+
 TEST(NearpointdProcess, SigintAlsoShutsDownCleanly) {
   ChildProcess daemon({NEARPOINTD_PATH, "--listen", "127.0.0.1:0"});
   ASSERT_TRUE(daemon.started());
