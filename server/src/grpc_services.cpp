@@ -15,6 +15,8 @@ namespace nearpoint::server {
 namespace {
 
 constexpr const char* kShuttingDown = "server is shutting down";
+/// How a call that was open when the drain began ends (clients look for "draining").
+constexpr const char* kDraining = "server is draining (shutting down)";
 
 /// One unary call whose request we parsed (see RawDistanceService). Its typed handler fills
 /// `response` and ends the call exactly once, with finish() or reject(), possibly later and on
@@ -309,7 +311,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
       // "draining" tells a client this is a drain, not a crash: nothing it sent was lost
       // unanswered, and the count says exactly which updates were read (the first N it sent).
       End(grpc::Status(grpc::StatusCode::UNAVAILABLE,
-                       text("server is draining (shutting down): all ", updates_read_,
+                       text(kDraining, ": all ", updates_read_,
                             " updates read on this stream were answered; later ones were not "
                             "read")),
           "drained");
@@ -397,7 +399,7 @@ class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::Ec
     const auto constructed = handoff_.construction();  // see tsan_handoff.hpp
     registered_ = registry_.add(this);  // not under mutex_: drain_all locks them the other way
     std::lock_guard lock(mutex_);
-    if (!registered_) End(grpc::Status(grpc::StatusCode::UNAVAILABLE, "server is shutting down"));
+    if (!registered_) End(grpc::Status(grpc::StatusCode::UNAVAILABLE, kShuttingDown));
     if (finished_) return;  // refused, or drained already
     reading_ = true;
     StartRead(&message_);
@@ -408,7 +410,7 @@ class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::Ec
     std::lock_guard lock(mutex_);
     reading_ = false;
     if (!ok) return End(grpc::Status::OK);
-    if (draining_) return End(grpc::Status(grpc::StatusCode::UNAVAILABLE, "shutting down"));
+    if (draining_) return End(grpc::Status(grpc::StatusCode::UNAVAILABLE, kDraining));
     writing_ = true;
     StartWrite(&message_);
   }
@@ -418,7 +420,7 @@ class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::Ec
     std::lock_guard lock(mutex_);
     writing_ = false;
     if (!ok) return End(grpc::Status(grpc::StatusCode::CANCELLED, "cancelled"));
-    if (draining_) return End(grpc::Status(grpc::StatusCode::UNAVAILABLE, "shutting down"));
+    if (draining_) return End(grpc::Status(grpc::StatusCode::UNAVAILABLE, kDraining));
     reading_ = true;
     StartRead(&message_);
   }
@@ -426,7 +428,7 @@ class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::Ec
   void Drain() override {
     std::lock_guard lock(mutex_);
     draining_ = true;
-    if (!writing_) End(grpc::Status(grpc::StatusCode::UNAVAILABLE, "shutting down"));
+    if (!writing_) End(grpc::Status(grpc::StatusCode::UNAVAILABLE, kDraining));
   }
 
   void OnDone() override {
