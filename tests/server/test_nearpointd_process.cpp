@@ -89,7 +89,9 @@ TEST(NearpointdProcess, SigtermUnderLoadAnswersEveryUpdateReadOnEveryStream) {
     const std::string port_file = temp_path("nearpointd.port");
     std::filesystem::remove(port_file);
     ChildProcess daemon({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--port-file", port_file,
-                         "--workers", "2", "--max-in-flight", "256"});
+                         "--workers", "2", "--max-in-flight", "256",
+                         // room for slow (sanitizer) builds: a drain cut short loses reports
+                         "--drain-timeout-ms", "10000"});
     ASSERT_TRUE(daemon.started());
     ASSERT_FALSE(daemon.wait_for_stderr("event=listening", std::chrono::seconds(20)).empty())
         << daemon.stderr_text();
@@ -131,7 +133,7 @@ TEST(NearpointdProcess, SigtermUnderLoadAnswersEveryUpdateReadOnEveryStream) {
         statuses[std::size_t(s)] = streams[std::size_t(s)]->read_to_end(reports[std::size_t(s)]);
       });
     for (std::thread& reader : readers) reader.join();
-    EXPECT_EQ(daemon.wait_exit(std::chrono::seconds(20)), 0) << daemon.stderr_text();
+    EXPECT_EQ(daemon.wait_exit(std::chrono::seconds(30)), 0) << daemon.stderr_text();
 
     std::uint64_t received = 0;
     for (int s = 0; s < kStreams; ++s) {
