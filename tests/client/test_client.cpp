@@ -437,10 +437,16 @@ TEST(SessionDrain, UpdatesTheServerDidNotReadAreReportedNeverEvaluated) {
     const client::ObjectPose moved("box0", Eigen::Isometry3d(Eigen::Translation3d(0.01 * i, 0, 0)));
     ASSERT_TRUE((*session)->push({moved}, Clock::now() + seconds(10)).ok());
   }
+  // The stream opens asynchronously: wait for the first report, so that SIGTERM finds the
+  // stream open with updates it has not read yet (the server reads one at a time).
+  auto first = (*session)->next(Clock::now() + seconds(20));
+  ASSERT_TRUE(first.ok()) << first.status().describe();
+  ASSERT_EQ(first->sequence, 1u);
+  ASSERT_TRUE(first->error.ok()) << first->error.describe();
   EXPECT_EQ(server.stop(), 0) << server.log();
 
-  std::uint64_t answered = 0, not_read = 0;
-  for (std::uint64_t sequence = 1; sequence <= kUpdates; ++sequence) {
+  std::uint64_t answered = 1, not_read = 0;
+  for (std::uint64_t sequence = 2; sequence <= kUpdates; ++sequence) {
     auto report = (*session)->next(Clock::now() + seconds(20));
     ASSERT_TRUE(report.ok()) << sequence << ": " << report.status().describe();
     ASSERT_EQ(report->sequence, sequence);  // each update once, in order
