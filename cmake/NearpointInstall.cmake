@@ -1,0 +1,134 @@
+# Installing nearpoint: `cmake --install BUILD [--prefix DIR]` and `cpack -G DEB` (issue 23, item 5).
+#
+# Two components, so that an operator's machine does not pull the -dev packages:
+#   runtime — nearpointd, the nearpoint CLI, the DDS loopback configuration, the example files
+#   dev     — headers under include/nearpoint/, the static libraries, the CMake package
+#             (find_package(nearpoint CONFIG) → nearpoint::core, nearpoint::proto,
+#             nearpoint::client, and nearpoint::hull when CGAL is found) and nearpoint-core.pc
+# `cmake --install` installs both; cpack makes one .deb per component.
+include(GNUInstallDirs)
+include(CMakePackageConfigHelpers)
+
+set(NEARPOINT_INSTALL_CMAKEDIR ${CMAKE_INSTALL_LIBDIR}/cmake/nearpoint)
+
+# ---- programs and data (runtime) ----
+if(TARGET nearpointd)
+  install(TARGETS nearpointd RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
+endif()
+if(TARGET nearpoint)
+  install(TARGETS nearpoint RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT runtime)
+endif()
+install(FILES ${PROJECT_SOURCE_DIR}/deploy/cyclonedds-loopback.xml
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint COMPONENT runtime)
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/examples COMPONENT runtime)
+
+# ---- libraries and headers (dev) ----
+# The engine: Eigen only. Static libraries carry their private dependencies as link-only entries
+# of the exported interface, so the warnings target (compile options only, never propagated to a
+# consumer) is exported too.
+set_target_properties(nearpoint_core PROPERTIES EXPORT_NAME core)
+set_target_properties(nearpoint_warnings PROPERTIES EXPORT_NAME warnings_internal)
+install(TARGETS nearpoint_core nearpoint_warnings EXPORT nearpoint-core-targets
+        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev
+        LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev
+        INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/core/include/nearpoint
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev)
+install(EXPORT nearpoint-core-targets NAMESPACE nearpoint:: DESTINATION ${NEARPOINT_INSTALL_CMAKEDIR}
+        COMPONENT dev)
+
+# The hull library (CGAL, GMP, MPFR): its own export file, loaded only where CGAL is found, so
+# that a consumer of the engine alone never needs CGAL.
+if(TARGET nearpoint_hull)
+  set_target_properties(nearpoint_hull PROPERTIES EXPORT_NAME hull)
+  install(TARGETS nearpoint_hull EXPORT nearpoint-hull-targets
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev
+          INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/core/hull/include/nearpoint
+          DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev)
+  install(EXPORT nearpoint-hull-targets NAMESPACE nearpoint::
+          DESTINATION ${NEARPOINT_INSTALL_CMAKEDIR} COMPONENT dev)
+  set(NEARPOINT_INSTALLED_HULL ON)
+else()
+  set(NEARPOINT_INSTALLED_HULL OFF)
+endif()
+
+# The wire library and the C++ client (gRPC, protobuf). The generated headers include each other
+# flat ("nearpoint_geometry.pb.h"), so their directory is on the include path.
+if(TARGET nearpoint_proto AND TARGET nearpoint_client)
+  set_target_properties(nearpoint_proto PROPERTIES EXPORT_NAME proto)
+  set_target_properties(nearpoint_client PROPERTIES EXPORT_NAME client)
+  target_include_directories(nearpoint_proto
+    PUBLIC $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/nearpoint/proto>)
+  install(TARGETS nearpoint_proto nearpoint_client EXPORT nearpoint-client-targets
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev
+          INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+  install(DIRECTORY ${PROJECT_BINARY_DIR}/proto/
+          DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/nearpoint/proto COMPONENT dev
+          FILES_MATCHING PATTERN "*.pb.h" PATTERN "CMakeFiles" EXCLUDE)
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/client/include/nearpoint
+          DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev)
+  # The client's public header includes the scene API's request structs and limits. They live
+  # in server/include today (to move with the scene model library); only these two are public.
+  install(FILES ${PROJECT_SOURCE_DIR}/server/include/nearpoint/server/scene_types.hpp
+                ${PROJECT_SOURCE_DIR}/server/include/nearpoint/server/limits.hpp
+          DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/nearpoint/server COMPONENT dev)
+  # The protocol for clients in other languages.
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/proto/nearpoint
+          DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/proto COMPONENT dev
+          FILES_MATCHING PATTERN "*.proto")
+  install(EXPORT nearpoint-client-targets NAMESPACE nearpoint::
+          DESTINATION ${NEARPOINT_INSTALL_CMAKEDIR} COMPONENT dev)
+  set(NEARPOINT_INSTALLED_CLIENT ON)
+else()
+  set(NEARPOINT_INSTALLED_CLIENT OFF)
+endif()
+
+configure_package_config_file(${CMAKE_CURRENT_LIST_DIR}/nearpoint-config.cmake.in
+  ${PROJECT_BINARY_DIR}/nearpoint-config.cmake INSTALL_DESTINATION ${NEARPOINT_INSTALL_CMAKEDIR})
+# 0.x: a minor version may break the API, so only the same minor version is compatible.
+write_basic_package_version_file(${PROJECT_BINARY_DIR}/nearpoint-config-version.cmake
+  COMPATIBILITY SameMinorVersion)
+install(FILES ${PROJECT_BINARY_DIR}/nearpoint-config.cmake
+              ${PROJECT_BINARY_DIR}/nearpoint-config-version.cmake
+        DESTINATION ${NEARPOINT_INSTALL_CMAKEDIR} COMPONENT dev)
+
+# pkg-config for the engine; prefix relative to the .pc file, so an installed tree can be moved.
+file(RELATIVE_PATH NEARPOINT_PC_TO_PREFIX
+     /root/${CMAKE_INSTALL_LIBDIR}/pkgconfig /root)
+configure_file(${CMAKE_CURRENT_LIST_DIR}/nearpoint-core.pc.in
+               ${PROJECT_BINARY_DIR}/nearpoint-core.pc @ONLY)
+install(FILES ${PROJECT_BINARY_DIR}/nearpoint-core.pc
+        DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT dev)
+
+# ---- cpack -G DEB (run in the build directory) ----
+set(CPACK_PACKAGE_NAME nearpoint)
+set(CPACK_PACKAGE_VENDOR "nearpoint")
+set(CPACK_PACKAGE_CONTACT "nearpoint maintainers <nearpoint@localhost>")
+set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "GJK distance engine and distance service (gRPC, DDS)")
+set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
+set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
+set(CPACK_DEB_COMPONENT_INSTALL ON)
+# The programs without their debug information (a RelWithDebInfo nearpointd is ~10x larger);
+# static libraries are left as they are.
+set(CPACK_STRIP_FILES ON)
+set(CPACK_COMPONENTS_ALL runtime dev)
+set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
+set(CPACK_DEBIAN_PACKAGE_SECTION science)
+# runtime: the shared libraries nearpointd and nearpoint link, found by dpkg-shlibdeps.
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_NAME nearpoint)
+set(CPACK_DEBIAN_RUNTIME_PACKAGE_SHLIBDEPS ON)
+# dev: static libraries and headers; a consumer compiles against Eigen, gRPC and protobuf.
+set(CPACK_DEBIAN_DEV_PACKAGE_NAME nearpoint-dev)
+set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
+set(_nearpoint_dev_depends "libeigen3-dev (>= 3.4)")
+if(NEARPOINT_INSTALLED_CLIENT)
+  string(APPEND _nearpoint_dev_depends ", libgrpc++-dev, libprotobuf-dev")
+endif()
+if(NEARPOINT_INSTALLED_HULL)
+  # nearpoint::hull is loaded only when CGAL is found: suggested, not required.
+  set(CPACK_DEBIAN_DEV_PACKAGE_SUGGESTS "libcgal-dev")
+endif()
+set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "${_nearpoint_dev_depends}")
+include(CPack)

@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# cpack -G DEB on this build (issue 23, item 5): the runtime package holds nearpointd and the CLI
+# and depends on the shared libraries they link; the -dev package holds the headers, the CMake
+# package and the pkg-config file, and depends on the -dev packages a consumer compiles against.
+# Usage: check_deb.sh CPACK BUILD_DIR WORK_DIR
+set -euo pipefail
+cpack_bin="$1" build="$2" work="$3"
+rm -rf "$work"
+mkdir -p "$work"
+"$cpack_bin" -G DEB --config "$build/CPackConfig.cmake" -B "$work" >"$work/cpack.log" ||
+  { cat "$work/cpack.log"; exit 1; }
+runtime=$(ls "$work"/nearpoint_*.deb)
+dev=$(ls "$work"/nearpoint-dev_*.deb)
+
+fail() { echo "FAIL: $*"; exit 1; }
+contents() { dpkg-deb -c "$1" | awk '{print $6}'; }
+contents "$runtime" | grep -qx './usr/bin/nearpointd' || fail "nearpointd not in $runtime"
+contents "$runtime" | grep -qx './usr/bin/nearpoint' || fail "the CLI not in $runtime"
+contents "$dev" | grep -qx './usr/include/nearpoint/distance.hpp' || fail "headers not in $dev"
+contents "$dev" | grep -q '/usr/lib/.*cmake/nearpoint/nearpoint-config.cmake' ||
+  fail "CMake package not in $dev"
+depends=$(dpkg-deb -f "$runtime" Depends)
+echo "nearpoint Depends: $depends"
+for lib in libgrpc++ libprotobuf libc6; do
+  grep -q "$lib" <<<"$depends" || fail "$runtime does not depend on $lib"
+done
+dev_depends=$(dpkg-deb -f "$dev" Depends)
+echo "nearpoint-dev Depends: $dev_depends"
+grep -q 'libeigen3-dev' <<<"$dev_depends" || fail "$dev does not depend on libeigen3-dev"
+echo "OK: $(basename "$runtime") $(du -h "$runtime" | cut -f1), $(basename "$dev") $(du -h "$dev" | cut -f1)"
