@@ -6,6 +6,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <deque>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <thread>
@@ -103,6 +104,27 @@ bool is_connection_loss(const grpc::Status& status) {
 
 class ClientImpl;
 
+// Plaintext, or TLS with the token as call credentials (which gRPC attaches to every call on
+// the channel and refuses to send over an insecure one).
+std::shared_ptr<grpc::ChannelCredentials> channel_credentials(const ClientOptions& options) {
+  if (!options.uses_tls()) return grpc::InsecureChannelCredentials();
+  grpc::SslCredentialsOptions ssl;
+  ssl.pem_root_certs = options.tls_ca_pem;
+  ssl.pem_private_key = options.tls_key_pem;
+  ssl.pem_cert_chain = options.tls_cert_pem;
+  auto credentials = grpc::SslCredentials(ssl);
+  if (options.token.empty()) return credentials;
+  return grpc::CompositeChannelCredentials(credentials,
+                                           grpc::AccessTokenCredentials(options.token));
+}
+
+bool read_whole_file(const std::string& path, std::string& out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  out.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  return !in.bad();
+}
+
 // ---- Session ----
 
 class SessionImpl final : public Session {
@@ -190,7 +212,7 @@ class ClientImpl final : public Client {
     // Detect a silently dead peer on long streams.
     args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, 20000);
     args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 10000);
-    channel_ = grpc::CreateCustomChannel(target_, grpc::InsecureChannelCredentials(), args);
+    channel_ = grpc::CreateCustomChannel(target_, channel_credentials(options), args);
     stub_ = v1::DistanceService::NewStub(channel_);
   }
 
@@ -674,6 +696,34 @@ Status SessionImpl::close(Clock::time_point deadline) {
 }
 
 }  // namespace
+
+Status load_credentials(ClientOptions& options, const std::string& tls_ca_file,
+                        const std::string& tls_cert_file, const std::string& tls_key_file,
+                        const std::string& token_file) {
+  constexpr int kInvalidArgument = 3;
+  if (tls_cert_file.empty() != tls_key_file.empty())
+    return Status::error(kInvalidArgument,
+                         "a client certificate and its key go together (--tls-cert, --tls-key)");
+  const std::pair<const std::string*, std::string*> files[] = {
+      {&tls_ca_file, &options.tls_ca_pem},
+      {&tls_cert_file, &options.tls_cert_pem},
+      {&tls_key_file, &options.tls_key_pem},
+      {&token_file, &options.token},
+  };
+  for (const auto& [path, field] : files) {
+    if (path->empty()) continue;
+    if (!read_whole_file(*path, *field))
+      return Status::error(kInvalidArgument, "cannot read '" + *path + "'");
+  }
+  if (!token_file.empty()) {
+    std::string& token = options.token;
+    const auto first = token.find_first_not_of(" \t\r\n");
+    if (first == std::string::npos)
+      return Status::error(kInvalidArgument, "the token file '" + token_file + "' is empty");
+    token = token.substr(first, token.find_last_not_of(" \t\r\n") - first + 1);
+  }
+  return Status{};
+}
 
 std::unique_ptr<Client> Client::connect(const std::string& target, ClientOptions options) {
   return std::make_unique<ClientImpl>(target, options);

@@ -230,6 +230,16 @@ void add_remote_options(CLI::App& command, RemoteOptions& remote) {
           [&remote](long long ms) { remote.timeout = std::chrono::milliseconds(ms); },
           "Deadline of each call, milliseconds (default 10000)")
       ->check(CLI::Range(1LL, 3'600'000LL));
+  command.add_option("--tls-ca", remote.tls_ca,
+                     "Connect with TLS; PEM CA certificates that signed the server's certificate");
+  command.add_option("--tls-cert", remote.tls_cert,
+                     "PEM client certificate for mutual TLS (with --tls-key)");
+  command.add_option("--tls-key", remote.tls_key, "PEM private key of --tls-cert");
+  command
+      .add_option("--token-file", remote.token_file,
+                  "File holding the server's bearer token (default $NEARPOINT_TOKEN_FILE); "
+                  "implies TLS")
+      ->envname("NEARPOINT_TOKEN_FILE");
 }
 
 void add_register_subcommand(CLI::App& app, int& exit_code) {

@@ -20,9 +20,17 @@ namespace {
 
 using client::Clock;
 
-std::unique_ptr<client::Client> connect(const RemoteOptions& remote) {
+/// A client with the --tls-* and --token-file files loaded, or nullptr (the reason printed to
+/// `err`) when one cannot be read.
+std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err) {
   client::ClientOptions options;
   options.call_timeout = remote.timeout;
+  const client::Status loaded = client::load_credentials(options, remote.tls_ca, remote.tls_cert,
+                                                         remote.tls_key, remote.token_file);
+  if (!loaded.ok()) {
+    err << "nearpoint: " << loaded.message << "\n";
+    return nullptr;
+  }
   return client::Client::connect(remote.target, options);
 }
 
@@ -177,7 +185,8 @@ int run_register(const RegisterOptions& options, std::ostream& out, std::ostream
     }
     geometries.push_back(std::move(compound));
   }
-  auto client = connect(options.remote);
+  auto client = connect(options.remote, err);
+  if (!client) return kExitBadInput;
   for (const client::Geometry& geometry : geometries) {
     auto info = client->register_geometry(geometry);
     if (!info) {
@@ -200,7 +209,8 @@ int run_register(const RegisterOptions& options, std::ostream& out, std::ostream
 // ---- scene create ----
 
 int run_scene_create(const SceneCreateOptions& options, std::ostream& out, std::ostream& err) {
-  auto client = connect(options.remote);
+  auto client = connect(options.remote, err);
+  if (!client) return kExitBadInput;
   client::SceneInfo created;
   if (int code = create_scene_from_file(*client, options.file, err, created); code != 0)
     return code;
@@ -228,7 +238,8 @@ int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostrea
   client::QueryOptions query_options;
   if (!options_from_flags(options.near_points, options.penetration, query_options, err))
     return kExitBadInput;
-  auto client = connect(options.remote);
+  auto client = connect(options.remote, err);
+  if (!client) return kExitBadInput;
   std::string scene_id;
   if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) return code;
   auto report = client->query(scene_id, poses, query_options);
@@ -259,7 +270,8 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
   client::SessionOptions session_options;
   if (!options_from_flags(options.near_points, options.penetration, session_options.options, err))
     return kExitBadInput;
-  auto client = connect(options.remote);
+  auto client = connect(options.remote, err);
+  if (!client) return kExitBadInput;
   std::string scene_id;
   if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) return code;
 
@@ -399,7 +411,8 @@ int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream&
     for (int t = 0; t <= kSteps; ++t) path.push_back({demo_pose(double(t) / kSteps)});
   }
 
-  auto client = connect(options.remote);
+  auto client = connect(options.remote, err);
+  if (!client) return kExitBadInput;
   std::string scene_id;
   if (options.scene.empty()) {
     auto created = create_demo_scene(*client);

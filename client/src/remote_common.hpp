@@ -29,6 +29,11 @@ struct RemoteOptions {
   std::string target = default_target();
   bool json = false;
   std::chrono::milliseconds timeout{10000};
+  /// TLS and token files (--tls-ca, --tls-cert, --tls-key, --token-file; empty: not given).
+  std::string tls_ca;
+  std::string tls_cert;
+  std::string tls_key;
+  std::string token_file;
 };
 
 /// Mesh files → convex pieces (nearpoint_mesh_import), or an error when built without it.

@@ -4,6 +4,8 @@
 //   nearpointd --dds [--dds-domain 0] [--dds-prefix rt/nearpoint/]   (needs CYCLONEDDS_URI)
 //   nearpointd --config nearpointd.toml
 //   nearpointd --scene cell.json [--scene other.yaml]   (preloads scenes under their ids)
+//   nearpointd --listen 0.0.0.0:50051 --tls-cert server.pem --tls-key server.key
+//              [--tls-client-ca clients-ca.pem] [--token-file token]   (or --insecure)
 //
 // Both transports serve one SceneService: a scene created over gRPC is streamed to over DDS.
 // Logs one key=value line per event to stderr. SIGTERM or SIGINT: graceful shutdown (stop
@@ -71,6 +73,20 @@ int main(int argc, char** argv) {
                  "Largest gRPC message received or sent")
       ->capture_default_str()
       ->check(CLI::Range(std::size_t(1024), std::size_t(INT32_MAX)));
+  // Transport security (issue 23): checked before anything binds (load_server_security).
+  nearpoint::server::SecurityFlags security_flags;
+  app.add_option("--tls-cert", security_flags.tls_cert,
+                 "PEM certificate chain: serve gRPC over TLS only (with --tls-key)");
+  app.add_option("--tls-key", security_flags.tls_key, "PEM private key of --tls-cert");
+  app.add_option("--tls-client-ca", security_flags.tls_client_ca,
+                 "PEM CA certificates: require client certificates they signed (mutual TLS)");
+  app.add_option("--token-file", security_flags.token_file,
+                 "File holding the bearer token every call but health checks must carry "
+                 "(authorization: Bearer ...); needs TLS")
+      ->envname("NEARPOINT_TOKEN_FILE");
+  app.add_flag("--insecure", security_flags.insecure,
+               "Allow plaintext on a non-loopback --listen address (without it, TLS is required "
+               "there)");
 #endif
 #if NEARPOINT_HAVE_DDS
   bool dds = false;
@@ -145,6 +161,18 @@ int main(int argc, char** argv) {
   config.drain_timeout = std::chrono::milliseconds(drain_timeout_ms);
   config.flush_timeout = std::chrono::milliseconds(flush_timeout_ms);
   config.diagnostics = !no_diagnostics;
+#if NEARPOINT_HAVE_GRPC
+  {
+    auto security = nearpoint::server::load_server_security(security_flags, config.listen);
+    if (!security) {
+      nearpoint::server::log_error("start_failed")
+          .kv("flag", security.error().field)
+          .kv("message", security.error().message);
+      return 2;
+    }
+    config.security = std::move(security.value());
+  }
+#endif
 
   // Block the shutdown signals in every thread (gRPC's and the pool's inherit this mask); this
   // thread then waits for them synchronously, outside any signal handler.
@@ -194,7 +222,11 @@ int main(int argc, char** argv) {
       .kv("workers", scenes->worker_count())
       .kv("max_streams", limits.max_streams)
       .kv("max_in_flight", limits.max_in_flight_per_stream)
-      .kv("max_message_bytes", config.max_message_bytes);
+      .kv("max_message_bytes", config.max_message_bytes)
+      .kv("tls", !config.security.tls()                      ? "off"
+                 : config.security.tls_client_ca_pem.empty() ? "on"
+                                                             : "mutual")
+      .kv("token", config.security.token.empty() ? "off" : "required");
 #endif
 #if NEARPOINT_HAVE_DDS
   std::unique_ptr<nearpoint::server::DdsBridge> bridge;

@@ -6,6 +6,7 @@
 
 #include <mutex>
 
+#include "grpc_security.hpp"
 #include "grpc_services.hpp"
 #include "nearpoint/server/log.hpp"
 
@@ -55,7 +56,7 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
       static_cast<int>(std::min<std::size_t>(config.max_message_bytes, INT32_MAX));
   builder.SetMaxReceiveMessageSize(max_message);
   builder.SetMaxSendMessageSize(max_message);
-  builder.AddListeningPort(config.listen, grpc::InsecureServerCredentials(), &impl.port);
+  builder.AddListeningPort(config.listen, make_server_credentials(config.security), &impl.port);
   builder.RegisterService(impl.distance.get());
   if (impl.diagnostics) builder.RegisterService(impl.diagnostics.get());
   impl.server = builder.BuildAndStart();
@@ -64,7 +65,8 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
     impl.shut_down = true;
     return Error{
         ErrorCode::unavailable, "listen",
-        text("cannot listen on '", config.listen, "' (malformed, or the address is in use)")};
+        text("cannot listen on '", config.listen, "' (malformed, or the address is in use",
+             config.security.tls() ? ", or the TLS key does not match the certificate" : "", ")")};
   }
   if (grpc::HealthCheckServiceInterface* health = impl.server->GetHealthCheckService()) {
     health->SetServingStatus(true);

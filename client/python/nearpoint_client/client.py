@@ -426,16 +426,53 @@ class Client:
             responses.cancel()  # the caller stopped early: end the call, not leave it open
 
 
+def _read(path: str) -> bytes:
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except OSError as error:
+        raise NearpointError(grpc.StatusCode.INVALID_ARGUMENT,
+                             f"cannot read '{path}': {error.strerror}") from None
+
+
 def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT,
-            max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES) -> Client:
+            max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES, *,
+            tls: bool = False, tls_ca: Optional[str] = None, tls_cert: Optional[str] = None,
+            tls_key: Optional[str] = None, token: Optional[str] = None,
+            token_file: Optional[str] = None) -> Client:
     """Connects to nearpointd at `target` ("host:port"), waiting up to `timeout` seconds for the
     channel to be ready (NearpointError UNAVAILABLE otherwise). `timeout` is also each unary
     call's deadline. `max_message_bytes` bounds the messages sent and received; the default is
-    the server's. Plain-text channel: nearpointd listens on 127.0.0.1 by default."""
-    channel = grpc.insecure_channel(target, options=[
+    the server's.
+
+    Plain-text channel unless TLS is asked for (nearpointd --tls-cert): `tls=True`, or any of
+    `tls_ca` (PEM file of the CA that signed the server's certificate; default: the system's
+    roots), `tls_cert` and `tls_key` (PEM files: this client's certificate for mutual TLS), or a
+    bearer token (`token`, or `token_file`, surrounding whitespace dropped), which gRPC sends as
+    `authorization: Bearer <token>` over TLS only."""
+    if (tls_cert is None) != (tls_key is None):
+        raise NearpointError(grpc.StatusCode.INVALID_ARGUMENT,
+                             "a client certificate and its key go together (tls_cert, tls_key)")
+    if token_file is not None:
+        token = _read(token_file).decode("ascii", errors="replace").strip()
+        if not token:
+            raise NearpointError(grpc.StatusCode.INVALID_ARGUMENT,
+                                 f"the token file '{token_file}' is empty")
+    options = [
         ("grpc.max_receive_message_length", max_message_bytes),
         ("grpc.max_send_message_length", max_message_bytes),
-    ])
+    ]
+    if tls or tls_ca or tls_cert or token:
+        credentials = grpc.ssl_channel_credentials(
+            root_certificates=_read(tls_ca) if tls_ca else None,
+            private_key=_read(tls_key) if tls_key else None,
+            certificate_chain=_read(tls_cert) if tls_cert else None)
+        if token:
+            credentials = grpc.composite_channel_credentials(
+                credentials, grpc.access_token_call_credentials(token))
+        channel = grpc.secure_channel(target, credentials, options=options)
+    else:
+        channel = grpc.insecure_channel(target, options=options)
     try:
         grpc.channel_ready_future(channel).result(timeout=timeout)
     except grpc.FutureTimeoutError:

@@ -230,7 +230,29 @@ struct ClientOptions {
   /// Largest message sent or received: by default the server's (--max-message-bytes), so that
   /// every report it can send arrives.
   int max_message_bytes = static_cast<int>(server::kDefaultMaxMessageBytes);
+  /// TLS (nearpointd --tls-cert): on when `tls` is set or any PEM below is given. The server's
+  /// certificate is checked against `tls_ca_pem`, or the system's roots when it is empty.
+  bool tls = false;
+  std::string tls_ca_pem;
+  /// Mutual TLS (nearpointd --tls-client-ca): this client's certificate chain and key, PEM.
+  std::string tls_cert_pem;
+  std::string tls_key_pem;
+  /// Bearer token (nearpointd --token-file), sent as `authorization: Bearer <token>` on every
+  /// call. A token turns TLS on: it is never sent in the clear.
+  std::string token;
+
+  bool uses_tls() const {
+    return tls || !tls_ca_pem.empty() || !tls_cert_pem.empty() || !tls_key_pem.empty() ||
+           !token.empty();
+  }
 };
+
+/// Fills `options`' TLS and token fields from files (an empty path leaves its field alone); the
+/// token file's surrounding whitespace is dropped. Not OK (INVALID_ARGUMENT, naming the file)
+/// when a file cannot be read, and when only one of the client certificate and key is given.
+Status load_credentials(ClientOptions& options, const std::string& tls_ca_file,
+                        const std::string& tls_cert_file, const std::string& tls_key_file,
+                        const std::string& token_file);
 
 class Client {
  public:

@@ -12,6 +12,7 @@
 #include "nearpoint/server/errors.hpp"
 #include "nearpoint/server/limits.hpp"
 #include "nearpoint/server/scene_service.hpp"
+#include "nearpoint/server/security.hpp"
 
 namespace nearpoint::server {
 
@@ -33,6 +34,8 @@ struct ServerConfig {
   std::chrono::milliseconds flush_timeout{1000};
   /// Serve nearpoint.v1.Diagnostics (the echo stream that measures the transport floor).
   bool diagnostics = true;
+  /// TLS and the bearer token (load_server_security); empty: plaintext, no token.
+  ServerSecurity security;
 };
 
 class GrpcServer {
