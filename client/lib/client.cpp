@@ -1,5 +1,6 @@
 #include "nearpoint/client/client.hpp"
 
+#include <grpcpp/generic/generic_stub.h>
 #include <grpcpp/grpcpp.h>
 
 #include <algorithm>
@@ -7,6 +8,7 @@
 #include <condition_variable>
 #include <deque>
 #include <fstream>
+#include <future>
 #include <map>
 #include <mutex>
 #include <thread>
@@ -318,6 +320,49 @@ class ClientImpl final : public Client {
   }
 
   const std::string& target() const override { return target_; }
+
+  Expected<std::string> health(const std::string& service) override {
+    // The health messages by hand (two fields in all) through the generic stub, rather than a
+    // generated copy of grpc/health/v1/health.proto: HealthCheckRequest{1: service} and
+    // HealthCheckResponse{1: status enum}.
+    if (service.size() > 127)
+      return Status::error(3 /* INVALID_ARGUMENT */, "health: the service name is too long");
+    std::string request_bytes;
+    if (!service.empty()) {
+      request_bytes.push_back('\x0a');
+      request_bytes.push_back(static_cast<char>(service.size()));
+      request_bytes += service;
+    }
+    grpc::Slice slice(request_bytes);
+    grpc::ByteBuffer request(&slice, 1);
+    grpc::ByteBuffer response;
+    grpc::GenericStub stub(channel_);
+    auto context = this->context();
+    std::promise<grpc::Status> done;
+    stub.UnaryCall(context.get(), "/grpc.health.v1.Health/Check", grpc::StubOptions(), &request,
+                   &response, [&done](grpc::Status status) { done.set_value(std::move(status)); });
+    const grpc::Status status = done.get_future().get();
+    if (!status.ok()) return from_grpc(status);
+    std::vector<grpc::Slice> slices;
+    if (!response.Dump(&slices).ok())
+      return Status::error(13 /* INTERNAL */, "health: unreadable response");
+    std::string bytes;
+    for (const grpc::Slice& part : slices)
+      bytes.append(reinterpret_cast<const char*>(part.begin()), part.size());
+    // Field 1, varint; absent = 0 (UNKNOWN). The enum's values are all below 128.
+    int value = 0;
+    if (bytes.size() >= 2 && bytes[0] == '\x08') value = static_cast<unsigned char>(bytes[1]);
+    switch (value) {
+      case 1:
+        return std::string("SERVING");
+      case 2:
+        return std::string("NOT_SERVING");
+      case 3:
+        return std::string("SERVICE_UNKNOWN");
+      default:
+        return std::string("UNKNOWN");
+    }
+  }
 
   // ---- for sessions ----
 

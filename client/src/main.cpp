@@ -242,6 +242,23 @@ void add_remote_options(CLI::App& command, RemoteOptions& remote) {
       ->envname("NEARPOINT_TOKEN_FILE");
 }
 
+void add_health_subcommand(CLI::App& app, int& exit_code) {
+  auto options = std::make_shared<nearpoint::cli::HealthOptions>();
+  CLI::App* command = app.add_subcommand(
+      "health", "gRPC health check of nearpointd: exit 0 when SERVING (for probes)");
+  add_remote_options(*command, options->remote);
+  command->add_option("--service", options->service,
+                      "Service to ask about (default: the server as a whole)");
+  command->footer(R"(
+Prints SERVING, NOT_SERVING, UNKNOWN or SERVICE_UNKNOWN; exit 0 only for SERVING, 3 when no
+server answers. nearpointd answers without a token; TLS flags apply as for the other verbs.
+  nearpoint health --target 127.0.0.1:50051
+  nearpoint health --target nearpoint:50051 --tls-ca ca.pem)");
+  command->callback([options, &exit_code] {
+    exit_code = nearpoint::cli::run_health(*options, std::cout, std::cerr);
+  });
+}
+
 void add_register_subcommand(CLI::App& app, int& exit_code) {
   auto options = std::make_shared<nearpoint::cli::RegisterOptions>();
   CLI::App* command = app.add_subcommand(
@@ -514,6 +531,7 @@ Examples:
     add_distance_subcommand(app, exit_code);
 #ifdef NEARPOINT_WITH_REMOTE
     add_register_subcommand(app, exit_code);
+    add_health_subcommand(app, exit_code);
     add_scene_subcommand(app, exit_code);
     add_query_subcommand(app, exit_code);
     add_stream_subcommand(app, exit_code);

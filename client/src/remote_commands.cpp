@@ -145,6 +145,25 @@ client::ObjectPose to_object_pose(const ObjectPose& pose) {
 
 // ---- register ----
 
+int run_health(const HealthOptions& options, std::ostream& out, std::ostream& err) {
+  auto client = connect(options.remote, err);
+  if (!client) return kExitBadInput;
+  auto status = client->health(options.service);
+  if (!status) {
+    err << "nearpoint health: " << status.status().describe() << "\n";
+    return exit_code_for(status.status());
+  }
+  if (options.remote.json)
+    out << Json{{"target", options.remote.target},
+                {"service", options.service},
+                {"status", *status}}
+               .dump()
+        << "\n";
+  else
+    out << *status << "\n";
+  return *status == "SERVING" ? 0 : kExitServerError;
+}
+
 int run_register(const RegisterOptions& options, std::ostream& out, std::ostream& err) {
   if (options.files.empty()) {
     err << "nearpoint register: give at least one FILE\n";

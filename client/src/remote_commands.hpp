@@ -22,6 +22,14 @@ struct RegisterOptions {
 };
 int run_register(const RegisterOptions& options, std::ostream& out, std::ostream& err);
 
+/// `nearpoint health`: the gRPC health protocol; exit 0 when SERVING (a container HEALTHCHECK,
+/// a probe), 1 when the server answers anything else, 3 when it cannot be reached.
+struct HealthOptions {
+  RemoteOptions remote;
+  std::string service;  ///< "" = the server as a whole
+};
+int run_health(const HealthOptions& options, std::ostream& out, std::ostream& err);
+
 struct SceneCreateOptions {
   RemoteOptions remote;
   std::string file;

@@ -15,6 +15,8 @@ CASE is one of
               token succeed; a wrong or missing token is UNAUTHENTICATED; the health service
               answers without a token; plaintext to the TLS port, and a client that does not trust
               the server's CA, fail; the token never appears in the server's log.
+              `nearpoint health` (exit 0 when SERVING) over TLS without a token, and against a
+              plaintext server: the whole server, one service, an unknown service, no server.
   mtls        mutual TLS: a client certificate from the CA is accepted (Python and CLI); none, or
               one from another CA, is refused.
 Every server is stopped with SIGTERM and must exit 0; the servers die with this process.
@@ -197,6 +199,15 @@ def cli(server_target, *flags):
     return result.returncode, (result.stdout + result.stderr).decode("utf-8", errors="replace")
 
 
+def cli_health(server_target, *flags):
+    result = subprocess.run([ARGS.nearpoint, "health", "--target", server_target,
+                             "--timeout-ms", "5000", *flags],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=60,
+                            env={k: v for k, v in os.environ.items()
+                                 if k != "NEARPOINT_TOKEN_FILE"})
+    return result.returncode, (result.stdout + result.stderr).decode("utf-8", errors="replace")
+
+
 def status_of(fn):
     """None when fn() succeeds, else the failed call's gRPC status code."""
     try:
@@ -246,6 +257,12 @@ def case_tls(d):
               f"tls: CLI with a wrong token: exit {code} {out.strip()[:200]}")
         code, out = cli(server.target)
         check(code == 3, f"tls: CLI in plaintext to the TLS port: exit {code} {out.strip()[:200]}")
+        # `nearpoint health` (the image's HEALTHCHECK, a probe): no token needed, TLS is.
+        code, out = cli_health(server.target, "--tls-ca", p("ca.pem"))
+        check(code == 0 and out.strip() == "SERVING",
+              f"tls: CLI health over TLS without a token: exit {code} {out.strip()[:200]}")
+        code, out = cli_health(server.target)
+        check(code == 3, f"tls: CLI health in plaintext to the TLS port: exit {code}")
         code, out = cli(server.target, "--tls-ca", p("missing.pem"))
         check(code == 2 and "missing.pem" in out,
               f"tls: CLI with an unreadable --tls-ca: exit {code} {out.strip()[:200]}")
@@ -254,6 +271,22 @@ def case_tls(d):
     log = server.stderr()
     check(code == 0, f"tls: SIGTERM: nearpointd exits 0 ({code})")
     check("tls=on" in log and "token=required" in log, "tls: the start line says tls=on, token")
+
+    # The same health verb against a plaintext server on loopback.
+    plain = Server(d)
+    try:
+        code, out = cli_health(plain.target)
+        check(code == 0 and out.strip() == "SERVING", f"plain: CLI health: exit {code} {out}")
+        code, out = cli_health(plain.target, "--service", "nearpoint.v1.DistanceService", "--json")
+        check(code == 0 and '"status":"SERVING"' in out,
+              f"plain: CLI health of the DistanceService: exit {code} {out}")
+        code, out = cli_health(plain.target, "--service", "no.such.Service")
+        check(code == 1 and "NOT_FOUND" in out, f"plain: CLI health of an unknown service: {code}")
+    finally:
+        code = plain.stop()
+    check(code == 0, f"plain: SIGTERM: nearpointd exits 0 ({code})")
+    code, out = cli_health(plain.target)
+    check(code == 3, f"plain: CLI health with no server: exit {code}")
     check("unauthenticated" in log, "tls: refused calls are logged")
     check(token not in log and "s3cr3t" not in log, "tls: no token in the server's log")
 

@@ -283,6 +283,11 @@ class Client {
 
   /// Waits until the channel is connected (true) or `deadline` passes (false).
   virtual bool wait_connected(Clock::time_point deadline) = 0;
+  /// The gRPC health protocol (grpc.health.v1.Health/Check) for `service` ("" = the server as a
+  /// whole; "nearpoint.v1.DistanceService"): "SERVING", "NOT_SERVING", "UNKNOWN" or
+  /// "SERVICE_UNKNOWN"; or the call's failure (UNAVAILABLE: no server, NOT_FOUND: no such
+  /// service). nearpointd answers it without a token.
+  virtual Expected<std::string> health(const std::string& service = {}) = 0;
   virtual const std::string& target() const = 0;
 };
 
