@@ -214,6 +214,8 @@ class ClientImpl final : public Client {
     // Detect a silently dead peer on long streams.
     args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, 20000);
     args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 10000);
+    if (options.uses_tls() && !options.tls_server_name.empty())
+      args.SetSslTargetNameOverride(options.tls_server_name);
     channel_ = grpc::CreateCustomChannel(target_, channel_credentials(options), args);
     stub_ = v1::DistanceService::NewStub(channel_);
   }

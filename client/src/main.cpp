@@ -232,6 +232,8 @@ void add_remote_options(CLI::App& command, RemoteOptions& remote) {
       ->check(CLI::Range(1LL, 3'600'000LL));
   command.add_option("--tls-ca", remote.tls_ca,
                      "Connect with TLS; PEM CA certificates that signed the server's certificate");
+  command.add_option("--tls-server-name", remote.tls_server_name,
+                     "Name the server's certificate must carry (default: the --target host)");
   command.add_option("--tls-cert", remote.tls_cert,
                      "PEM client certificate for mutual TLS (with --tls-key)");
   command.add_option("--tls-key", remote.tls_key, "PEM private key of --tls-cert");

@@ -25,6 +25,7 @@ using client::Clock;
 std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err) {
   client::ClientOptions options;
   options.call_timeout = remote.timeout;
+  options.tls_server_name = remote.tls_server_name;
   const client::Status loaded = client::load_credentials(options, remote.tls_ca, remote.tls_cert,
                                                          remote.tls_key, remote.token_file);
   if (!loaded.ok()) {

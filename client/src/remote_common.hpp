@@ -31,6 +31,7 @@ struct RemoteOptions {
   std::chrono::milliseconds timeout{10000};
   /// TLS and token files (--tls-ca, --tls-cert, --tls-key, --token-file; empty: not given).
   std::string tls_ca;
+  std::string tls_server_name;
   std::string tls_cert;
   std::string tls_key;
   std::string token_file;

@@ -263,6 +263,17 @@ def case_tls(d):
               f"tls: CLI health over TLS without a token: exit {code} {out.strip()[:200]}")
         code, out = cli_health(server.target)
         check(code == 3, f"tls: CLI health in plaintext to the TLS port: exit {code}")
+        # --tls-server-name: the name checked is the given one, not the target's host.
+        code, out = cli_health(server.target, "--tls-ca", p("ca.pem"), "--tls-server-name",
+                               "localhost")
+        check(code == 0, f"tls: CLI health with --tls-server-name localhost: exit {code}")
+        code, out = cli_health(server.target, "--tls-ca", p("ca.pem"), "--tls-server-name",
+                               "nearpoint.other.example")
+        check(code == 3, f"tls: CLI health with a name the certificate lacks: exit {code}")
+        code = status_of(lambda: npc.connect(server.target, timeout=5, tls_ca=p("ca.pem"),
+                                             tls_server_name="nearpoint.other.example"))
+        check(code == grpc.StatusCode.UNAVAILABLE,
+              f"tls: Python client, a name the certificate lacks: {code}")
         code, out = cli(server.target, "--tls-ca", p("missing.pem"))
         check(code == 2 and "missing.pem" in out,
               f"tls: CLI with an unreadable --tls-ca: exit {code} {out.strip()[:200]}")

@@ -439,7 +439,7 @@ def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT,
             max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES, *,
             tls: bool = False, tls_ca: Optional[str] = None, tls_cert: Optional[str] = None,
             tls_key: Optional[str] = None, token: Optional[str] = None,
-            token_file: Optional[str] = None) -> Client:
+            token_file: Optional[str] = None, tls_server_name: Optional[str] = None) -> Client:
     """Connects to nearpointd at `target` ("host:port"), waiting up to `timeout` seconds for the
     channel to be ready (NearpointError UNAVAILABLE otherwise). `timeout` is also each unary
     call's deadline. `max_message_bytes` bounds the messages sent and received; the default is
@@ -449,7 +449,8 @@ def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT,
     `tls_ca` (PEM file of the CA that signed the server's certificate; default: the system's
     roots), `tls_cert` and `tls_key` (PEM files: this client's certificate for mutual TLS), or a
     bearer token (`token`, or `token_file`, surrounding whitespace dropped), which gRPC sends as
-    `authorization: Bearer <token>` over TLS only."""
+    `authorization: Bearer <token>` over TLS only. `tls_server_name`: the name the server's
+    certificate must carry when it is not the target's host."""
     if (tls_cert is None) != (tls_key is None):
         raise NearpointError(grpc.StatusCode.INVALID_ARGUMENT,
                              "a client certificate and its key go together (tls_cert, tls_key)")
@@ -470,6 +471,8 @@ def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT,
         if token:
             credentials = grpc.composite_channel_credentials(
                 credentials, grpc.access_token_call_credentials(token))
+        if tls_server_name:
+            options.append(("grpc.ssl_target_name_override", tls_server_name))
         channel = grpc.secure_channel(target, credentials, options=options)
     else:
         channel = grpc.insecure_channel(target, options=options)

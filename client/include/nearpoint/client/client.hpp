@@ -234,6 +234,9 @@ struct ClientOptions {
   /// certificate is checked against `tls_ca_pem`, or the system's roots when it is empty.
   bool tls = false;
   std::string tls_ca_pem;
+  /// The name the server's certificate must carry, when it is not the target's host (a probe
+  /// dialling 127.0.0.1 inside a pod whose certificate names the Service). Empty: the host.
+  std::string tls_server_name;
   /// Mutual TLS (nearpointd --tls-client-ca): this client's certificate chain and key, PEM.
   std::string tls_cert_pem;
   std::string tls_key_pem;
