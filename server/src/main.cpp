@@ -67,7 +67,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1024));
 #if NEARPOINT_HAVE_GRPC
   app.add_option("--listen", config.listen, "host:port to listen on (port 0: any free port)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->envname("NEARPOINT_LISTEN");
   app.add_option("--port-file", port_file, "Write the bound port to this file once listening");
   app.add_option("--max-message-bytes", config.max_message_bytes,
                  "Largest gRPC message received or sent")
@@ -75,11 +76,17 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(std::size_t(1024), std::size_t(INT32_MAX)));
   // Transport security (issue 23): checked before anything binds (load_server_security).
   nearpoint::server::SecurityFlags security_flags;
+  // Each also from the environment (a container's configuration): NEARPOINT_LISTEN,
+  // NEARPOINT_TLS_CERT, NEARPOINT_TLS_KEY, NEARPOINT_TLS_CLIENT_CA, NEARPOINT_TOKEN_FILE; a flag
+  // wins over its variable.
   app.add_option("--tls-cert", security_flags.tls_cert,
-                 "PEM certificate chain: serve gRPC over TLS only (with --tls-key)");
-  app.add_option("--tls-key", security_flags.tls_key, "PEM private key of --tls-cert");
+                 "PEM certificate chain: serve gRPC over TLS only (with --tls-key)")
+      ->envname("NEARPOINT_TLS_CERT");
+  app.add_option("--tls-key", security_flags.tls_key, "PEM private key of --tls-cert")
+      ->envname("NEARPOINT_TLS_KEY");
   app.add_option("--tls-client-ca", security_flags.tls_client_ca,
-                 "PEM CA certificates: require client certificates they signed (mutual TLS)");
+                 "PEM CA certificates: require client certificates they signed (mutual TLS)")
+      ->envname("NEARPOINT_TLS_CLIENT_CA");
   app.add_option("--token-file", security_flags.token_file,
                  "File holding the bearer token every call but health checks must carry "
                  "(authorization: Bearer ...); needs TLS")

@@ -100,7 +100,9 @@ class Server:
         self.process = subprocess.Popen(
             [ARGS.nearpointd, "--listen", "127.0.0.1:0", "--port-file", self.port_file,
              "--workers", "1", *flags],
-            stdout=subprocess.DEVNULL, stderr=self.log, env=env, preexec_fn=die_with_parent)
+            stdout=subprocess.DEVNULL, stderr=self.log,
+            env=env or {k: v for k, v in os.environ.items() if not k.startswith("NEARPOINT_")},
+            preexec_fn=die_with_parent)
         deadline = time.monotonic() + 20
         while not os.path.exists(self.port_file):
             if self.process.poll() is not None or time.monotonic() > deadline:
@@ -127,10 +129,10 @@ class Server:
 
 
 def run_start_failure(d, flags, env_extra=None, listen="127.0.0.1:0"):
-    env = dict(os.environ)
-    env.pop("NEARPOINT_TOKEN_FILE", None)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NEARPOINT_")}
     env.update(env_extra or {})
-    result = subprocess.run([ARGS.nearpointd, "--listen", listen, "--workers", "1", *flags],
+    listen_flag = ["--listen", listen] if listen else []  # None: from the environment
+    result = subprocess.run([ARGS.nearpointd, *listen_flag, "--workers", "1", *flags],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=env, timeout=30,
                             preexec_fn=die_with_parent)
     return result.returncode, result.stderr.decode("utf-8", errors="replace")
@@ -168,6 +170,10 @@ def case_bad_config(d):
          "--token-file"),
         # Checked before binding: these never reach the network.
         ("0.0.0.0 without TLS", [], None, "0.0.0.0:0", "--listen"),
+        ("0.0.0.0 from $NEARPOINT_LISTEN without TLS", [], {"NEARPOINT_LISTEN": "0.0.0.0:0"},
+         None, "--listen"),
+        ("missing certificate from $NEARPOINT_TLS_CERT", ["--tls-key", p("server.key")],
+         {"NEARPOINT_TLS_CERT": missing}, "127.0.0.1:0", "--tls-cert"),
         ("[::] without TLS", [], None, "[::]:0", "--listen"),
         ("a host name without TLS", [], None, "example.invalid:50051", "--listen"),
     ]
