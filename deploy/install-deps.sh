@@ -24,7 +24,12 @@ packages=(
   python3-grpcio python3-protobuf
   # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged)
   cyclonedds-dev cyclonedds-tools
+  # TLS tests (a throw-away CA made with openssl) and the deploy/k8s check (yamllint, PyYAML)
+  openssl yamllint python3-yaml
 )
+# kubectl renders deploy/k8s (`kubectl kustomize`). Debian's is kubernetes-client; a machine that
+# already has a kubectl (e.g. Google Cloud SDK's package) keeps it: the two conflict.
+if ! command -v kubectl >/dev/null 2>&1; then packages+=(kubernetes-client); fi
 for arg in "$@"; do
   case "$arg" in
     # peers for bench/ (FCL, libccd, Bullet; CGAL above gives the hulls fcl::Convex needs) and
