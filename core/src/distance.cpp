@@ -2,6 +2,7 @@
 // result (near points, spherical extensions, error bound, penetration bound, gradient).
 #include "nearpoint/distance.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -23,12 +24,47 @@ namespace {
 
 using detail::set_invalid;
 
+/// The range of D(K) the loop runs in as given: [2^low, 2^high]. Inside it no square, product or
+/// Johnson Δ (up to D⁷ for a tetrahedron's ν numerator) under- or overflows, with room for ε²
+/// factors; outside it K is rescaled by a power of two first (see rescaled_query). Scaling by 2^k
+/// is exact, so the answers of the two paths agree bit for bit wherever both are representable.
+template <class S>
+struct LoopRange;
+template <>
+struct LoopRange<double> {
+  static constexpr int low = -128, high = 128;  // D⁷ within 2^±896 of 1
+};
+template <>
+struct LoopRange<float> {
+  static constexpr int low = -16, high = 16;  // D⁷ within 2^±112 of 1
+};
+
+/// 2^e as a compile-time constant.
+template <class S>
+constexpr S power_of_two(int e) {
+  S x = 1;
+  for (; e > 0; --e) x *= 2;
+  for (; e < 0; ++e) x /= 2;
+  return x;
+}
+
+/// The largest radius sum and size accepted: the answer (a distance, a penetration bound, near
+/// points a radius away from the cores) must stay representable.
+template <class S>
+constexpr S kLargestLength = std::numeric_limits<S>::max() / S(256);
+
+constexpr const char* kTooLarge =
+    "shapes, radii and their separation are too large for this precision (keep them below ~1e306 "
+    "in double, ~1e36 in float)";
+
 // Writes into `result`, which the caller has just default-constructed (see
-// detail::distance_with_valid_poses).
+// detail::distance_with_valid_poses). Returns false without touching `result` or `cache` when
+// `may_rescale` and D(K) or the radii lie outside the loop's range: the caller then rescales K
+// (rescaled_query). `diameter_out` receives the D(K) computed here.
 template <class S, class GA, class GB>
-void query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radius_b,
+bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radius_b,
            const Pose<S>& pose_b, const DistanceOptions<S>& options, SimplexCache* cache,
-           DistanceResult<S>& result) {
+           DistanceResult<S>& result, bool may_rescale, S& diameter_out) {
   using SA = detail::Support<GA, S>;
   using SB = detail::Support<GB, S>;
   const SA support_a{ga};
@@ -43,31 +79,52 @@ void query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   const Vec3<S> translation =
       detail::rotate_back(pose_a.rotation, Vec3<S>(pose_b.translation - pose_a.translation));
   const Vec3<S> a_center = support_a.center();
-  const Vec3<S> b_center_rel = detail::rotate(rotation, support_b.center()) + translation;
+  const Vec3<S> b_center = support_b.center();
+  const Vec3<S> b_center_rel = detail::rotate(rotation, b_center) + translation;
+  const S extents = support_a.extent() + support_b.extent();
+  // δ = z̄_B − z̄_A in A's frame, eq. (34). Formed directly its rounding is a few ulps of the
+  // terms |z̄_A|, |z̄_B|, |p_B − p_A|, which is within the roundoff allowance (a few ulps of D(K))
+  // while the centroids are small against D(K): always for boxes, spheres, cylinders, whose
+  // centre is their local origin. A shape modelled far from its local origin and placed back by
+  // its pose (CAD meshes exported in world coordinates) has centroids far larger than D(K), and
+  // δ is then formed from the world-frame centroids with compensated arithmetic instead.
+  Vec3<S> offset = b_center_rel - a_center;
+  S diameter = extents + offset.norm();  // D(K) ≤ D(A − z̄_A) + D(B − z̄_B) + |δ|, eq. (37)
+  const bool far_centers =
+      !(a_center.cwiseAbs().sum() + b_center.cwiseAbs().sum() <= S(0.125) * diameter);
+  if (far_centers) {
+    offset = detail::centroid_offset(pose_a, a_center, pose_b, b_center);
+    diameter = extents + offset.norm();
+  }
+  diameter_out = diameter;
+  const S radii = radius_a + radius_b;
+  // One branch decides whether K is in the loop's range (and the radii representable): outside
+  // it, tiny shapes would square to subnormals (1e-170 boxes came back "intersecting", bound 0)
+  // and large ones overflow (NaN weights in float from ~1e7 with Johnson's Δ's), so K is first
+  // rescaled by a power of two (rescaled_query), or refused.
+  constexpr S smallest = power_of_two<S>(LoopRange<S>::low);
+  constexpr S largest = power_of_two<S>(LoopRange<S>::high);
+  if (!(diameter >= smallest && diameter <= largest && radii <= kLargestLength<S>)) [[unlikely]] {
+    if (may_rescale) return false;
+    if (!(diameter <= kLargestLength<S>) || !(radii <= kLargestLength<S>)) {
+      set_invalid(result, kTooLarge);
+      return true;
+    }
+    if (diameter != 0) {
+      set_invalid(result,
+                  "shapes differ too much in size from their separation or from each other to be "
+                  "measured in this precision");
+      return true;
+    }
+    // D(K) = 0: two points at one place. The loop handles it (every length is 0).
+  }
   // Every member given its value here: an aggregate with members left to `{}` was zeroed first
   // (a `rep stos` of 168 bytes per query).
   const detail::MinkowskiDifference<S, SA, SB> k_set{
-      support_a,
-      support_b,
-      rotation,
-      Vec3<S>(b_center_rel - a_center),  // δ, eq. (34)
-      a_center,
-      b_center_rel,
-      options.origin_shift};
+      support_a, support_b, rotation, offset, a_center, b_center_rel, options.origin_shift};
 
-  // D(K) ≤ D(A − z̄_A) + D(B − z̄_B) + |z̄_A − z̄_B|, eq. (37).
-  const S diameter = detail::diameter_bound(k_set);
-  // Squared lengths of D(K) must stay finite: beyond ~1e150 (double) or ~1e18 (float) the inner
-  // products overflow and no answer could be trusted.
   using std::sqrt;
-  if (!(diameter <= sqrt(std::numeric_limits<S>::max()) / S(64))) {
-    return set_invalid(result,
-                       "shapes and their separation are too large for this precision (inner "
-                       "products would overflow: keep coordinates below ~1e150 in double, ~1e17 "
-                       "in float)");
-  }
   const S epsilon = options.epsilon > 0 ? options.epsilon : S(0);
-  const S radii = radius_a + radius_b;
   const S cutoff = options.distance_cutoff + radii;  // the loop works on the cores
 
   // Below this core distance the verdict can only be "intersecting" (see the verdict below:
@@ -108,6 +165,20 @@ void query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   } else {
     result.error_bound = roundoff;
   }
+  // A rotation that is not quite one (accepted up to a defect e = max|(RᵀR − I)ᵢⱼ| of 1e-6 in
+  // double, 1.2e-4 in float: see Pose). B is placed in A's frame with R_Aᵀ, which is R_A⁻¹ only
+  // when e = 0; with E = R_AᵀR_A − I (‖E‖₂ ≤ 3e), the loop measures R_Aᵀ(a − b) − E(a − z̄_A) for
+  // world points a, b instead of a − b: lengths scaled by a singular value of R_A (within 3e of 1)
+  // and A's points moved by at most 3e·extent(A), so the distance moves by at most
+  // 3e·(d + extent(A)) ≤ 6e·D(K). δ formed directly carries E·z̄_A besides, with |z̄_A| ≤ D/8
+  // (see above). R_B's defect is part of the input itself: B's points are R_B b + p_B either way.
+  // Up to 4ε the defect is what rounding an exact rotation's entries leaves, and what RᵀR
+  // computed in floating point cannot tell from 0 (its own rounding is ~3ε): the roundoff
+  // allowance has always absorbed it (measured on the paper set and the stiff suite, whose bounds
+  // stay tight); the excess beyond it is added.
+  const S defect =
+      detail::rotation_defect(pose_a.rotation) - S(4) * std::numeric_limits<S>::epsilon();
+  if (defect > 0) result.error_bound += S(8) * defect * diameter;
 
   result.simplex_size = 0;
   for (int i = 0; i < 4; ++i) {
@@ -151,8 +222,18 @@ void query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
       on_a += nearest.lambda[i] * simplex.a[i];
       on_b += nearest.lambda[i] * simplex.b[i];
     }
-    Vec3<S> point_a = k_set.a_center + on_a;
-    Vec3<S> point_b = k_set.a_center + k_set.offset + on_b;
+    // Relative to z̄_A in A's frame, which is placed in the world with p_A; or, when the
+    // centroids are far from their local origins, relative to A's world-frame centroid formed
+    // with compensated arithmetic (the points are then as accurate as their world coordinates
+    // can be, not ulps of the local coordinates worse).
+    Vec3<S> base = k_set.a_center, origin = pose_a.translation;
+    if (far_centers) {
+      base = Vec3<S>::Zero();
+      origin = detail::compensated_difference(pose_a, k_set.a_center,
+                                              static_cast<const Pose<S>*>(nullptr), base);
+    }
+    Vec3<S> point_a = base + on_a;
+    Vec3<S> point_b = base + k_set.offset + on_b;
     Vec3<S> normal = Vec3<S>::Zero();  // A → B, A's frame: −ν/|ν|
     if (!cores_intersect) {
       normal = -nearest.nu / core_distance;
@@ -162,8 +243,8 @@ void query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
       point_b = point_a;  // one common point of the cores
     }
     result.has_near_points = true;
-    result.point_a = detail::rotate(pose_a.rotation, point_a) + pose_a.translation;
-    result.point_b = detail::rotate(pose_a.rotation, point_b) + pose_a.translation;
+    result.point_a = detail::rotate(pose_a.rotation, point_a) + origin;
+    result.point_b = detail::rotate(pose_a.rotation, point_b) + origin;
     result.normal = detail::rotate(pose_a.rotation, normal);
   }
 
@@ -180,6 +261,140 @@ void query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
     distance_gradient(result.point_a, result.point_b, result.normal, pose_a.translation,
                       pose_b.translation, result.gradient_a, result.gradient_b);
     result.has_gradient = true;
+  }
+  return true;
+}
+
+/// A shape's geometry at scale 2^k (exact): the parameters of the simple shapes multiplied, a
+/// polytope wrapped (its vertices are not copied: the query allocates nothing).
+template <class S>
+Vec3<S> scale_vector(const Vec3<S>& v, int k) {
+  return Vec3<S>(std::ldexp(v.x(), k), std::ldexp(v.y(), k), std::ldexp(v.z(), k));
+}
+template <class S>
+Point scale_geometry(const Point& g, int) {
+  return g;
+}
+template <class S>
+Segment<S> scale_geometry(const Segment<S>& g, int k) {
+  return {scale_vector(g.a, k), scale_vector(g.b, k)};
+}
+template <class S>
+Box<S> scale_geometry(const Box<S>& g, int k) {
+  return {scale_vector(g.half_extents, k)};
+}
+template <class S>
+Cylinder<S> scale_geometry(const Cylinder<S>& g, int k) {
+  return {std::ldexp(g.radius, k), std::ldexp(g.half_height, k)};
+}
+template <class S>
+Cone<S> scale_geometry(const Cone<S>& g, int k) {
+  return {std::ldexp(g.radius, k), std::ldexp(g.half_height, k)};
+}
+template <class S>
+Ellipsoid<S> scale_geometry(const Ellipsoid<S>& g, int k) {
+  return {scale_vector(g.radii, k)};
+}
+template <class S>
+detail::ScaledPolytope<S> scale_geometry(const Polytope<S>& g, int k) {
+  // A direction can carry 2^k only while that is a normal number (see the adaptor).
+  constexpr int limit = std::numeric_limits<S>::max_exponent - 8;
+  return {&g, k, std::clamp(k, -limit, limit)};
+}
+
+/// The size of a shape's core about its centre, by the largest parameter (no squares, so that
+/// it neither under- nor overflows): what the rescale is chosen from.
+template <class S>
+S magnitude(const Point&) {
+  return 0;
+}
+template <class S>
+S magnitude(const Segment<S>& g) {
+  return S(0.5) * (g.b - g.a).cwiseAbs().maxCoeff();
+}
+template <class S>
+S magnitude(const Box<S>& g) {
+  return g.half_extents.cwiseAbs().maxCoeff();
+}
+template <class S>
+S magnitude(const Polytope<S>& g) {
+  return g.extent();
+}
+template <class S>
+S magnitude(const Cylinder<S>& g) {
+  return std::max(g.radius, g.half_height);
+}
+template <class S>
+S magnitude(const Cone<S>& g) {
+  return std::max(g.radius, g.half_height);
+}
+template <class S>
+S magnitude(const Ellipsoid<S>& g) {
+  return g.radii.maxCoeff();
+}
+
+/// The query for K outside the loop's range (see LoopRange). K is scaled by 2^k: both shapes and
+/// radii, and the poses with the world moved to A's position (p_B − p_A is the only translation
+/// the loop needs; a translation huge against the shapes would overflow when scaled). The loop
+/// then sees D(K) near 1; its answer is scaled back, which is exact but for numbers that land in
+/// the subnormal range, whose rounding (≤ 2^-1075 in double) is added to the bound. When the
+/// first scale, chosen from the shapes' size and their centroids' distance, leaves D(K) out of
+/// range (the centroids cancel to much less), it is corrected from the D(K) found, twice at most.
+template <class S, class GA, class GB>
+[[gnu::noinline, gnu::cold]] void rescaled_query(const GA& ga, S radius_a, const Pose<S>& pose_a,
+                                                 const GB& gb, S radius_b, const Pose<S>& pose_b,
+                                                 const DistanceOptions<S>& options,
+                                                 SimplexCache* cache, DistanceResult<S>& result) {
+  if (!(radius_a + radius_b <= kLargestLength<S>)) return set_invalid(result, kTooLarge);
+  const Vec3<S> center_a = detail::Support<GA, S>{ga}.center();
+  const Vec3<S> center_b = detail::Support<GB, S>{gb}.center();
+  const Vec3<S> between = (pose_b.rotation * center_b + pose_b.translation) -
+                          (pose_a.rotation * center_a + pose_a.translation);
+  const S size = std::max({magnitude<S>(ga), magnitude<S>(gb), between.cwiseAbs().maxCoeff()});
+  if (!(size <= kLargestLength<S>)) return set_invalid(result, kTooLarge);
+  int k = size > 0 ? -std::ilogb(size) : 0;
+  Pose<S> scaled_a, scaled_b;
+  scaled_a.rotation = pose_a.rotation;
+  scaled_b.rotation = pose_b.rotation;
+  DistanceOptions<S> scaled_options = options;
+  for (int attempt = 0;; ++attempt) {
+    const S scaled_radius_a = std::ldexp(radius_a, k), scaled_radius_b = std::ldexp(radius_b, k);
+    if (!(scaled_radius_a + scaled_radius_b <= kLargestLength<S>))
+      return set_invalid(result,
+                         "radii too large against the shapes' cores and separation to be "
+                         "measured in this precision");
+    scaled_b.translation = scale_vector(Vec3<S>(pose_b.translation - pose_a.translation), k);
+    scaled_options.distance_cutoff = std::ldexp(options.distance_cutoff, k);
+    S diameter = 0;
+    const bool done =
+        query<S>(scale_geometry<S>(ga, k), scaled_radius_a, scaled_a, scale_geometry<S>(gb, k),
+                 scaled_radius_b, scaled_b, scaled_options, cache, result, attempt < 2, diameter);
+    if (done) break;
+    if (!(diameter > 0 && diameter <= kLargestLength<S>)) {
+      attempt = 1;  // zero or non-finite: the next pass decides without rescaling
+      continue;
+    }
+    k -= std::ilogb(diameter);
+  }
+  if (result.status == Status::invalid_input) return;
+
+  // Back to the caller's scale.
+  const int back = -k;
+  const S subnormal_rounding = back < 0 ? S(2) * std::numeric_limits<S>::denorm_min() : S(0);
+  result.distance = std::ldexp(result.distance, back);
+  result.error_bound = std::ldexp(result.error_bound, back) + subnormal_rounding;
+  result.gap = std::min(std::ldexp(result.gap, 2 * back), std::numeric_limits<S>::max());
+  result.diameter_bound = std::ldexp(result.diameter_bound, back);
+  result.penetration_bound = std::ldexp(result.penetration_bound, back);
+  if (result.has_near_points) {
+    result.point_a = scale_vector(result.point_a, back) + pose_a.translation;
+    result.point_b = scale_vector(result.point_b, back) + pose_a.translation;
+  }
+  if (result.has_gradient) {  // ∂/∂rotation is a length (a lever arm × the unit normal)
+    result.gradient_a.template tail<3>() =
+        scale_vector(Vec3<S>(result.gradient_a.template tail<3>()), back);
+    result.gradient_b.template tail<3>() =
+        scale_vector(Vec3<S>(result.gradient_b.template tail<3>()), back);
   }
 }
 
@@ -222,9 +437,20 @@ void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
   // One dispatch per query; the loop below is specialised for the two concrete shapes.
   std::visit(
       [&](const auto& ga, const auto& gb) {
-        query<S>(ga, a.radius, pose_a, gb, b.radius, pose_b, options, cache, result);
+        S diameter;
+        if (!query<S>(ga, a.radius, pose_a, gb, b.radius, pose_b, options, cache, result, true,
+                      diameter))
+          rescaled_query<S>(ga, a.radius, pose_a, gb, b.radius, pose_b, options, cache, result);
       },
       a.geometry, b.geometry);
+  // The promise of no non-finite output, kept when an answer is too large to represent (near
+  // points of shapes whose pose puts them near the largest number, say).
+  using std::isfinite;
+  if (result.status != Status::invalid_input &&
+      !(isfinite(result.distance) && isfinite(result.error_bound) &&
+        isfinite(result.penetration_bound) &&
+        (!result.has_near_points || (result.point_a.allFinite() && result.point_b.allFinite()))))
+    set_invalid(result, "the answer is too large to represent in this precision");
 }
 
 template const char* detail::invalid_pose_reason(const Pose<double>&);

@@ -39,8 +39,8 @@ template <class S>
 
 /// A pose applied to a point (Pose::apply) with the product above, for the bounding spheres of a
 /// compound query (Eigen's product was a call there). It may differ from Pose::apply in the last
-/// bit. Piece poses keep Pose::compose, so that a piece is queried exactly as a caller composing
-/// the poses itself would query it.
+/// bit. Piece poses keep Pose::compose (of the object poses moved to A's position, see
+/// compound.cpp), so that a piece is queried exactly as a caller composing those would query it.
 template <class S>
 [[gnu::always_inline]] inline Vec3<S> apply_pose(const Pose<S>& pose, const Vec3<S>& local) {
   return rotate(pose.rotation, local) + pose.translation;
@@ -101,6 +101,77 @@ template <class S>
 template <class S>
 [[gnu::always_inline]] inline bool rigid_pose(const Pose<S>& pose) {
   return rigid_poses(pose, pose);
+}
+
+/// The defect of a rotation matrix: max |(RᵀR − I)ᵢⱼ|, from the columns' norms and inner products.
+/// A's frame is entered through R_Aᵀ, which is R_A⁻¹ only when the defect is 0; the error this
+/// makes is added to the bound (see `query` in distance.cpp).
+template <class S>
+[[gnu::always_inline]] inline S rotation_defect(const Mat3<S>& r) {
+  using std::abs;
+  const auto dot = [&](int i, int j) {
+    return r(0, i) * r(0, j) + r(1, i) * r(1, j) + r(2, i) * r(2, j);
+  };
+  return std::max({abs(dot(0, 0) - S(1)), abs(dot(1, 1) - S(1)), abs(dot(2, 2) - S(1)),
+                   abs(dot(0, 1)), abs(dot(0, 2)), abs(dot(1, 2))});
+}
+
+/// R_B z_B + p_B − (R_A z_A + p_A) (world frame) with error-free products (fma) and a compensated
+/// sum (Ogita, Rump & Oishi's Dot2): its error is ~ε of the result however large the terms that
+/// cancel in it. `pose_a` may be null (then only R_B z_B + p_B).
+template <class S>
+Vec3<S> compensated_difference(const Pose<S>& pose_b, const Vec3<S>& z_b, const Pose<S>* pose_a,
+                               const Vec3<S>& z_a) {
+  Vec3<S> w;
+  for (int i = 0; i < 3; ++i) {
+    S sum = 0, error = 0;
+    const auto add = [&](S x) {  // TwoSum (Knuth): sum + x = t + e exactly
+      const S t = sum + x;
+      const S z = t - sum;
+      error += (sum - (t - z)) + (x - z);
+      sum = t;
+    };
+    const auto add_product = [&](S x, S y) {  // TwoProduct: x·y = p + e exactly
+      const S p = x * y;
+#ifdef __FMA__
+      error += std::fma(x, y, -p);
+#else
+      // Dekker's product with Veltkamp's split: std::fma without the instruction is a slow
+      // library emulation.
+      constexpr S split = S(1 << ((std::numeric_limits<S>::digits + 1) / 2)) + S(1);
+      const auto halves = [&](S v, S& high, S& low) {
+        const S c = split * v;
+        high = c - (c - v);
+        low = v - high;
+      };
+      S xh, xl, yh, yl;
+      halves(x, xh, xl);
+      halves(y, yh, yl);
+      error += ((xh * yh - p) + xh * yl + xl * yh) + xl * yl;
+#endif
+      add(p);
+    };
+    for (int j = 0; j < 3; ++j) add_product(pose_b.rotation(i, j), z_b[j]);
+    add(pose_b.translation[i]);
+    if (pose_a) {
+      for (int j = 0; j < 3; ++j) add_product(-pose_a->rotation(i, j), z_a[j]);
+      add(-pose_a->translation[i]);
+    }
+    w[i] = sum + error;
+  }
+  return w;
+}
+
+/// The centroid offset δ of eq. (34) in A's frame, formed so that far local coordinates do not
+/// round it: w = (R_B z̄_B + p_B) − (R_A z̄_A + p_A), the world-frame difference of the two
+/// centroids, compensated (a cube modelled at local x = 1e8 and placed back by its pose: terms of
+/// 1e8, w of 1), then δ = R_Aᵀ w. Forming w in the world frame also keeps R_A's defect away from
+/// z̄_A: the direct R_Aᵀ(R_B z̄_B + p_B − p_A) − z̄_A carries (R_AᵀR_A − I) z̄_A, which grows with
+/// the local coordinates.
+template <class S>
+Vec3<S> centroid_offset(const Pose<S>& pose_a, const Vec3<S>& center_a, const Pose<S>& pose_b,
+                        const Vec3<S>& center_b) {
+  return rotate_back(pose_a.rotation, compensated_difference(pose_b, center_b, &pose_a, center_a));
 }
 
 /// Marks a result as rejected input, with the reason.

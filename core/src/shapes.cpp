@@ -37,19 +37,36 @@ Polytope<S>::Polytope(std::span<const Vec3<S>> vertices) {
   xs_.resize(padded);
   ys_.resize(padded);
   zs_.resize(padded);
-  S extent2 = 0;
+  S extent2 = 0, largest = 0;
   for (std::size_t i = 0; i < padded; ++i) {
     const Vec3<S> c = vertices[i < size_ ? i : 0] - centroid_;
     xs_[i] = c.x();
     ys_[i] = c.y();
     zs_[i] = c.z();
     extent2 = std::max(extent2, c.squaredNorm());
+    largest = std::max(largest, c.cwiseAbs().maxCoeff());
+  }
+  if (!std::isfinite(largest)) {
+    invalid_reason_ = "polytope coordinates are too large to represent differences";
+    return;
   }
   using std::sqrt;
   extent_ = sqrt(extent2);
-  if (!std::isfinite(extent_)) {
-    invalid_reason_ = "polytope coordinates are too large to represent differences";
-    return;
+  // The squares under- or overflow for a polytope smaller than ~1e-150 or larger than ~1e150
+  // (double; ~1e-19 and ~1e19 in float), where the engine rescales K (distance.cpp) and needs the
+  // true extent to choose the scale. Then again with the coordinates scaled by a power of two,
+  // which is exact; in between the value above is kept as it was, bit for bit.
+  const S tiny = sqrt(std::numeric_limits<S>::min()) * S(1024);
+  const S huge = sqrt(std::numeric_limits<S>::max()) / S(1024);
+  if (largest > 0 && !(largest >= tiny && largest <= huge)) {
+    const int e = -std::ilogb(largest);
+    S scaled2 = 0;
+    for (std::size_t i = 0; i < size_; ++i) {
+      const Vec3<S> c(std::ldexp(xs_[i], e), std::ldexp(ys_[i], e), std::ldexp(zs_[i], e));
+      scaled2 = std::max(scaled2, c.squaredNorm());
+    }
+    // Rounded up by an ulp: the extent enters D(K), which bounds, and is never below the truth.
+    extent_ = std::ldexp(std::nextafter(sqrt(scaled2), std::numeric_limits<S>::infinity()), -e);
   }
   invalid_reason_ = nullptr;
 }

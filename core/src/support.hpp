@@ -224,6 +224,49 @@ struct Support<Ellipsoid<S>, S> {
   bool vertex(std::int32_t, Vec3<S>&) const { return false; }
 };
 
+/// A polytope seen at scale 2^k (distance.cpp rescales K by a power of two when D(K) is far from 1,
+/// so that the loop's squares and products neither under- nor overflow). The vertices stay where
+/// they are; every coordinate handed to the loop is multiplied by 2^k, which is exact. Not used on
+/// the normal path, which keeps its fused pair scan.
+template <class S>
+struct ScaledPolytope {
+  const Polytope<S>* polytope;
+  int exponent;            // k
+  int direction_exponent;  // k clamped to what a direction can carry (see Support::support)
+};
+
+template <class S>
+struct Support<ScaledPolytope<S>, S> {
+  const ScaledPolytope<S>& shape;
+  mutable std::int32_t hint = -1;
+  Vec3<S> scaled(const Vec3<S>& v) const {
+    return Vec3<S>(std::ldexp(v.x(), shape.exponent), std::ldexp(v.y(), shape.exponent),
+                   std::ldexp(v.z(), shape.exponent));
+  }
+  Vec3<S> center() const { return scaled(shape.polytope->centroid()); }
+  S extent() const { return std::ldexp(shape.polytope->extent(), shape.exponent); }
+  Vec3<S> support(const Vec3<S>& direction, std::int32_t& index) const {
+    // The scan's products v·η are formed with the unscaled vertices: η is brought to the vertices'
+    // scale (largest component 2^k, as far as representable) so that they stay normal numbers
+    // whatever the polytope's size. A positive factor does not change the maximiser.
+    Vec3<S> d = direction;
+    if (normalise_direction(direction, d))
+      d = Vec3<S>(std::ldexp(d.x(), shape.direction_exponent),
+                  std::ldexp(d.y(), shape.direction_exponent),
+                  std::ldexp(d.z(), shape.direction_exponent));
+    const std::size_t best = shape.polytope->support_index(d, hint);
+    index = static_cast<std::int32_t>(best);
+    hint = index;
+    return scaled(shape.polytope->centered_vertex(best));
+  }
+  bool vertex(std::int32_t index, Vec3<S>& out) const {
+    if (index < 0 || std::size_t(index) >= shape.polytope->size()) return false;
+    out = scaled(shape.polytope->centered_vertex(std::size_t(index)));
+    hint = index;
+    return true;
+  }
+};
+
 template <class G, class S>
 Support<G, S> make_support(const G& g) {
   return Support<G, S>{g};

@@ -17,6 +17,17 @@ namespace nearpoint {
 /// `cache` (optional, may be null) is read as a warm start and overwritten with the final simplex
 /// (Section VIII). Pass a zeroed cache for a cold start (single-point initialisation, Section VI).
 ///
+/// Scales. Shapes of any size from the smallest to about 1e306 in double (1e36 in float) are
+/// accepted: when D(K) (eq. 37) lies outside [2^-128, 2^128] in double ([2^-16, 2^16] in float),
+/// where squares and the subalgorithm's products would under- or overflow, K is scaled by a power
+/// of two before the loop and the answer scaled back; both are exact, so the answer is the one
+/// the loop would give at a comfortable scale. Larger shapes, radii or separations, radii more
+/// than ~1e300 times the cores' size and separation, and answers that are not representable
+/// (near points beyond the largest number) give `Status::invalid_input` with a message.
+/// Shapes modelled far from their local origin (CAD meshes in world coordinates placed back by
+/// a pose) are placed with compensated arithmetic, so their error scales with their size, not
+/// with their local coordinates; a rotation's defect is in the bound (see Pose::rotation).
+///
 /// Never throws, never allocates, never returns NaN: bad input gives `Status::invalid_input`.
 template <class Scalar>
 DistanceResult<Scalar> distance(const Shape<Scalar>& a, const Pose<Scalar>& pose_a,

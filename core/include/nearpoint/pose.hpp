@@ -23,6 +23,17 @@ using Mat3 = Eigen::Matrix<Scalar, 3, 3>;
 template <class Scalar>
 struct Pose {
   /// Orthonormal rotation matrix with determinant +1 (local → world).
+  ///
+  /// How orthonormal: a query accepts a rotation whose defect e = max |(RᵀR − I)ᵢⱼ| is at most
+  /// 1e-6 in double (1.2e-4 in float), enough for a matrix built from a single-precision
+  /// quaternion, and refuses larger defects. An accepted defect is covered by the result's
+  /// `error_bound`, not corrected: the shape is taken to be R·x + t with R exactly as given, and
+  /// the bound grows by 8·e·D(K) for pose A's rotation (A's frame is entered through Rᵀ, which is
+  /// R⁻¹ only when e = 0); B's rotation is applied as given and costs nothing. A rotation computed
+  /// in the working precision (e ≈ 1e-16 in double) adds about a roundoff allowance; one from a
+  /// float quaternion used in double (e ≈ 4e-8) makes the bound 4e-8 relative to the size.
+  /// Normalise quaternions in the working precision (`from_quaternion` does) to keep the bound
+  /// tight.
   Mat3<Scalar> rotation = Mat3<Scalar>::Identity();
   /// Position of the local origin in the world frame.
   Vec3<Scalar> translation = Vec3<Scalar>::Zero();
