@@ -2,6 +2,7 @@
 
 #include "distance_internal.hpp"
 
+#include <algorithm>
 #include <limits>
 
 namespace nearpoint {
@@ -45,6 +46,18 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
     return out;
   }
 
+  // The world moved to A's position: the piece poses are composed from (R_A, 0) and
+  // (R_B, p_B − p_A), as the single-shape query places B relative to A, so that objects far from
+  // the origin do not round their pieces' placement to the ulps of their world coordinates (two
+  // unit spheres at x ≈ 1e9, one 5e-8 nearer: composed in the world frame both sat at the same
+  // rounded place and the nearer one was pruned). A translation of the whole scene changes no
+  // distance; near points are moved back at the end. The object whose piece sits at its origin is
+  // queried exactly as the single-shape query would be: it forms p_B − p_A the same way.
+  Pose<S> frame_a, frame_b;
+  frame_a.rotation = pose_a.rotation;
+  frame_b.rotation = pose_b.rotation;
+  frame_b.translation = pose_b.translation - pose_a.translation;
+
   // Pieces are evaluated without the gradient (it refers to the whole objects, see below).
   DistanceOptions<S> piece_options = options;
   piece_options.gradient = false;
@@ -58,9 +71,16 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   const std::size_t pair_count = a.size() * b.size();
   const bool keep_gaps = pair_count <= kStackPairs;
   S gaps[kStackPairs];
+  // The computed gap errs by a few ulps of the magnitudes that enter it; pairs are pruned only
+  // when it exceeds the best distance by more than that and more than the best's own error bound
+  // (so a pair is skipped only when it is certainly not nearer).
+  S gap_roundoff = 0;
   auto compute_gap = [&](std::size_t i, std::size_t j) {
-    const Vec3<S> ca = detail::apply_pose(pose_a, a.sphere_center(i));
-    const Vec3<S> cb = detail::apply_pose(pose_b, b.sphere_center(j));
+    const Vec3<S> ca = detail::apply_pose(frame_a, a.sphere_center(i));
+    const Vec3<S> cb = detail::apply_pose(frame_b, b.sphere_center(j));
+    const S magnitude = ca.cwiseAbs().sum() + cb.cwiseAbs().sum() + a.sphere_radius(i) +
+                        b.sphere_radius(j) + frame_b.translation.cwiseAbs().sum();
+    gap_roundoff = std::max(gap_roundoff, S(16) * std::numeric_limits<S>::epsilon() * magnitude);
     return (cb - ca).norm() - a.sphere_radius(i) - b.sphere_radius(j);
   };
   auto sphere_gap = [&](std::size_t i, std::size_t j) {
@@ -74,14 +94,14 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   auto evaluate = [&](std::size_t i, std::size_t j, DistanceResult<S>& into) {
     SimplexCache* cache = caches.empty() ? nullptr : &caches[i * b.size() + j];
     ++out.pairs_evaluated;
-    const Pose<S>* piece_pose_a = &pose_a;
-    const Pose<S>* piece_pose_b = &pose_b;
+    const Pose<S>* piece_pose_a = &frame_a;
+    const Pose<S>* piece_pose_b = &frame_b;
     if (!a.at_origin(i)) {
-      placed_a = pose_a.compose(a.piece(i).offset);
+      placed_a = frame_a.compose(a.piece(i).offset);
       piece_pose_a = &placed_a;
     }
     if (!b.at_origin(j)) {
-      placed_b = pose_b.compose(b.piece(j).offset);
+      placed_b = frame_b.compose(b.piece(j).offset);
       piece_pose_b = &placed_b;
     }
     detail::distance_with_valid_poses(a.piece(i).shape, *piece_pose_a, b.piece(j).shape,
@@ -115,11 +135,12 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
   for (std::size_t i = 0; i < a.size(); ++i) {
     for (std::size_t j = 0; j < b.size(); ++j) {
       if (i == first_i && j == first_j) continue;
-      const S gap = sphere_gap(i, j);
+      const S gap = sphere_gap(i, j) - gap_roundoff;
       const S best = out.nearest.distance;
       // With intersecting pieces, keep evaluating pairs that may also intersect: the object's
       // penetration bound is the largest d⁻ among them (paper, Section VIII).
-      const bool may_matter = gap < best || (want_penetration && best == 0 && gap <= 0);
+      const bool may_matter =
+          gap < best + out.nearest.error_bound || (want_penetration && best == 0 && gap <= 0);
       if (!may_matter || gap > options.distance_cutoff) {
         ++out.pairs_pruned;
         continue;
@@ -154,13 +175,18 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
     }
   }
 
-  if (!options.near_points) out.nearest.has_near_points = false;
   if (options.gradient && out.nearest.status == Status::separated && !out.nearest.beyond_cutoff()) {
     distance_gradient(out.nearest.point_a, out.nearest.point_b, out.nearest.normal,
-                      pose_a.translation, pose_b.translation, out.nearest.gradient_a,
+                      frame_a.translation, frame_b.translation, out.nearest.gradient_a,
                       out.nearest.gradient_b);
     out.nearest.has_gradient = true;
   }
+  // Near points back from A's position to the world.
+  if (out.nearest.has_near_points) {
+    out.nearest.point_a += pose_a.translation;
+    out.nearest.point_b += pose_a.translation;
+  }
+  if (!options.near_points) out.nearest.has_near_points = false;
   return out;
 }
 

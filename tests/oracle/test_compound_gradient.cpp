@@ -82,11 +82,17 @@ struct Brute {
 Brute brute_force(const Compound<double>& a, const Pose<double>& pose_a, const Compound<double>& b,
                   const Pose<double>& pose_b, const DistanceOptions<double>& options) {
   Brute out;
+  // Piece poses composed as the compound query composes them: relative to A's position (the
+  // scene translated by −p_A, which changes no distance), so that each pair sees the very same
+  // inputs and its d⁻ can be compared to the last bits.
+  Pose<double> frame_a = pose_a, frame_b = pose_b;
+  frame_a.translation.setZero();
+  frame_b.translation = pose_b.translation - pose_a.translation;
   for (std::size_t i = 0; i < a.size(); ++i)
     for (std::size_t j = 0; j < b.size(); ++j) {
       const auto r =
-          nearpoint::distance(a.piece(i).shape, pose_a.compose(a.piece(i).offset), b.piece(j).shape,
-                              pose_b.compose(b.piece(j).offset), options);
+          nearpoint::distance(a.piece(i).shape, frame_a.compose(a.piece(i).offset),
+                              b.piece(j).shape, frame_b.compose(b.piece(j).offset), options);
       out.min_distance = std::min(out.min_distance, r.distance);
       if (r.status == Status::intersecting) {
         out.any_intersecting = true;
@@ -311,9 +317,16 @@ TEST(Compound, PiecePoseIsTheObjectPoseOrItsComposition) {
     separated += plain.status == Status::separated;
     check("at origin", nearpoint::distance(at_origin_a, pose_a, at_origin_b, pose_b, options),
           plain);
-    check("placed", nearpoint::distance(placed_a, pose_a, placed_b, pose_b, options),
-          nearpoint::distance(shape_a, pose_a.compose(offset_a), shape_b, pose_b.compose(offset_b),
-                              options));
+    // A placed piece is queried as a caller would query it with the poses composed relative to
+    // A's position (frame_a, frame_b: the scene translated by −p_A), near points moved back.
+    Pose<double> frame_a = pose_a, frame_b = pose_b;
+    frame_a.translation.setZero();
+    frame_b.translation = pose_b.translation - pose_a.translation;
+    DistanceResult<double> composed = nearpoint::distance(
+        shape_a, frame_a.compose(offset_a), shape_b, frame_b.compose(offset_b), options);
+    composed.point_a += pose_a.translation;
+    composed.point_b += pose_a.translation;
+    check("placed", nearpoint::distance(placed_a, pose_a, placed_b, pose_b, options), composed);
   }
   EXPECT_GT(separated, 100);  // both verdicts occur
   EXPECT_LT(separated, 400);

@@ -66,6 +66,13 @@ struct CompoundResult {
 
 /// Distance between compound objects. `caches` is either empty (cold starts) or holds one
 /// SimplexCache per piece pair, indexed piece_a * b.size() + piece_b, read and updated.
+///
+/// Piece poses are composed with the scene moved to A's position, (R_A, 0) and
+/// (R_B, p_B − p_A), as the single-shape query places B relative to A: objects far from the world
+/// origin keep their pieces' placement to the ulps of their size, not of their world coordinates.
+/// A piece pair is skipped only when its bounding spheres' gap, less its rounding, exceeds the
+/// best distance plus that distance's error bound: the answer is then certified as a single
+/// query's is.
 template <class Scalar>
 CompoundResult<Scalar> distance(const Compound<Scalar>& a, const Pose<Scalar>& pose_a,
                                 const Compound<Scalar>& b, const Pose<Scalar>& pose_b,
