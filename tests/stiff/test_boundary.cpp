@@ -112,8 +112,12 @@ TEST(Boundary, TinyPointsKeepFullRelativeAccuracy) {
 }
 
 TEST(Boundary, FloatPointAgainstLargeFlatBoxIsFinite) {
-  // The reproduction: a point against a 5.4e9 × 5.4e9 × 0 box in float gave NaN weights
-  // and near points (Johnson's subalgorithm from ~7.6e6 on).
+  // After the report: a point against a 5.4e9 × 5.4e9 × 0 box in float gave NaN weights
+  // and near points (Johnson's subalgorithm from ~7.6e6 on). The placements below (box and
+  // polytope, both subalgorithms) did not reproduce the NaN before the rescale, so this case only
+  // guards that it stays certified; the float scale sweep below is what failed before (errors
+  // beyond the bound below ~1e-13 and from ~1e11 on, refusals from ~1e17) and guards the
+  // mechanism.
   for (const Subalgorithm method : {Subalgorithm::signed_volumes, Subalgorithm::johnson}) {
     for (const float size : {7.6e6f, 5.4e9f})
       for (const Vec3<float>& where :
@@ -126,13 +130,17 @@ TEST(Boundary, FloatPointAgainstLargeFlatBoxIsFinite) {
         DistanceOptions<float> options;
         options.subalgorithm = method;
         options.near_points = true;
-        const DistanceResult<float> r =
-            distance(Shape<float>(Box<float>{half}), pa, Shape<float>(Point{}), pb, options);
         const std::vector<Vec3<float>> point{Vec3<float>::Zero()};
-        expect_certified(r, exact(box_vertices(half), pa, point, pb),
-                         std::string(method == Subalgorithm::johnson ? "johnson " : "sv ") +
-                             std::to_string(size));
-        EXPECT_LE(double(r.error_bound), 1e-5 * size);
+        const double truth = exact(box_vertices(half), pa, point, pb);
+        for (const bool as_polytope : {false, true}) {
+          const Shape<float> box = as_polytope ? Shape<float>(Polytope<float>(box_vertices(half)))
+                                               : Shape<float>(Box<float>{half});
+          const DistanceResult<float> r = distance(box, pa, Shape<float>(Point{}), pb, options);
+          expect_certified(r, truth,
+                           std::string(method == Subalgorithm::johnson ? "johnson " : "sv ") +
+                               (as_polytope ? "polytope " : "box ") + std::to_string(size));
+          EXPECT_LE(double(r.error_bound), 1e-5 * size);
+        }
       }
   }
 }
