@@ -105,7 +105,8 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
       piece_pose_b = &placed_b;
     }
     detail::distance_with_valid_poses(a.piece(i).shape, *piece_pose_a, b.piece(j).shape,
-                                      *piece_pose_b, piece_options, cache, into);
+                                      *piece_pose_b, piece_options, cache, into,
+                                      detail::rotation_defect2(piece_pose_a->rotation));
     out.support_calls += into.support_calls;
     out.subalgorithm_runs += into.subalgorithm_runs;
   };

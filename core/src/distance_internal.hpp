@@ -52,7 +52,7 @@ template <class S>
 /// result is a bool or a lane mask. |x − 1| ≤ tol is written as two one-sided tests, which NaN
 /// fails as it fails the absolute value's. Bitwise: one branch for the whole test.
 template <class S, class V, class Entry>
-[[gnu::always_inline]] inline auto orthonormal_lanes(const Entry& r) {
+[[gnu::always_inline]] inline auto orthonormal_lanes(const Entry& r, V* defect = nullptr) {
   const V tolerance = V{} + std::max(S(1e-6), S(1000) * std::numeric_limits<S>::epsilon());
   const V zero = V{}, one = V{} + S(1);
   const auto within = [&](V x, V target) {
@@ -61,12 +61,20 @@ template <class S, class V, class Entry>
   const V r00 = r(0, 0), r01 = r(0, 1), r02 = r(0, 2);
   const V r10 = r(1, 0), r11 = r(1, 1), r12 = r(1, 2);
   const V r20 = r(2, 0), r21 = r(2, 1), r22 = r(2, 2);
-  return within(r00 * r00 + r10 * r10 + r20 * r20, one) &
-         within(r01 * r01 + r11 * r11 + r21 * r21, one) &
-         within(r02 * r02 + r12 * r12 + r22 * r22, one) &
-         within(r00 * r01 + r10 * r11 + r20 * r21, zero) &
-         within(r00 * r02 + r10 * r12 + r20 * r22, zero) &
-         within(r01 * r02 + r11 * r12 + r21 * r22, zero);
+  const V n0 = r00 * r00 + r10 * r10 + r20 * r20;
+  const V n1 = r01 * r01 + r11 * r11 + r21 * r21;
+  const V n2 = r02 * r02 + r12 * r12 + r22 * r22;
+  const V d01 = r00 * r01 + r10 * r11 + r20 * r21;
+  const V d02 = r00 * r02 + r10 * r12 + r20 * r22;
+  const V d12 = r01 * r02 + r11 * r12 + r21 * r22;
+  if (defect) {
+    // ‖RᵀR − I‖_F² from the same products (see rotation_defect2), for the bound: no absolute
+    // values or maxima, a few multiply-adds per lane. Meaningful where the mask below holds.
+    const V e0 = n0 - one, e1 = n1 - one, e2 = n2 - one;
+    *defect = e0 * e0 + e1 * e1 + e2 * e2 + S(2) * (d01 * d01 + d02 * d02 + d12 * d12);
+  }
+  return within(n0, one) & within(n1, one) & within(n2, one) & within(d01, zero) &
+         within(d02, zero) & within(d12, zero);
 }
 
 /// Whether a rotation's columns are orthonormal (see orthonormal_lanes).
@@ -79,8 +87,10 @@ template <class S>
 /// determinant +1), one in each lane of a two-lane vector: both poses are checked at the start of
 /// every query, and this is half the instructions of two scalar checks. Inline: out of line, the
 /// checks were 12% of a query between two spheres.
+/// With `defect_a`, pose a's rotation_defect2 is written there (valid when the result is true).
 template <class S>
-[[gnu::always_inline]] inline bool rigid_poses(const Pose<S>& a, const Pose<S>& b) {
+[[gnu::always_inline]] inline bool rigid_poses(const Pose<S>& a, const Pose<S>& b,
+                                               S* defect_a = nullptr) {
   using V = typename TwoLanes<S>::type;
   const auto r = [&](int i, int j) { return V{a.rotation(i, j), b.rotation(i, j)}; };
   const auto t = [&](int i) { return V{a.translation[i], b.translation[i]}; };
@@ -92,8 +102,10 @@ template <class S>
                 r(0, 1) * (r(1, 2) * r(2, 0) - r(1, 0) * r(2, 2)) +
                 r(0, 2) * (r(1, 0) * r(2, 1) - r(1, 1) * r(2, 0));
   // x − x is 0 for a finite x, NaN for ±∞ and NaN.
+  V defect = zero;
   const auto ok = (tx - tx == zero) & (ty - ty == zero) & (tz - tz == zero) &
-                  orthonormal_lanes<S, V>(r) & (det > zero);
+                  orthonormal_lanes<S, V>(r, defect_a ? &defect : nullptr) & (det > zero);
+  if (defect_a) *defect_a = defect[0];
   return (ok[0] & ok[1]) != 0;
 }
 
@@ -103,17 +115,17 @@ template <class S>
   return rigid_poses(pose, pose);
 }
 
-/// The defect of a rotation matrix: max |(RᵀR − I)ᵢⱼ|, from the columns' norms and inner products.
-/// A's frame is entered through R_Aᵀ, which is R_A⁻¹ only when the defect is 0; the error this
-/// makes is added to the bound (see `query` in distance.cpp).
+/// The squared defect of a rotation matrix, ‖RᵀR − I‖_F², from the columns' norms and inner
+/// products. A's frame is entered through R_Aᵀ, which is R_A⁻¹ only when the defect is 0; the
+/// error this makes is added to the bound (see `query` in distance.cpp).
 template <class S>
-[[gnu::always_inline]] inline S rotation_defect(const Mat3<S>& r) {
-  using std::abs;
+[[gnu::always_inline]] inline S rotation_defect2(const Mat3<S>& r) {
   const auto dot = [&](int i, int j) {
     return r(0, i) * r(0, j) + r(1, i) * r(1, j) + r(2, i) * r(2, j);
   };
-  return std::max({abs(dot(0, 0) - S(1)), abs(dot(1, 1) - S(1)), abs(dot(2, 2) - S(1)),
-                   abs(dot(0, 1)), abs(dot(0, 2)), abs(dot(1, 2))});
+  const S e0 = dot(0, 0) - S(1), e1 = dot(1, 1) - S(1), e2 = dot(2, 2) - S(1);
+  const S d01 = dot(0, 1), d02 = dot(0, 2), d12 = dot(1, 2);
+  return e0 * e0 + e1 * e1 + e2 * e2 + S(2) * (d01 * d01 + d02 * d02 + d12 * d12);
 }
 
 /// R_B z_B + p_B − (R_A z_A + p_A) (world frame) with error-free products (fma) and a compensated
@@ -189,8 +201,9 @@ const char* invalid_pose_reason(const Pose<S>& pose);
 /// Why one of two poses is unusable (pose a's reason first), or nullptr when both are rigid: the
 /// check of every query, both poses at once, with the reason looked up only on failure.
 template <class S>
-[[gnu::always_inline]] inline const char* invalid_poses_reason(const Pose<S>& a, const Pose<S>& b) {
-  if (rigid_poses(a, b)) return nullptr;
+[[gnu::always_inline]] inline const char* invalid_poses_reason(const Pose<S>& a, const Pose<S>& b,
+                                                               S* defect_a = nullptr) {
+  if (rigid_poses(a, b, defect_a)) return nullptr;
   const char* why = invalid_pose_reason(a);
   return why ? why : invalid_pose_reason(b);
 }
@@ -198,9 +211,10 @@ template <class S>
 /// `distance` for poses already known to be valid (the shapes and options are still checked),
 /// written into `result`, which must be freshly default-constructed: the answer is built where the
 /// caller keeps it (a compound query's best result) instead of being returned and copied.
+/// `defect2_a` is rotation_defect2(pose_a.rotation), which the pose check computes anyway.
 template <class S>
 void distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a, const Shape<S>& b,
                                const Pose<S>& pose_b, const DistanceOptions<S>& options,
-                               SimplexCache* cache, DistanceResult<S>& result);
+                               SimplexCache* cache, DistanceResult<S>& result, S defect2_a);
 
 }  // namespace nearpoint::detail

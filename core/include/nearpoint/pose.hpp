@@ -28,10 +28,11 @@ struct Pose {
   /// 1e-6 in double (1.2e-4 in float), enough for a matrix built from a single-precision
   /// quaternion, and refuses larger defects. An accepted defect is covered by the result's
   /// `error_bound`, not corrected: the shape is taken to be R·x + t with R exactly as given, and
-  /// the bound grows by 8·e·D(K) for pose A's rotation (A's frame is entered through Rᵀ, which is
-  /// R⁻¹ only when e = 0); B's rotation is applied as given and costs nothing. A rotation computed
-  /// in the working precision (e ≈ 1e-16 in double) adds about a roundoff allowance; one from a
-  /// float quaternion used in double (e ≈ 4e-8) makes the bound 4e-8 relative to the size.
+  /// the bound grows by 3·(‖RᵀR − I‖_F − 8ε)·D(K) for pose A's rotation (A's frame is entered
+  /// through Rᵀ, which is R⁻¹ only when RᵀR = I); B's rotation is applied as given and costs
+  /// nothing. A rotation computed in the working precision (‖RᵀR − I‖_F ≈ 1e-16 in double) adds
+  /// nothing; one from a float quaternion used in double (≈ 1e-7) makes the bound ~3e-7 relative
+  /// to D(K).
   /// Normalise quaternions in the working precision (`from_quaternion` does) to keep the bound
   /// tight.
   Mat3<Scalar> rotation = Mat3<Scalar>::Identity();
