@@ -57,6 +57,8 @@ constexpr const char* kTooLarge =
     "shapes, radii and their separation are too large for this precision (keep them below ~1e306 "
     "in double, ~1e36 in float)";
 
+constexpr const char* kNotRepresentable = "the answer is too large to represent in this precision";
+
 // Writes into `result`, which the caller has just default-constructed (see
 // detail::distance_with_valid_poses). Returns false without touching `result` or `cache` when
 // `may_rescale` and D(K) or the radii lie outside the loop's range: the caller then rescales K
@@ -396,6 +398,10 @@ template <class S, class GA, class GB>
     result.gradient_b.template tail<3>() =
         scale_vector(Vec3<S>(result.gradient_b.template tail<3>()), back);
   }
+  using std::isfinite;
+  if (!(isfinite(result.distance) && isfinite(result.error_bound) &&
+        isfinite(result.penetration_bound) && isfinite(result.gap)))
+    set_invalid(result, kNotRepresentable);
 }
 
 }  // namespace
@@ -446,14 +452,12 @@ void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
                             defect2_a);
       },
       a.geometry, b.geometry);
-  // The promise of no non-finite output, kept when an answer is too large to represent (near
-  // points of shapes whose pose puts them near the largest number, say).
-  using std::isfinite;
-  if (result.status != Status::invalid_input &&
-      !(isfinite(result.distance) && isfinite(result.error_bound) &&
-        isfinite(result.penetration_bound) &&
-        (!result.has_near_points || (result.point_a.allFinite() && result.point_b.allFinite()))))
-    set_invalid(result, "the answer is too large to represent in this precision");
+  // The promise of no non-finite output. Inside the loop's range distances, bounds and d⁻ are
+  // finite by construction (D(K) ≤ 2^128, radii ≤ max/256; rescaled_query checks its own); near
+  // points are p_A plus a length and overflow when p_A is near the largest number.
+  if (result.has_near_points && !(result.point_a.allFinite() && result.point_b.allFinite()))
+      [[unlikely]]
+    set_invalid(result, kNotRepresentable);
 }
 
 template const char* detail::invalid_pose_reason(const Pose<double>&);
