@@ -64,21 +64,21 @@ const char* to_string(PairStatus status) {
   return "engine_error";
 }
 
-server::PoseInput to_pose_input(const Eigen::Quaterniond& rotation,
-                                const Eigen::Vector3d& translation) {
-  server::PoseInput pose;
+model::PoseInput to_pose_input(const Eigen::Quaterniond& rotation,
+                               const Eigen::Vector3d& translation) {
+  model::PoseInput pose;
   pose.rotation_wxyz = {rotation.w(), rotation.x(), rotation.y(), rotation.z()};
   pose.translation = translation;
   return pose;
 }
 
-server::PoseInput to_pose_input(const Eigen::Isometry3d& pose) {
+model::PoseInput to_pose_input(const Eigen::Isometry3d& pose) {
   return to_pose_input(Eigen::Quaterniond(pose.rotation()), pose.translation());
 }
 
 Piece polytope_piece(std::vector<Eigen::Vector3d> vertices, const Eigen::Isometry3d& offset) {
   Piece piece;
-  piece.shape = server::PolytopeInput{std::move(vertices)};
+  piece.shape = model::PolytopeInput{std::move(vertices)};
   piece.offset = to_pose_input(offset);
   return piece;
 }

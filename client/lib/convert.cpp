@@ -39,7 +39,7 @@ PairStatus from_proto(v1::PairStatus status) {
 
 }  // namespace
 
-void to_proto(const server::PoseInput& pose, v1::Pose& out) {
+void to_proto(const model::PoseInput& pose, v1::Pose& out) {
   v1::Quaternion& q = *out.mutable_rotation();
   q.set_w(pose.rotation_wxyz[0]);
   q.set_x(pose.rotation_wxyz[1]);
@@ -60,7 +60,7 @@ void to_proto(const Geometry& geometry, v1::Geometry& out) {
     std::visit(
         [&](const auto& shape) {
           using S = std::decay_t<decltype(shape)>;
-          if constexpr (std::is_same_v<S, server::PolytopeInput>) {
+          if constexpr (std::is_same_v<S, model::PolytopeInput>) {
             for (const Eigen::Vector3d& v : shape.vertices)
               to_proto(v, *p.mutable_polytope()->add_vertices());
           } else if constexpr (std::is_same_v<S, Point>) {

@@ -8,7 +8,7 @@ namespace nearpoint::client::detail {
 
 namespace v1 = ::nearpoint::v1;
 
-void to_proto(const server::PoseInput& pose, v1::Pose& out);
+void to_proto(const model::PoseInput& pose, v1::Pose& out);
 void to_proto(const ObjectPose& pose, v1::ObjectPose& out);
 void to_proto(const Geometry& geometry, v1::Geometry& out);
 void to_proto(const QueryOptions& options, v1::QueryOptions& out);

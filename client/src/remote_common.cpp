@@ -39,7 +39,7 @@ bool have_mesh_import() {
 
 formats::MeshLoader mesh_loader() {
   return [](const formats::MeshRequest& request,
-            std::vector<server::PieceInput>& pieces) -> std::string {
+            std::vector<model::PieceInput>& pieces) -> std::string {
 #ifdef NEARPOINT_WITH_MESH_IMPORT
     client::MeshImportOptions options;
     options.merge_parts = request.merge;

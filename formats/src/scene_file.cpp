@@ -14,6 +14,9 @@
 #endif
 
 namespace nearpoint::formats {
+// The scene model's structs, under the spelling this file used when they lived in the server
+// (kept so that this move leaves the parser's lines untouched; nothing here uses the server).
+namespace server = nearpoint::model;
 namespace {
 
 std::string quoted(const std::string& path) {

@@ -543,7 +543,7 @@ TEST(SceneFile, YamlReadsLikeJson) {
   ASSERT_EQ(file.scene.objects.size(), 2u);
   EXPECT_EQ(file.scene.objects[1].pose.translation, Eigen::Vector3d(3, 0, 0.5));
   EXPECT_EQ(file.scene.default_options.near_points, true);
-  EXPECT_EQ(file.scene.default_options.penetration, server::PenetrationMode::bound);
+  EXPECT_EQ(file.scene.default_options.penetration, model::PenetrationMode::bound);
 }
 
 // ---- the CLI verbs ----

@@ -33,8 +33,7 @@
 
 #include <Eigen/Geometry>
 
-#include "nearpoint/server/limits.hpp"
-#include "nearpoint/server/scene_types.hpp"
+#include "nearpoint/model/scene_types.hpp"
 
 namespace nearpoint::client {
 
@@ -92,20 +91,20 @@ class [[nodiscard]] Expected {
 
 // The request side: the scene API's plain structs (see scene_types.hpp and the .proto files for
 // every field's unit and frame).
-using Geometry = server::GeometryInput;
-using Piece = server::PieceInput;
-using GeometryInfo = server::GeometryInfo;
-using Scene = server::SceneInput;
-using SceneObject = server::ObjectInput;
-using PairSelection = server::PairSelectionInput;
-using QueryOptions = server::QueryOptionsInput;
-using PenetrationMode = server::PenetrationMode;
-using SceneInfo = server::SceneInfo;
+using Geometry = model::GeometryInput;
+using Piece = model::PieceInput;
+using GeometryInfo = model::GeometryInfo;
+using Scene = model::SceneInput;
+using SceneObject = model::ObjectInput;
+using PairSelection = model::PairSelectionInput;
+using QueryOptions = model::QueryOptionsInput;
+using PenetrationMode = model::PenetrationMode;
+using SceneInfo = model::SceneInfo;
 
 /// Conversions between Eigen poses and the plain structs' (w, x, y, z) + translation.
-server::PoseInput to_pose_input(const Eigen::Isometry3d& pose);
-server::PoseInput to_pose_input(const Eigen::Quaterniond& rotation,
-                                const Eigen::Vector3d& translation);
+model::PoseInput to_pose_input(const Eigen::Isometry3d& pose);
+model::PoseInput to_pose_input(const Eigen::Quaterniond& rotation,
+                               const Eigen::Vector3d& translation);
 /// One polytope piece (the convex hull of `vertices`, geometry frame).
 Piece polytope_piece(std::vector<Eigen::Vector3d> vertices,
                      const Eigen::Isometry3d& offset = Eigen::Isometry3d::Identity());
@@ -229,7 +228,7 @@ struct ClientOptions {
   std::chrono::milliseconds call_timeout{10000};
   /// Largest message sent or received: by default the server's (--max-message-bytes), so that
   /// every report it can send arrives.
-  int max_message_bytes = static_cast<int>(server::kDefaultMaxMessageBytes);
+  int max_message_bytes = static_cast<int>(model::kDefaultMaxMessageBytes);
   /// TLS (nearpointd --tls-cert): on when `tls` is set or any PEM below is given. The server's
   /// certificate is checked against `tls_ca_pem`, or the system's roots when it is empty.
   bool tls = false;

@@ -1,5 +1,5 @@
 // Geometry and scene files: JSON (or YAML with the same structure) → the scene API's plain
-// structs (server/include/nearpoint/server/scene_types.hpp). Transport-free, so that the client
+// structs (the scene model, nearpoint/model/scene_types.hpp). Transport-free, so that the client
 // (`nearpoint register`, `nearpoint scene create`) and the server (`nearpointd --scene`) read the
 // same files with the same messages.
 //
@@ -30,7 +30,7 @@
 #include <vector>
 
 #include "nearpoint/formats/json_shapes.hpp"
-#include "nearpoint/server/scene_types.hpp"
+#include "nearpoint/model/scene_types.hpp"
 
 namespace nearpoint::formats {
 
@@ -42,15 +42,15 @@ struct MeshRequest {
   bool merge = false;
 };
 using MeshLoader =
-    std::function<std::string(const MeshRequest& request, std::vector<server::PieceInput>& pieces)>;
+    std::function<std::string(const MeshRequest& request, std::vector<model::PieceInput>& pieces)>;
 
 /// A scene file's content. Objects name their geometry by `geometry_names[i]` (a key of
 /// `geometries`), or, when that is empty, by `scene.objects[i].geometry_id` (already registered).
 /// The requested scene id ("id") is `scene.requested_id`.
 struct SceneFile {
-  std::vector<std::pair<std::string, server::GeometryInput>> geometries;
+  std::vector<std::pair<std::string, model::GeometryInput>> geometries;
   std::vector<std::string> geometry_names;
-  server::SceneInput scene;
+  model::SceneInput scene;
 };
 
 /// The file's text as JSON: JSON directly, or YAML (by extension .yaml/.yml) converted when the
@@ -61,7 +61,7 @@ std::string read_structured_file(const std::filesystem::path& file, Json& out);
 /// `meshes` may be empty (then a mesh geometry is an error saying so).
 std::string parse_geometry(const Json& value, const std::string& path,
                            const std::filesystem::path& base_dir, const MeshLoader& meshes,
-                           server::GeometryInput& out);
+                           model::GeometryInput& out);
 
 /// SCENE → `out`. Never throws; messages name the field ("objects[2].pose.rotation").
 std::string parse_scene(const Json& value, const std::filesystem::path& base_dir,
@@ -73,9 +73,9 @@ std::string load_scene_file(const std::filesystem::path& file, const MeshLoader&
 
 /// QueryOptions as in a scene's "options" (also used for per-query options).
 std::string parse_query_options(const Json& value, const std::string& path,
-                                server::QueryOptionsInput& out);
+                                model::QueryOptionsInput& out);
 
 /// The scene API's piece for a parsed SHAPE.
-server::PieceInput to_piece(const ShapeSpec& spec);
+model::PieceInput to_piece(const ShapeSpec& spec);
 
 }  // namespace nearpoint::formats

@@ -3,6 +3,8 @@
 
 #include <cstddef>
 
+#include "nearpoint/model/scene_types.hpp"
+
 namespace nearpoint::server {
 
 // Fixed rules for the strings of a request (not configurable: clients rely on them). Every id and
@@ -18,10 +20,8 @@ inline constexpr std::size_t kMaxNameBytes = 256;
 /// its length: "no scene 'abc…' (8192 bytes)".
 inline constexpr std::size_t kQuotedBytes = 64;
 
-/// The largest gRPC message nearpointd receives or sends by default (--max-message-bytes), and
-/// the default of the C++ client, the CLI and the Python client, so that any report the server
-/// can send reaches them (gRPC's own default receive limit is 4 MiB).
-inline constexpr std::size_t kDefaultMaxMessageBytes = 16u << 20;
+/// The default message size limit (--max-message-bytes), shared with the clients.
+using model::kDefaultMaxMessageBytes;
 
 struct ServiceLimits {
   /// Stored geometries. Each costs its vertices (24 B each) plus a few hundred bytes.

@@ -1,183 +1,36 @@
-// The scene API's plain inputs and outputs. They mirror the wire messages of nearpoint.v1 field for
-// field (so error paths such as "poses[2].pose.rotation" read the same on every transport) but
-// depend on no transport: the gRPC service converts protobuf messages to and from these, and a
-// DDS bridge would convert its IDL structs the same way.
-//
-// Units: metres and radians. Frames: world; an object's geometry frame; a piece's piece frame.
+// The server's view of the scene model: the plain structs of nearpoint/model/scene_types.hpp
+// (shared with the client and the file formats) under the names the server has always used, plus
+// what only the server has: the report of one evaluation, which points at the scene it belongs to.
 #pragma once
 
-#include <array>
 #include <chrono>
-#include <cstdint>
 #include <memory>
-#include <optional>
-#include <string>
-#include <utility>
-#include <variant>
 #include <vector>
 
-#include "nearpoint/pose.hpp"
-#include "nearpoint/shapes.hpp"
+#include "nearpoint/model/scene_types.hpp"
 
 namespace nearpoint::server {
 
 using Clock = std::chrono::steady_clock;
-using Vec3d = Vec3<double>;
-
-/// A rigid transformation as received: quaternion (w, x, y, z) and translation (metres), not yet
-/// checked. The default is the identity.
-struct PoseInput {
-  std::array<double, 4> rotation_wxyz = {1, 0, 0, 0};
-  Vec3d translation = Vec3d::Zero();
-};
-
-/// A polytope piece as received: its vertices, metres, piece frame.
-struct PolytopeInput {
-  std::vector<Vec3d> vertices;
-};
-
-/// One convex piece (see nearpoint.v1.Piece). `std::monostate`: no shape was given.
-struct PieceInput {
-  std::variant<std::monostate, PolytopeInput, Point, Segment<double>, Box<double>, Cylinder<double>,
-               Cone<double>, Ellipsoid<double>>
-      shape;
-  /// Spherical-extension radius, metres.
-  double radius = 0;
-  /// Piece frame → geometry frame.
-  PoseInput offset;
-};
-
-struct GeometryInput {
-  std::string name;
-  std::vector<PieceInput> pieces;
-};
-
-struct GeometryInfo {
-  std::string geometry_id;
-  std::string name;
-  std::size_t piece_count = 0;
-  std::size_t vertex_count = 0;
-  /// Sphere enclosing the geometry: centre (geometry frame, metres) and radius (metres).
-  Vec3d bounding_center = Vec3d::Zero();
-  double bounding_radius = 0;
-};
-
-/// `unknown`: a value this server does not know (a newer client); rejected naming the field.
-enum class PenetrationMode : unsigned char { unspecified, none, bound, depth, unknown };
-
-/// Option overrides; an unset field inherits (update → scene defaults → engine defaults).
-struct QueryOptionsInput {
-  std::optional<double> epsilon;
-  std::optional<bool> near_points;
-  PenetrationMode penetration = PenetrationMode::unspecified;
-  std::optional<bool> gradient;
-  std::optional<double> distance_cutoff;
-  std::optional<bool> warm_start;
-  std::optional<std::uint64_t> max_iterations;
-};
-
-struct ObjectInput {
-  std::string id;
-  std::string geometry_id;
-  /// Initial pose: geometry frame → world frame.
-  PoseInput pose;
-  std::optional<std::uint32_t> group;
-  std::optional<std::uint32_t> mask;
-};
-
-struct PairSelectionInput {
-  enum class Mode : unsigned char { all_pairs, listed_pairs, excluded_pairs };
-  Mode mode = Mode::all_pairs;
-  /// (object_a, object_b) ids: the pairs listed (listed_pairs) or left out (excluded_pairs).
-  std::vector<std::pair<std::string, std::string>> pairs;
-};
-
-struct SceneInput {
-  std::string name;
-  /// The id the client asks for ("" = the server assigns "scene-N"). Taken: ALREADY_EXISTS.
-  std::string requested_id;
-  std::vector<ObjectInput> objects;
-  PairSelectionInput pair_selection;
-  QueryOptionsInput default_options;
-};
-
-struct SceneInfo {
-  std::string scene_id;
-  std::size_t pair_count = 0;
-};
-
-struct ObjectPoseInput {
-  std::string object_id;
-  /// Geometry frame → world frame.
-  PoseInput pose;
-};
-
-/// See nearpoint.v1.FlowControl. `unknown`: a value this server does not know; rejected.
-enum class FlowControl : unsigned char { block, coalesce, unknown };
-
-struct PoseUpdateInput {
-  std::string scene_id;
-  std::uint64_t sequence = 0;
-  std::vector<ObjectPoseInput> poses;
-  QueryOptionsInput options;
-  /// Read from a stream's first update only.
-  FlowControl flow_control = FlowControl::block;
-};
-
-struct QueryInput {
-  std::string scene_id;
-  std::vector<ObjectPoseInput> poses;
-  QueryOptionsInput options;
-  std::uint64_t sequence = 0;
-};
-
-// ---- outputs ----
-
-enum class PairStatus : unsigned char {
-  separated,
-  intersecting,
-  beyond_cutoff,
-  iteration_limit,
-  engine_error,
-};
-
-/// The answer for one object pair (see nearpoint.v1.PairDistance for every field's meaning).
-struct PairReport {
-  /// Indices into the scene's objects.
-  std::uint32_t object_a = 0;
-  std::uint32_t object_b = 0;
-  PairStatus status = PairStatus::engine_error;
-  double distance = 0;
-  double distance_lower_bound = 0;
-  double error_bound = 0;
-  std::uint32_t iterations = 0;
-  std::uint32_t piece_pairs_evaluated = 0;
-  std::uint32_t piece_a = 0;
-  std::uint32_t piece_b = 0;
-  bool warm_started = false;
-  bool has_near_points = false;
-  /// World frame, metres.
-  Vec3d point_a = Vec3d::Zero();
-  Vec3d point_b = Vec3d::Zero();
-  /// Unit vector A → B, world frame (zero when the cores overlap).
-  Vec3d normal = Vec3d::Zero();
-  bool has_penetration_bound = false;
-  double penetration_bound = 0;
-  bool has_gradient = false;
-  /// (∂/∂translation, ∂/∂rotation vector), world frame.
-  Eigen::Matrix<double, 6, 1> gradient_a = Eigen::Matrix<double, 6, 1>::Zero();
-  Eigen::Matrix<double, 6, 1> gradient_b = Eigen::Matrix<double, 6, 1>::Zero();
-  /// Static text for engine_error, else nullptr.
-  const char* engine_message = nullptr;
-};
-
-/// Server-side timing of one report, microseconds (steady clock).
-struct ReportTiming {
-  double server_us = 0;
-  double queue_us = 0;
-  double evaluation_us = 0;
-  double geometry_us = 0;
-};
+using model::FlowControl;
+using model::GeometryInfo;
+using model::GeometryInput;
+using model::ObjectInput;
+using model::ObjectPoseInput;
+using model::PairReport;
+using model::PairSelectionInput;
+using model::PairStatus;
+using model::PenetrationMode;
+using model::PieceInput;
+using model::PolytopeInput;
+using model::PoseInput;
+using model::PoseUpdateInput;
+using model::QueryInput;
+using model::QueryOptionsInput;
+using model::ReportTiming;
+using model::SceneInfo;
+using model::SceneInput;
+using model::Vec3d;
 
 class SceneDefinition;
 
