@@ -16,24 +16,6 @@ void evaluate_pair(const SceneDefinition& scene, const ScenePair& pair,
   const Pose<double>& pose_a = poses[pair.object_a];
   const Pose<double>& pose_b = poses[pair.object_b];
 
-  // Broad phase: the gap between the bounding spheres is a lower bound on the distance. Skip the
-  // pair when that bound exceeds the cutoff by more than the rounding of the world-frame
-  // arithmetic (relative to the magnitudes involved), so no pair within the cutoff is skipped.
-  const double cutoff = options.engine.distance_cutoff;
-  if (std::isfinite(cutoff)) {
-    const Vec3d center_a = pose_a.apply(geometry_a.info.bounding_center);
-    const Vec3d center_b = pose_b.apply(geometry_b.info.bounding_center);
-    const double radii = geometry_a.info.bounding_radius + geometry_b.info.bounding_radius;
-    const double gap = (center_b - center_a).norm() - radii;
-    const double rounding =
-        1e-12 * (center_a.cwiseAbs().maxCoeff() + center_b.cwiseAbs().maxCoeff() + radii);
-    if (gap - rounding > cutoff) {
-      out.status = PairStatus::beyond_cutoff;
-      out.distance_lower_bound = gap - rounding;
-      return;
-    }
-  }
-
   const CompoundResult<double> result =
       distance(geometry_a.compound, pose_a, geometry_b.compound, pose_b, options.engine,
                options.warm_start ? caches : std::span<SimplexCache>{});

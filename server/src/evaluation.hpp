@@ -1,4 +1,5 @@
-// One object pair of one update: broad phase by bounding spheres, then the engine.
+// One object pair of one update through the engine (the broad phase, in incremental.cpp, decided
+// that it needs to be).
 #pragma once
 
 #include <span>

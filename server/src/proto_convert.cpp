@@ -238,6 +238,10 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
   timing.set_geometry_us(report.timing.geometry_us);
   out.set_coalesced_updates(report.coalesced_updates);
   out.set_coalesced_from_sequence(report.coalesced_from_sequence);
+  v1::ReportCounts& counts = *out.mutable_counts();
+  counts.set_pairs_evaluated(report.counts.pairs_evaluated);
+  counts.set_pairs_pruned(report.counts.pairs_pruned);
+  counts.set_pairs_unmoved(report.counts.pairs_unmoved);
 }
 
 void to_proto(const Error& error, std::uint64_t sequence, v1::DistanceReport& out) {

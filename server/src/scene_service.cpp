@@ -4,6 +4,7 @@
 #include <unordered_set>
 
 #include "evaluation.hpp"
+#include "incremental.hpp"
 #include "report_size.hpp"
 #include "validation.hpp"
 
@@ -154,10 +155,13 @@ struct SceneService::Job {
   /// The warm-start caches read and written (a stream's, or `own_caches`); empty: cold.
   std::span<SimplexCache> caches;
   std::vector<SimplexCache> own_caches;
+  /// The stream's previous evaluation (a query's is fresh): results of unmoved pairs, boxes.
+  std::shared_ptr<IncrementalState> state;
+  /// The pairs (indices in scene->pairs) this evaluation hands to the engine.
+  std::vector<std::uint32_t> evaluate;
   Report report;
   Clock::time_point received;
   Clock::time_point started;
-  std::atomic<bool> started_flag{false};
   std::atomic<std::size_t> next_pair{0};
   std::atomic<std::size_t> tasks_left{0};
   std::atomic<std::int64_t> geometry_ns{0};
@@ -166,42 +170,51 @@ struct SceneService::Job {
 };
 
 void SceneService::run(std::shared_ptr<Job> job) {
-  const std::size_t pair_count = job->scene->pairs.size();
-  job->report.scene = job->scene;
-  job->report.pairs.resize(pair_count);
-  // Each task takes pairs one at a time from a shared counter, so uneven pairs (a 100-vertex
-  // hull next to a sphere) balance across the workers without any partitioning.
-  const std::size_t tasks =
-      std::max<std::size_t>(1, std::min(pair_count, job->scene->tasks_per_evaluation));
-  job->tasks_left.store(tasks, std::memory_order_relaxed);
-  for (std::size_t t = 0; t < tasks; ++t) {
-    pool_.post([job, pair_count] {
-      // The evaluation starts when a worker first picks it up (time before that is queueing).
-      if (!job->started_flag.exchange(true, std::memory_order_relaxed)) job->started = Clock::now();
-      std::int64_t nanoseconds = 0;
-      for (;;) {
-        const std::size_t i = job->next_pair.fetch_add(1, std::memory_order_relaxed);
-        if (i >= pair_count) break;
-        const ScenePair& pair = job->scene->pairs[i];
-        const std::span<SimplexCache> caches =
-            job->caches.empty() ? std::span<SimplexCache>{}
-                                : job->caches.subspan(pair.cache_offset, pair.cache_count);
-        const Clock::time_point begin = Clock::now();
-        evaluate_pair(*job->scene, pair, job->poses, job->options, caches, job->report.pairs[i]);
-        nanoseconds += std::chrono::nanoseconds(Clock::now() - begin).count();
-      }
-      job->geometry_ns.fetch_add(nanoseconds, std::memory_order_relaxed);
-      // acq_rel: the last task sees every other task's pair results.
-      if (job->tasks_left.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
-      const Clock::time_point end = Clock::now();
-      ReportTiming& timing = job->report.timing;
-      timing.server_us = microseconds(end - job->received);
-      timing.queue_us = microseconds(job->started - job->received);
-      timing.evaluation_us = microseconds(end - job->started);
-      timing.geometry_us = double(job->geometry_ns.load(std::memory_order_relaxed)) / 1000.0;
-      job->complete(*job);
-    });
-  }
+  // One task of the evaluation: takes pairs one at a time from a shared counter, so uneven pairs
+  // (a 100-vertex hull next to a sphere) balance across the workers without any partitioning.
+  auto work = [](Job& job) {
+    IncrementalState& state = *job.state;
+    const std::size_t count = job.evaluate.size();
+    std::int64_t nanoseconds = 0;
+    for (;;) {
+      const std::size_t i = job.next_pair.fetch_add(1, std::memory_order_relaxed);
+      if (i >= count) break;
+      const std::uint32_t p = job.evaluate[i];
+      const ScenePair& pair = job.scene->pairs[p];
+      const std::span<SimplexCache> caches =
+          job.caches.empty() ? std::span<SimplexCache>{}
+                             : job.caches.subspan(pair.cache_offset, pair.cache_count);
+      const Clock::time_point begin = Clock::now();
+      evaluate_pair(*job.scene, pair, job.poses, job.options, caches, state.pairs[p]);
+      nanoseconds += std::chrono::nanoseconds(Clock::now() - begin).count();
+    }
+    job.geometry_ns.fetch_add(nanoseconds, std::memory_order_relaxed);
+    // acq_rel: the last task sees every other task's pair results.
+    if (job.tasks_left.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
+    job.report.scene = job.scene;
+    job.report.pairs = state.pairs;
+    finish_evaluation(std::move(job.poses), job.options, state);
+    const Clock::time_point end = Clock::now();
+    ReportTiming& timing = job.report.timing;
+    timing.server_us = microseconds(end - job.received);
+    timing.queue_us = microseconds(job.started - job.received);
+    timing.evaluation_us = microseconds(end - job.started);
+    timing.geometry_us = double(job.geometry_ns.load(std::memory_order_relaxed)) / 1000.0;
+    job.complete(job);
+  };
+  // Planning (which pairs moved, the broad phase) touches every pair of a moved object and copies
+  // results, so it runs on the pool too, never on a transport thread; it then splits the pairs
+  // that reach the engine into tasks, this one included.
+  pool_.post([this, job, work] {
+    job->started = Clock::now();  // time before this is queueing
+    plan_evaluation(*job->scene, job->poses, job->options, *job->state, job->evaluate,
+                    job->report.counts);
+    const std::size_t tasks =
+        std::max<std::size_t>(1, std::min(job->evaluate.size(), job->scene->tasks_per_evaluation));
+    job->tasks_left.store(tasks, std::memory_order_relaxed);
+    for (std::size_t t = 1; t < tasks; ++t) pool_.post([job, work] { work(*job); });
+    work(*job);
+  });
 }
 
 // ---- geometry store ----
@@ -381,6 +394,7 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
         pair_cost(objects[pair.object_a].geometry->info, objects[pair.object_b].geometry->info);
   scene->tasks_per_evaluation =
       std::clamp<std::size_t>(visits / kVisitsPerTask, 1, std::max<std::size_t>(1, pool_.size()));
+  index_object_pairs(*scene);
 
   std::unique_lock lock(scenes_mutex_);
   if (scenes_.size() >= limits_.max_scenes)
@@ -473,6 +487,7 @@ Outcome SceneService::query(const QueryInput& query, Clock::time_point received,
   job->poses = std::move(poses.value());
   job->options = options.value();
   job->received = received;
+  job->state = std::make_shared<IncrementalState>();  // a query starts from nothing
   job->report.sequence = query.sequence;
   if (job->options.warm_start) {
     scene->copy_query_cache(job->own_caches);
@@ -574,6 +589,8 @@ void PoseStream::evaluate(PreparedUpdate update, ReportCallback done) {
   job->poses = std::move(update.poses);
   job->options = update.options;
   if (update.options.warm_start) job->caches = caches_;
+  if (!incremental_) incremental_ = std::make_shared<IncrementalState>();
+  job->state = incremental_;
   job->received = update.received;
   job->report.sequence = update.sequence;
   job->report.coalesced_updates = update.coalesced_updates;

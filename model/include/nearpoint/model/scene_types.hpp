@@ -185,4 +185,16 @@ struct ReportTiming {
   double geometry_us = 0;
 };
 
+/// What one report cost: every selected pair is counted in exactly one of these.
+struct ReportCounts {
+  /// Pairs handed to the distance engine.
+  std::uint32_t pairs_evaluated = 0;
+  /// Pairs the broad phase proved farther apart than the cutoff (reported BEYOND_CUTOFF with the
+  /// boxes' gap as the lower bound); the engine never saw them.
+  std::uint32_t pairs_pruned = 0;
+  /// Pairs of two objects whose poses equal (bitwise) those of the stream's previous report, under
+  /// the same options: their previous result is repeated.
+  std::uint32_t pairs_unmoved = 0;
+};
+
 }  // namespace nearpoint::model

@@ -77,6 +77,11 @@ class SceneDefinition {
   /// Index of an object by id, or -1.
   std::int64_t find_object(const std::string& object_id) const;
   std::unordered_map<std::string, std::uint32_t> index_by_id;
+  /// Each object's pairs: `object_pairs[object_pairs_begin[i] .. object_pairs_begin[i + 1])` are
+  /// the indices in `pairs` of the pairs object i belongs to, so that an update that moves k
+  /// objects visits only their pairs.
+  std::vector<std::uint32_t> object_pairs_begin;
+  std::vector<std::uint32_t> object_pairs;
 };
 
 /// A live scene: its definition plus the mutable state that unary queries share.
@@ -117,6 +122,7 @@ struct PreparedUpdate {
 using ReportCallback = std::function<void(Report)>;
 
 class SceneService;
+struct IncrementalState;
 
 /// One client's pose stream: it owns the per-pair, per-piece-pair warm-start caches, so streams
 /// never share mutable state. Not thread-safe: its owner serialises calls (the gRPC reactor does
@@ -137,8 +143,12 @@ class PoseStream {
   /// carries every object's pose, the newer one already holds the older one's poses.
   static void coalesce(PreparedUpdate& newer, const PreparedUpdate& older);
 
-  /// Evaluates every selected pair on the worker pool; `done` gets the report on a pool thread.
-  /// Call again only after `done` has run (the caches are this stream's single mutable state).
+  /// Evaluates the update on the worker pool; `done` gets the report (every selected pair) on a
+  /// pool thread. Only pairs with an object whose pose changed since the stream's previous
+  /// evaluation (or all, when the options changed) reach the engine, unless the broad phase
+  /// proves them beyond the cutoff; the others repeat their previous result (Report::counts).
+  /// Call again only after `done` has run (the caches and that state are this stream's mutable
+  /// state).
   void evaluate(PreparedUpdate update, ReportCallback done);
 
   /// The flow-control policy chosen by the first update (block until then).
@@ -153,6 +163,9 @@ class PoseStream {
   std::shared_ptr<Scene> scene_;
   std::vector<Pose<double>> current_poses_;
   std::vector<SimplexCache> caches_;
+  /// The previous evaluation's poses, options and results, and the broad phase's boxes: pairs of
+  /// unmoved objects are not evaluated again.
+  std::shared_ptr<IncrementalState> incremental_;
   bool has_sequence_ = false;
   std::uint64_t last_sequence_ = 0;
   FlowControl flow_control_ = FlowControl::block;

@@ -27,6 +27,7 @@ using model::PoseInput;
 using model::PoseUpdateInput;
 using model::QueryInput;
 using model::QueryOptionsInput;
+using model::ReportCounts;
 using model::ReportTiming;
 using model::SceneInfo;
 using model::SceneInput;
@@ -40,6 +41,7 @@ struct Report {
   std::shared_ptr<const SceneDefinition> scene;
   std::vector<PairReport> pairs;
   ReportTiming timing;
+  ReportCounts counts;
   std::uint32_t coalesced_updates = 0;
   std::uint64_t coalesced_from_sequence = 0;
 };

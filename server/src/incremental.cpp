@@ -1,0 +1,128 @@
+#include "incremental.hpp"
+
+#include <cmath>
+#include <cstring>
+
+namespace nearpoint::server {
+namespace {
+
+/// Bitwise, so that "not moved" never depends on a tolerance: a client that resends the same
+/// pose gets the same answer it got, and one that nudges a pose by an ulp gets it recomputed.
+bool same_pose(const Pose<double>& a, const Pose<double>& b) {
+  return std::memcmp(a.rotation.data(), b.rotation.data(), sizeof(double) * 9) == 0 &&
+         std::memcmp(a.translation.data(), b.translation.data(), sizeof(double) * 3) == 0;
+}
+
+/// Every field of ResolvedOptions (and of DistanceOptions): a result is reused only under the
+/// options that produced it. A field added to either struct must be added here.
+bool same_options(const ResolvedOptions& a, const ResolvedOptions& b) {
+  const DistanceOptions<double>& x = a.engine;
+  const DistanceOptions<double>& y = b.engine;
+  auto same = [](double u, double v) { return std::memcmp(&u, &v, sizeof u) == 0; };
+  return a.warm_start == b.warm_start && same(x.epsilon, y.epsilon) &&
+         x.max_iterations == y.max_iterations && x.origin_shift == y.origin_shift &&
+         x.subalgorithm == y.subalgorithm && x.cold_start == y.cold_start &&
+         same(x.distance_cutoff, y.distance_cutoff) && x.near_points == y.near_points &&
+         x.penetration_bound == y.penetration_bound && x.gradient == y.gradient;
+}
+
+void report_pruned(const ScenePair& pair, double lower_bound, PairReport& out) {
+  out = PairReport{};
+  out.object_a = pair.object_a;
+  out.object_b = pair.object_b;
+  out.status = PairStatus::beyond_cutoff;
+  out.distance_lower_bound = lower_bound;
+}
+
+}  // namespace
+
+void index_object_pairs(SceneDefinition& scene) {
+  const std::size_t n = scene.objects.size();
+  scene.object_pairs_begin.assign(n + 1, 0);
+  for (const ScenePair& pair : scene.pairs) {
+    ++scene.object_pairs_begin[pair.object_a + 1];
+    ++scene.object_pairs_begin[pair.object_b + 1];
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    scene.object_pairs_begin[i + 1] += scene.object_pairs_begin[i];
+  scene.object_pairs.resize(scene.object_pairs_begin[n]);
+  std::vector<std::uint32_t> fill(scene.object_pairs_begin.begin(),
+                                  scene.object_pairs_begin.end() - 1);
+  for (std::uint32_t p = 0; p < scene.pairs.size(); ++p) {
+    scene.object_pairs[fill[scene.pairs[p].object_a]++] = p;
+    scene.object_pairs[fill[scene.pairs[p].object_b]++] = p;
+  }
+}
+
+void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double>>& poses,
+                     const ResolvedOptions& options, IncrementalState& state,
+                     std::vector<std::uint32_t>& evaluate, ReportCounts& counts) {
+  const std::size_t n = scene.objects.size();
+  const bool first = !state.valid;
+  const bool everything = first || !same_options(state.options, options);
+  if (first) {
+    state.pairs.assign(scene.pairs.size(), PairReport{});
+    state.broad_phase.reset(n);
+    state.near_stamp.assign(n, 0);
+  }
+  state.moved.assign(n, 0);
+  std::size_t moved_count = 0;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    // Boxes follow the poses even when the options alone changed nothing, so that they are
+    // always those of `poses`.
+    const bool moved = first || !same_pose(poses[i], state.poses[i]);
+    if (moved) state.broad_phase.set(i, world_box(*scene.objects[i].geometry, poses[i]));
+    state.moved[i] = moved || everything;
+    moved_count += state.moved[i];
+  }
+  state.broad_phase.sort();
+
+  evaluate.clear();
+  counts = ReportCounts{};
+  const double cutoff = options.engine.distance_cutoff;
+  const bool prune = std::isfinite(cutoff);
+  std::size_t touched = 0;  // pairs with a moved object
+  for (std::uint32_t a = 0; a < n && moved_count > 0; ++a) {
+    if (!state.moved[a]) continue;
+    const Aabb& box_a = state.broad_phase.box(a);
+    // The objects near `a` get this round's stamp; any other partner is beyond the cutoff.
+    if (prune && ++state.stamp == 0) {  // wrapped: clear the old stamps
+      std::fill(state.near_stamp.begin(), state.near_stamp.end(), 0);
+      state.stamp = 1;
+    }
+    if (prune)
+      state.broad_phase.query(box_a, cutoff,
+                              [&](std::uint32_t j) { state.near_stamp[j] = state.stamp; });
+    for (std::uint32_t k = scene.object_pairs_begin[a]; k < scene.object_pairs_begin[a + 1]; ++k) {
+      const std::uint32_t p = scene.object_pairs[k];
+      const ScenePair& pair = scene.pairs[p];
+      const std::uint32_t b = pair.object_a == a ? pair.object_b : pair.object_a;
+      if (state.moved[b] && b < a) continue;  // done from b
+      ++touched;
+      if (!prune) {
+        evaluate.push_back(p);
+        continue;
+      }
+      // A partner the sweep did not find is beyond the cutoff on some axis; one it found may
+      // still be beyond it diagonally. Either way the boxes' gap is the proven lower bound.
+      const double gap = box_gap(box_a, state.broad_phase.box(b));
+      if (state.near_stamp[b] == state.stamp && !(gap > cutoff)) {
+        evaluate.push_back(p);
+      } else {
+        report_pruned(pair, gap, state.pairs[p]);
+        ++counts.pairs_pruned;
+      }
+    }
+  }
+  counts.pairs_evaluated = std::uint32_t(evaluate.size());
+  counts.pairs_unmoved = std::uint32_t(scene.pairs.size() - touched);
+}
+
+void finish_evaluation(std::vector<Pose<double>> poses, const ResolvedOptions& options,
+                       IncrementalState& state) {
+  state.poses = std::move(poses);
+  state.options = options;
+  state.valid = true;
+}
+
+}  // namespace nearpoint::server

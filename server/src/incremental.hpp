@@ -1,0 +1,49 @@
+// Only what changed causes work: which pairs of one evaluation reach the engine.
+//
+// A pose stream keeps the poses, options and pair results of its previous evaluation. A pair of
+// two objects whose poses did not change (bitwise) under the same options keeps its previous
+// result ("unmoved"); a pair involving a moved object is handed to the engine unless the broad
+// phase proves it beyond the query's cutoff ("pruned", reported BEYOND_CUTOFF with the proven
+// lower bound); the rest are "evaluated". A unary query is a stream's first evaluation: every
+// object counts as moved.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "broad_phase.hpp"
+#include "nearpoint/server/scene_service.hpp"
+
+namespace nearpoint::server {
+
+/// The state one pose stream carries from one evaluation to the next. Read and written only by
+/// the stream's single running evaluation.
+struct IncrementalState {
+  /// True once `poses`, `options` and `pairs` hold a finished evaluation.
+  bool valid = false;
+  std::vector<Pose<double>> poses;
+  ResolvedOptions options;
+  /// The latest result of every selected pair, in the scene's pair order.
+  std::vector<PairReport> pairs;
+  SweepAndPrune broad_phase;
+  // Scratch space, kept to avoid allocating per update.
+  std::vector<char> moved;
+  std::vector<std::uint32_t> near_stamp;
+  std::uint32_t stamp = 0;
+};
+
+/// Fills the scene's pair index (each object's pairs, `SceneDefinition::object_pairs`).
+void index_object_pairs(SceneDefinition& scene);
+
+/// Plans the evaluation of `scene` at `poses` under `options`: updates the broad phase, writes the
+/// reports of pruned and unmoved pairs into `state.pairs`, lists the pairs the engine must run in
+/// `evaluate` and counts all three in `counts`. No geometry beyond boxes.
+void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double>>& poses,
+                     const ResolvedOptions& options, IncrementalState& state,
+                     std::vector<std::uint32_t>& evaluate, ReportCounts& counts);
+
+/// Records a finished evaluation as the state the next one starts from.
+void finish_evaluation(std::vector<Pose<double>> poses, const ResolvedOptions& options,
+                       IncrementalState& state);
+
+}  // namespace nearpoint::server

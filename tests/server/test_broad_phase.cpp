@@ -1,0 +1,503 @@
+// Issue 22: the broad phase (world-frame boxes, sweep and prune) and "only moved objects cause
+// work". Every check is against a brute-force reference: the boxes against the objects' vertices,
+// the sweep against all boxes, pruned pairs against the engine run on every pair, and a stream
+// that moves a few objects against a query that recomputes everything.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <future>
+#include <numbers>
+#include <random>
+#include <set>
+
+#include "broad_phase.hpp"
+#include "incremental.hpp"
+#include "nearpoint/distance.hpp"
+#include "nearpoint/server/scene_service.hpp"
+#include "validation.hpp"
+
+namespace nearpoint::server {
+namespace {
+
+using Rng = std::mt19937_64;
+
+double uniform(Rng& rng, double lo, double hi) {
+  return std::uniform_real_distribution<double>(lo, hi)(rng);
+}
+
+PoseInput random_pose(Rng& rng, const Vec3d& center, double spread) {
+  PoseInput pose;
+  std::normal_distribution<double> normal;
+  Eigen::Quaterniond q(normal(rng), normal(rng), normal(rng), normal(rng));
+  q.normalize();
+  pose.rotation_wxyz = {q.w(), q.x(), q.y(), q.z()};
+  pose.translation = center + Vec3d(uniform(rng, -spread, spread), uniform(rng, -spread, spread),
+                                    uniform(rng, -spread, spread));
+  return pose;
+}
+
+/// One of: box, sphere, capsule, random polytope, or a two-piece compound (box + offset sphere).
+GeometryInput random_geometry(Rng& rng) {
+  GeometryInput geometry;
+  const int kind = std::uniform_int_distribution<int>(0, 4)(rng);
+  PieceInput& piece = geometry.pieces.emplace_back();
+  switch (kind) {
+    case 0:
+      piece.shape =
+          Box<double>{Vec3d(uniform(rng, 0.1, 1), uniform(rng, 0.1, 1), uniform(rng, 0.1, 1))};
+      break;
+    case 1:
+      piece.shape = Point{};
+      piece.radius = uniform(rng, 0.1, 1);
+      break;
+    case 2:
+      piece.shape =
+          Segment<double>{Vec3d(-uniform(rng, 0.1, 1), 0, 0), Vec3d(uniform(rng, 0.1, 1), 0, 0)};
+      piece.radius = uniform(rng, 0.05, 0.5);
+      break;
+    case 3: {
+      PolytopeInput polytope;
+      for (int i = 0; i < 12; ++i)
+        polytope.vertices.emplace_back(uniform(rng, -1, 1), uniform(rng, -1, 1),
+                                       uniform(rng, -0.5, 0.5));
+      piece.shape = std::move(polytope);
+      break;
+    }
+    default: {
+      piece.shape = Box<double>{Vec3d(0.5, 0.2, 0.2)};
+      PieceInput& second = geometry.pieces.emplace_back();
+      second.shape = Point{};
+      second.radius = 0.3;
+      second.offset.translation = Vec3d(1.2, 0.3, 0);
+      break;
+    }
+  }
+  return geometry;
+}
+
+/// Every double of both reports, compared bit for bit (and every flag and count).
+void expect_same_bits(const PairReport& a, const PairReport& b, const std::string& where) {
+  auto same = [](const auto& x, const auto& y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+  EXPECT_EQ(a.object_a, b.object_a) << where;
+  EXPECT_EQ(a.object_b, b.object_b) << where;
+  EXPECT_EQ(a.status, b.status) << where;
+  EXPECT_TRUE(same(a.distance, b.distance)) << where << ": " << a.distance << " vs " << b.distance;
+  EXPECT_TRUE(same(a.distance_lower_bound, b.distance_lower_bound)) << where;
+  EXPECT_TRUE(same(a.error_bound, b.error_bound)) << where;
+  EXPECT_EQ(a.iterations, b.iterations) << where;
+  EXPECT_EQ(a.piece_pairs_evaluated, b.piece_pairs_evaluated) << where;
+  EXPECT_EQ(a.piece_a, b.piece_a) << where;
+  EXPECT_EQ(a.piece_b, b.piece_b) << where;
+  EXPECT_EQ(a.warm_started, b.warm_started) << where;
+  EXPECT_EQ(a.has_near_points, b.has_near_points) << where;
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_TRUE(same(a.point_a[k], b.point_a[k])) << where;
+    EXPECT_TRUE(same(a.point_b[k], b.point_b[k])) << where;
+    EXPECT_TRUE(same(a.normal[k], b.normal[k])) << where;
+  }
+}
+
+Report run_query(SceneService& service, const QueryInput& query) {
+  std::promise<Report> done;
+  const Outcome started =
+      service.query(query, Clock::now(), [&](Report report) { done.set_value(std::move(report)); });
+  EXPECT_TRUE(started.ok()) << (started.ok() ? "" : started.error().describe());
+  return done.get_future().get();
+}
+
+Report run_prepared(PoseStream& stream, PreparedUpdate prepared) {
+  std::promise<Report> done;
+  stream.evaluate(std::move(prepared), [&](Report report) { done.set_value(std::move(report)); });
+  return done.get_future().get();
+}
+
+/// A random scene of `count` objects in a cube of side `side` centred at `center`.
+struct RandomScene {
+  SceneInput input;
+  std::vector<PoseInput> poses;
+};
+
+RandomScene make_scene(SceneService& service, Rng& rng, std::size_t count, const Vec3d& center,
+                       double side) {
+  RandomScene scene;
+  for (std::size_t i = 0; i < count; ++i) {
+    Expected<GeometryInfo> info = service.register_geometry(random_geometry(rng));
+    EXPECT_TRUE(info.ok());
+    ObjectInput& object = scene.input.objects.emplace_back();
+    object.id = "o" + std::to_string(i);
+    object.geometry_id = info->geometry_id;
+    object.pose = random_pose(rng, center, side / 2);
+    scene.poses.push_back(object.pose);
+  }
+  return scene;
+}
+
+// ---- boxes and the sweep ----
+
+// The margin of world_box is what makes pruning safe far from the origin: every vertex of every
+// piece, placed in the world by the engine's own pose arithmetic, must lie inside the box.
+TEST(BroadPhase, WorldBoxHoldsEveryVertexEvenFarFromTheOrigin) {
+  Rng rng(7);
+  const ServiceLimits limits;
+  for (int trial = 0; trial < 400; ++trial) {
+    GeometryInput input;
+    PieceInput& piece = input.pieces.emplace_back();
+    PolytopeInput polytope;
+    for (int i = 0; i < 10; ++i)
+      polytope.vertices.emplace_back(uniform(rng, -2, 2), uniform(rng, -2, 2), uniform(rng, -2, 2));
+    piece.shape = polytope;
+    piece.offset = random_pose(rng, Vec3d(0.5, -1, 2), 1);
+    Expected<std::shared_ptr<StoredGeometry>> geometry = build_geometry(input, limits);
+    ASSERT_TRUE(geometry.ok());
+    const double offset = trial % 2 ? 1e6 : 0;
+    Expected<Pose<double>> pose = check_pose(random_pose(rng, Vec3d::Constant(offset), 10), "pose");
+    ASSERT_TRUE(pose.ok());
+    const Aabb box = world_box(**geometry, *pose);
+    const Pose<double> piece_pose = *check_pose(piece.offset, "offset");
+    for (const Vec3d& v : polytope.vertices) {
+      const Vec3d world = pose->apply(piece_pose.apply(v));
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_LE(box.lo[k], world[k]) << "trial " << trial;
+        EXPECT_GE(box.hi[k], world[k]) << "trial " << trial;
+      }
+    }
+  }
+}
+
+// The sweep must find every box within the cutoff (a superset is allowed, a miss is not), also
+// after boxes move (the insertion sort that keeps the order) and when they all move at once.
+TEST(BroadPhase, SweepFindsEveryBoxWithinTheCutoff) {
+  for (std::uint64_t seed = 0; seed < 20; ++seed) {
+    Rng rng(seed);
+    const std::size_t n = 200;
+    const double offset = seed % 2 ? 1e6 : 0;
+    auto random_box = [&] {
+      Aabb box;
+      const Vec3d center =
+          Vec3d::Constant(offset) +
+          Vec3d(uniform(rng, -20, 20), uniform(rng, -20, 20), uniform(rng, -20, 20));
+      const Vec3d half(uniform(rng, 0, 2), uniform(rng, 0, 2), uniform(rng, 0, 2));
+      box.lo = center - half;
+      box.hi = center + half;
+      return box;
+    };
+    SweepAndPrune sweep;
+    sweep.reset(n);
+    for (std::uint32_t i = 0; i < n; ++i) sweep.set(i, random_box());
+    std::size_t near_total = 0;
+    for (int round = 0; round < 6; ++round) {
+      // Round 0: everything placed; rounds 1-4: a few boxes move; round 5: all move.
+      const std::size_t moves = round == 0 ? 0 : round == 5 ? n : std::size_t(round * 3);
+      for (std::size_t m = 0; m < moves; ++m)
+        sweep.set(std::uint32_t(round == 5 ? m : rng() % n), random_box());
+      sweep.sort();
+      for (int q = 0; q < 20; ++q) {
+        const Aabb query = random_box();
+        const double cutoff = q == 0 ? 0.0 : uniform(rng, 0, 5);
+        std::set<std::uint32_t> found;
+        sweep.query(query, cutoff, [&](std::uint32_t j) { found.insert(j); });
+        for (std::uint32_t j = 0; j < n; ++j) {
+          if (box_gap(query, sweep.box(j)) > cutoff) continue;
+          ++near_total;
+          EXPECT_TRUE(found.count(j)) << "seed " << seed << " round " << round << " box " << j;
+        }
+      }
+    }
+    EXPECT_GT(near_total, 50u) << "seed " << seed << ": too few near boxes to test anything";
+  }
+}
+
+// ---- pruning in the service ----
+
+// A pair the broad phase prunes is one the engine proves beyond the cutoff too: its lower bound
+// is at most the true distance and above the cutoff. Every pair that is not pruned is exactly what
+// the engine returns for it alone (bit for bit). Random scenes, half of them 10⁶ m from the origin.
+TEST(BroadPhase, PrunedPairsAreProvenBeyondTheCutoffAndTheRestAreExact) {
+  std::size_t pruned_total = 0, evaluated_total = 0;
+  for (std::uint64_t seed = 0; seed < 16; ++seed) {
+    Rng rng(100 + seed);
+    SceneService service(ServiceLimits{}, 1);
+    const Vec3d center = Vec3d::Constant(seed % 2 ? 1e6 : 0);
+    RandomScene scene = make_scene(service, rng, 30, center, 12);
+    Expected<SceneInfo> info = service.create_scene(scene.input);
+    ASSERT_TRUE(info.ok()) << info.error().describe();
+    QueryInput query;
+    query.scene_id = info->scene_id;
+    query.options.distance_cutoff = uniform(rng, 0, 2);
+    query.options.warm_start = false;
+    const Report report = run_query(service, query);
+    const SceneDefinition& definition = *report.scene;
+    ASSERT_EQ(report.pairs.size(), definition.pairs.size());
+    EXPECT_EQ(report.counts.pairs_evaluated + report.counts.pairs_pruned, report.pairs.size());
+    EXPECT_EQ(report.counts.pairs_unmoved, 0u) << "a query has no previous report";
+
+    const ResolvedOptions options =
+        *resolve_options(definition.default_options, query.options, "options");
+    DistanceOptions<double> unbounded = options.engine;
+    unbounded.distance_cutoff = std::numeric_limits<double>::infinity();
+    std::size_t pruned = 0;
+    for (std::size_t p = 0; p < report.pairs.size(); ++p) {
+      const PairReport& got = report.pairs[p];
+      const SceneObject& a = definition.objects[got.object_a];
+      const SceneObject& b = definition.objects[got.object_b];
+      const std::string where = "seed " + std::to_string(seed) + " pair " + std::to_string(p);
+      if (got.piece_pairs_evaluated == 0) {  // pruned: the engine never saw it
+        ++pruned;
+        const CompoundResult<double> truth =
+            distance(a.geometry->compound, a.initial_pose, b.geometry->compound, b.initial_pose,
+                     unbounded, std::span<SimplexCache>{});
+        EXPECT_EQ(got.status, PairStatus::beyond_cutoff) << where;
+        EXPECT_GT(got.distance_lower_bound, *query.options.distance_cutoff) << where;
+        EXPECT_LE(got.distance_lower_bound,
+                  truth.nearest.distance + truth.nearest.error_bound + 1e-9)
+            << where;
+        continue;
+      }
+      // Not pruned: exactly the engine's answer for this pair alone.
+      const ScenePair& pair = definition.pairs[p];
+      const CompoundResult<double> alone =
+          distance(a.geometry->compound, a.initial_pose, b.geometry->compound, b.initial_pose,
+                   options.engine, std::span<SimplexCache>{});
+      EXPECT_EQ(got.object_a, pair.object_a);
+      EXPECT_TRUE(std::memcmp(&got.error_bound, &alone.nearest.error_bound, sizeof(double)) == 0)
+          << where;
+      EXPECT_EQ(got.status == PairStatus::beyond_cutoff, alone.nearest.beyond_cutoff()) << where;
+      if (got.status != PairStatus::beyond_cutoff) {
+        EXPECT_TRUE(std::memcmp(&got.distance, &alone.nearest.distance, sizeof(double)) == 0)
+            << where;
+      }
+    }
+    EXPECT_EQ(pruned, report.counts.pairs_pruned);
+    pruned_total += pruned;
+    evaluated_total += report.counts.pairs_evaluated;
+  }
+  // The sample must exercise both sides (each seed has 435 pairs).
+  EXPECT_GT(pruned_total, 16u * 435 / 5);
+  EXPECT_GT(evaluated_total, 16u * 435 / 20);
+}
+
+// Two spheres exactly `cutoff` apart are within the cutoff: never pruned, whatever their distance
+// from the origin and whichever axis separates them; a little farther apart, they are pruned.
+TEST(BroadPhase, APairExactlyAtTheCutoffIsNeverPruned) {
+  SceneService service(ServiceLimits{}, 1);
+  GeometryInput sphere;
+  sphere.pieces.emplace_back().shape = Point{};
+  sphere.pieces.back().radius = 0.5;
+  const std::string id = service.register_geometry(sphere)->geometry_id;
+  const double cutoff = 0.25;  // every distance below is exact in binary
+  int scene_number = 0;
+  for (const double offset : {0.0, 1.0, 1e3, 1e6, -1e6}) {
+    for (int axis = 0; axis < 3; ++axis) {
+      for (const double extra : {0.0, 0.125}) {
+        SceneInput scene;
+        scene.requested_id = "s" + std::to_string(scene_number++);
+        scene.objects.resize(2);
+        scene.objects[0].id = "a";
+        scene.objects[1].id = "b";
+        scene.objects[0].geometry_id = scene.objects[1].geometry_id = id;
+        scene.objects[0].pose.translation = Vec3d::Constant(offset);
+        scene.objects[1].pose.translation = Vec3d::Constant(offset);
+        scene.objects[1].pose.translation[axis] += 1.0 + cutoff + extra;
+        ASSERT_TRUE(service.create_scene(scene).ok());
+        QueryInput query;
+        query.scene_id = scene.requested_id;
+        query.options.distance_cutoff = cutoff;
+        const Report report = run_query(service, query);
+        ASSERT_EQ(report.pairs.size(), 1u);
+        const std::string where =
+            "offset " + std::to_string(offset) + " axis " + std::to_string(axis);
+        if (extra == 0) {
+          EXPECT_EQ(report.counts.pairs_pruned, 0u) << where;
+          EXPECT_EQ(report.counts.pairs_evaluated, 1u) << where;
+          EXPECT_NE(report.pairs[0].status, PairStatus::beyond_cutoff) << where;
+        } else {
+          EXPECT_EQ(report.counts.pairs_pruned, 1u) << where;
+          EXPECT_EQ(report.pairs[0].status, PairStatus::beyond_cutoff) << where;
+          EXPECT_GT(report.pairs[0].distance_lower_bound, cutoff) << where;
+          EXPECT_LE(report.pairs[0].distance_lower_bound, cutoff + extra) << where;
+        }
+      }
+    }
+  }
+}
+
+// The same with rounding in play: a sphere off its geometry's origin, turned by a random rotation,
+// at 2²⁰ m (where the spacing of doubles doubles), and its twin 1 + cutoff ± 1e-9 m away, so that
+// the pair straddles the cutoff at the scale of the world-frame rounding. Truth: the centres'
+// distance in long double. A pair within the cutoff must never be pruned (without the boxes'
+// margin, the rounding of R·c + t prunes some of them).
+TEST(BroadPhase, WithinTheCutoffAfterRoundingIsNeverPruned) {
+  SceneService service(ServiceLimits{}, 1);
+  GeometryInput sphere;
+  sphere.pieces.emplace_back().shape = Point{};
+  sphere.pieces.back().radius = 0.5;
+  const Vec3d local_center(0.3, 0.7, 0.1);
+  sphere.pieces.back().offset.translation = local_center;
+  const std::string id = service.register_geometry(sphere)->geometry_id;
+  SceneInput scene;
+  scene.objects.resize(2);
+  scene.objects[0].id = "a";
+  scene.objects[1].id = "b";
+  scene.objects[0].geometry_id = scene.objects[1].geometry_id = id;
+  const std::string scene_id = service.create_scene(scene)->scene_id;
+  Expected<std::unique_ptr<PoseStream>> stream = service.open_stream();
+  ASSERT_TRUE(stream.ok());
+  Rng rng(11);
+  const double cutoff = 0.25;
+  std::size_t within = 0;
+  for (int update = 0; update < 4000; ++update) {
+    PoseUpdateInput input;
+    input.scene_id = scene_id;
+    input.sequence = std::uint64_t(update) + 1;
+    input.options.distance_cutoff = cutoff;
+    PoseInput a = random_pose(rng, Vec3d::Constant(1048576.0), 1.5);
+    PoseInput b = a;
+    b.translation[update % 3] += 1.0 + cutoff + uniform(rng, -1e-9, 1e-9);
+    input.poses = {{"a", a}, {"b", b}};
+    Expected<PreparedUpdate> prepared = (*stream)->prepare(input, Clock::now());
+    ASSERT_TRUE(prepared.ok());
+    const Report report = run_prepared(**stream, std::move(*prepared));
+    // The centres R·c + t of both, in long double (the poses exactly as the server holds them).
+    const Pose<double> pose_a = *check_pose(a, "a");
+    const Pose<double> pose_b = *check_pose(b, "b");
+    long double gap_squared = 0;
+    for (int k = 0; k < 3; ++k) {
+      long double ca = pose_a.translation[k], cb = pose_b.translation[k];
+      for (int j = 0; j < 3; ++j) {
+        ca += static_cast<long double>(pose_a.rotation(k, j)) * local_center[j];
+        cb += static_cast<long double>(pose_b.rotation(k, j)) * local_center[j];
+      }
+      gap_squared += (cb - ca) * (cb - ca);
+    }
+    const long double distance = std::sqrt(gap_squared) - 1.0L;
+    if (distance > cutoff) continue;
+    ++within;
+    ASSERT_EQ(report.counts.pairs_pruned, 0u)
+        << "update " << update << ": " << double(distance - cutoff) << " m within the cutoff";
+  }
+  EXPECT_GT(within, 1000u);  // the sample straddles the cutoff
+}
+
+// ---- only moved objects cause work ----
+
+// A stream that moves a few objects per update (some updates resend an unchanged pose, some move
+// nothing, some move everything, some change the options, some are coalesced) reports exactly,
+// bit for bit, what a query recomputing every pair at the same poses reports; and it hands the
+// engine only pairs that involve a moved object.
+TEST(OnlyMovedObjects, StreamAnswersEqualRecomputingEverything) {
+  for (std::uint64_t seed = 0; seed < 6; ++seed) {
+    Rng rng(500 + seed);
+    SceneService service(ServiceLimits{}, 2);
+    const Vec3d center = Vec3d::Constant(seed % 3 == 2 ? 1e6 : 0);
+    const std::size_t n = 24;
+    RandomScene scene = make_scene(service, rng, n, center, 10);
+    if (seed % 2) {  // half the scenes: some pairs excluded rather than all selected
+      scene.input.pair_selection.mode = PairSelectionInput::Mode::excluded_pairs;
+      for (int k = 0; k < 40; ++k) {
+        const std::size_t a = rng() % n, b = rng() % n;
+        if (a != b)
+          scene.input.pair_selection.pairs.emplace_back(scene.input.objects[a].id,
+                                                        scene.input.objects[b].id);
+      }
+    }
+    Expected<SceneInfo> info = service.create_scene(scene.input);
+    ASSERT_TRUE(info.ok()) << info.error().describe();
+    Expected<std::unique_ptr<PoseStream>> stream = service.open_stream();
+    ASSERT_TRUE(stream.ok());
+
+    QueryOptionsInput options;
+    options.warm_start = false;  // bit-for-bit comparisons need the same (cold) start
+    options.near_points = true;
+    const bool finite_cutoff = seed % 3 != 0;
+    if (finite_cutoff) options.distance_cutoff = 1.0;
+
+    std::vector<PoseInput> poses = scene.poses;
+    std::uint64_t sequence = 0;
+    std::size_t unmoved_total = 0;
+    bool options_changed_before = false;
+    for (int update = 0; update < 25; ++update) {
+      // Which objects move: none, all, or a random few (plus an unchanged pose resent).
+      std::vector<char> moved(n, 0);
+      PoseUpdateInput input;
+      input.scene_id = info->scene_id;
+      const std::size_t k = update == 3 ? 0 : update == 7 ? n : 1 + rng() % 4;
+      for (std::size_t m = 0; m < k; ++m) {
+        const std::size_t i = k == n ? m : rng() % n;
+        if (moved[i]) continue;
+        moved[i] = 1;
+        poses[i] = random_pose(rng, center, 5);
+        input.poses.push_back({scene.input.objects[i].id, poses[i]});
+      }
+      const std::size_t resent = rng() % n;
+      if (!moved[resent]) input.poses.push_back({scene.input.objects[resent].id, poses[resent]});
+      const bool options_change = update == 12;
+      input.options = options;
+      if (options_change) input.options.epsilon = 1e-10;
+
+      Report report;
+      if (update % 5 == 4 && k < n) {
+        // Coalesced: an earlier update (moving one more object) folded into this one; the
+        // merged report must still cover what the earlier one moved.
+        PoseUpdateInput earlier;
+        earlier.scene_id = info->scene_id;
+        earlier.options = input.options;
+        earlier.sequence = ++sequence;
+        const std::size_t i = rng() % n;
+        if (!moved[i]) {
+          moved[i] = 1;
+          poses[i] = random_pose(rng, center, 5);
+          earlier.poses.push_back({scene.input.objects[i].id, poses[i]});
+        }
+        Expected<PreparedUpdate> older = (*stream)->prepare(earlier, Clock::now());
+        ASSERT_TRUE(older.ok());
+        input.sequence = ++sequence;
+        Expected<PreparedUpdate> newer = (*stream)->prepare(input, Clock::now());
+        ASSERT_TRUE(newer.ok());
+        PoseStream::coalesce(*newer, *older);
+        report = run_prepared(**stream, std::move(*newer));
+        EXPECT_EQ(report.coalesced_updates, 1u);
+      } else {
+        input.sequence = ++sequence;
+        Expected<PreparedUpdate> prepared = (*stream)->prepare(input, Clock::now());
+        ASSERT_TRUE(prepared.ok());
+        report = run_prepared(**stream, std::move(*prepared));
+      }
+
+      QueryInput query;
+      query.scene_id = info->scene_id;
+      query.options = input.options;
+      for (std::size_t i = 0; i < n; ++i)
+        query.poses.push_back({scene.input.objects[i].id, poses[i]});
+      const Report reference = run_query(service, query);
+      ASSERT_EQ(report.pairs.size(), reference.pairs.size());
+      const std::string where =
+          "seed " + std::to_string(seed) + " update " + std::to_string(update);
+      for (std::size_t p = 0; p < report.pairs.size(); ++p)
+        expect_same_bits(report.pairs[p], reference.pairs[p], where + " pair " + std::to_string(p));
+
+      // The counts: every pair of two unmoved objects is skipped, unless the options changed
+      // (then nothing is reused) or this is the stream's first report.
+      std::size_t both_unmoved = 0;
+      for (const ScenePair& pair : report.scene->pairs)
+        both_unmoved += !moved[pair.object_a] && !moved[pair.object_b];
+      const std::size_t expected_unmoved =
+          (update == 0 || options_change || options_changed_before) ? 0 : both_unmoved;
+      EXPECT_EQ(report.counts.pairs_unmoved, expected_unmoved) << where;
+      EXPECT_EQ(
+          report.counts.pairs_evaluated + report.counts.pairs_pruned + report.counts.pairs_unmoved,
+          report.pairs.size())
+          << where;
+      if (!finite_cutoff) {
+        EXPECT_EQ(report.counts.pairs_pruned, 0u) << where;
+      }
+      unmoved_total += report.counts.pairs_unmoved;
+      // Options changed for one update only: the next one changes them back (all recomputed).
+      options_changed_before = options_change;
+    }
+    EXPECT_GT(unmoved_total, 0u) << "seed " << seed;
+  }
+}
+
+}  // namespace
+}  // namespace nearpoint::server
