@@ -496,6 +496,8 @@ struct DdsBridge::Impl {
                      report.timing.geometry_us};
     sample.coalesced_updates = report.coalesced_updates;
     sample.coalesced_from_sequence = report.coalesced_from_sequence;
+    sample.counts = {report.counts.pairs_evaluated, report.counts.pairs_pruned,
+                     report.counts.pairs_unmoved};
     const dds_return_t written = dds_write(writer, &sample);
 
     std::lock_guard lock(mutex);

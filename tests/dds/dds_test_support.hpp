@@ -88,6 +88,7 @@ struct ReceivedReport {
   std::vector<ReceivedPair> pairs;
   std::uint32_t coalesced_updates = 0;
   std::uint64_t coalesced_from_sequence = 0;
+  std::uint32_t pairs_evaluated = 0, pairs_pruned = 0, pairs_unmoved = 0;
 };
 
 inline ReceivedReport copy_report(const cli::DistanceReportSample& sample) {
@@ -99,6 +100,9 @@ inline ReceivedReport copy_report(const cli::DistanceReportSample& sample) {
   out.message = sample.message;
   out.coalesced_updates = sample.coalesced_updates;
   out.coalesced_from_sequence = sample.coalesced_from_sequence;
+  out.pairs_evaluated = sample.counts.pairs_evaluated;
+  out.pairs_pruned = sample.counts.pairs_pruned;
+  out.pairs_unmoved = sample.counts.pairs_unmoved;
   for (std::uint32_t i = 0; i < sample.pairs._length; ++i) {
     const auto& p = sample.pairs._buffer[i];
     out.pairs.push_back({p.object_a, p.object_b, p.status, p.distance, p.error_bound,

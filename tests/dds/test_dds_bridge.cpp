@@ -183,6 +183,11 @@ TEST(DdsBridge, StreamAnswersEveryUpdateWithTheCoresDistances) {
     EXPECT_EQ(report.client_id, "test");
     EXPECT_EQ(report.coalesced_updates, 0u);
     ASSERT_EQ(report.pairs.size(), 3u);
+    // The counts cross DDS too: every pair counted once, nothing reused in the first report.
+    EXPECT_EQ(report.pairs_evaluated + report.pairs_pruned + report.pairs_unmoved, 3u);
+    if (k == 0) {
+      EXPECT_EQ(report.pairs_unmoved, 0u);
+    }
     const auto& poses = sent.at(report.sequence);
     for (const ReceivedPair& pair : report.pairs) {
       const std::size_t a = std::size_t(pair.object_a.back() - '0');
