@@ -159,6 +159,9 @@ struct SceneService::Job {
   std::shared_ptr<IncrementalState> state;
   /// The pairs (indices in scene->pairs) this evaluation hands to the engine.
   std::vector<std::uint32_t> evaluate;
+  /// Whether `state` outlives the job (a stream's): then the report gets a copy of its results,
+  /// else (a query's) they are moved into the report.
+  bool keep_state = true;
   Report report;
   Clock::time_point received;
   Clock::time_point started;
@@ -192,7 +195,10 @@ void SceneService::run(std::shared_ptr<Job> job) {
     // acq_rel: the last task sees every other task's pair results.
     if (job.tasks_left.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
     job.report.scene = job.scene;
-    job.report.pairs = state.pairs;
+    if (job.keep_state)
+      job.report.pairs = state.pairs;
+    else
+      job.report.pairs = std::move(state.pairs);
     finish_evaluation(std::move(job.poses), job.options, state);
     const Clock::time_point end = Clock::now();
     ReportTiming& timing = job.report.timing;
@@ -488,6 +494,7 @@ Outcome SceneService::query(const QueryInput& query, Clock::time_point received,
   job->options = options.value();
   job->received = received;
   job->state = std::make_shared<IncrementalState>();  // a query starts from nothing
+  job->keep_state = false;
   job->report.sequence = query.sequence;
   if (job->options.warm_start) {
     scene->copy_query_cache(job->own_caches);
