@@ -106,6 +106,10 @@ void to_proto(const QueryOptions& options, v1::QueryOptions& out) {
   if (options.gradient) out.set_gradient(*options.gradient);
   if (options.distance_cutoff) out.set_distance_cutoff(*options.distance_cutoff);
   if (options.warm_start) out.set_warm_start(*options.warm_start);
+  if (options.report_mode == ReportMode::all_pairs)
+    out.set_report_mode(v1::REPORT_MODE_ALL_PAIRS);
+  else if (options.report_mode == ReportMode::within_cutoff)
+    out.set_report_mode(v1::REPORT_MODE_WITHIN_CUTOFF);
   if (options.max_iterations)
     out.set_max_iterations(
         std::uint32_t(std::min<std::uint64_t>(*options.max_iterations, 0xFFFFFFFFull)));
@@ -192,6 +196,10 @@ Report from_proto(const v1::DistanceReport& report) {
                 report.timing().evaluation_us(), report.timing().geometry_us()};
   out.coalesced_updates = report.coalesced_updates();
   out.coalesced_from_sequence = report.coalesced_from_sequence();
+  out.counts = {report.counts().pairs_evaluated(), report.counts().pairs_pruned(),
+                report.counts().pairs_unmoved()};
+  out.mode = report.report_mode() == v1::REPORT_MODE_WITHIN_CUTOFF ? ReportMode::within_cutoff
+                                                                   : ReportMode::all_pairs;
   return out;
 }
 

@@ -1,5 +1,6 @@
 #include "incremental.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -13,8 +14,9 @@ bool same_pose(const Pose<double>& a, const Pose<double>& b) {
          std::memcmp(a.translation.data(), b.translation.data(), sizeof(double) * 3) == 0;
 }
 
-/// Every field of ResolvedOptions (and of DistanceOptions): a result is reused only under the
-/// options that produced it. A field added to either struct must be added here.
+/// Every field of ResolvedOptions (and of DistanceOptions) that changes a pair's result: a result
+/// is reused only under the options that produced it. A field added to either struct must be
+/// considered here. (report_mode only chooses which results are sent: not compared.)
 bool same_options(const ResolvedOptions& a, const ResolvedOptions& b) {
   const DistanceOptions<double>& x = a.engine;
   const DistanceOptions<double>& y = b.engine;
@@ -34,7 +36,31 @@ void report_pruned(const ScenePair& pair, double lower_bound, PairReport& out) {
   out.distance_lower_bound = lower_bound;
 }
 
+void set_near(IncrementalState& state, std::uint32_t pair, bool near) {
+  std::uint32_t& position = state.near_position[pair];
+  const bool listed = position != IncrementalState::kNotNear;
+  if (near == listed) return;
+  if (near) {
+    position = std::uint32_t(state.near_pairs.size());
+    state.near_pairs.push_back(pair);
+  } else {  // swap with the last and drop it
+    const std::uint32_t last = state.near_pairs.back();
+    state.near_pairs[position] = last;
+    state.near_position[last] = position;
+    state.near_pairs.pop_back();
+    position = IncrementalState::kNotNear;
+  }
+}
+
 }  // namespace
+
+bool within_cutoff(const PairReport& pair, double cutoff) {
+  // The engine may converge before a support plane proves the cutoff: then the pair is separated
+  // with a distance beyond it, and is left out as well. Problems (iteration limit, engine error)
+  // are always reported.
+  return pair.status != PairStatus::beyond_cutoff &&
+         !(pair.status == PairStatus::separated && pair.distance > cutoff);
+}
 
 void index_object_pairs(SceneDefinition& scene) {
   const std::size_t n = scene.objects.size();
@@ -62,6 +88,8 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
   const bool everything = first || !same_options(state.options, options);
   if (first) {
     state.pairs.assign(scene.pairs.size(), PairReport{});
+    state.near_pairs.clear();
+    state.near_position.assign(scene.pairs.size(), IncrementalState::kNotNear);
     state.broad_phase.reset(n);
     state.near_stamp.assign(n, 0);
   }
@@ -110,6 +138,7 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
         evaluate.push_back(p);
       } else {
         report_pruned(pair, gap, state.pairs[p]);
+        set_near(state, p, false);
         ++counts.pairs_pruned;
       }
     }
@@ -119,10 +148,28 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
 }
 
 void finish_evaluation(std::vector<Pose<double>> poses, const ResolvedOptions& options,
-                       IncrementalState& state) {
+                       const std::vector<std::uint32_t>& evaluated, IncrementalState& state) {
+  for (const std::uint32_t p : evaluated)
+    set_near(state, p, within_cutoff(state.pairs[p], options.engine.distance_cutoff));
   state.poses = std::move(poses);
   state.options = options;
   state.valid = true;
+}
+
+void collect_report(IncrementalState& state, ReportMode mode, bool state_dies,
+                    std::vector<PairReport>& out) {
+  if (mode != ReportMode::within_cutoff) {
+    if (state_dies)
+      out = std::move(state.pairs);
+    else
+      out = state.pairs;
+    return;
+  }
+  std::vector<std::uint32_t> order = state.near_pairs;
+  std::sort(order.begin(), order.end());  // the scene's pair order, as in all_pairs
+  out.clear();
+  out.reserve(order.size());
+  for (const std::uint32_t p : order) out.push_back(state.pairs[p]);
 }
 
 }  // namespace nearpoint::server

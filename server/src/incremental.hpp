@@ -26,11 +26,21 @@ struct IncrementalState {
   /// The latest result of every selected pair, in the scene's pair order.
   std::vector<PairReport> pairs;
   SweepAndPrune broad_phase;
+  /// The pairs whose latest result is `within_cutoff`, unordered, and each pair's position in
+  /// that list (kNotNear: absent). Kept up to date as results change, so that a within-cutoff
+  /// report costs the near pairs, not the scene.
+  static constexpr std::uint32_t kNotNear = 0xFFFFFFFFu;
+  std::vector<std::uint32_t> near_pairs;
+  std::vector<std::uint32_t> near_position;
   // Scratch space, kept to avoid allocating per update.
   std::vector<char> moved;
   std::vector<std::uint32_t> near_stamp;
   std::uint32_t stamp = 0;
 };
+
+/// Whether REPORT_MODE_WITHIN_CUTOFF reports `pair`: not BEYOND_CUTOFF, and not SEPARATED by more
+/// than `cutoff`.
+bool within_cutoff(const PairReport& pair, double cutoff);
 
 /// Fills the scene's pair index (each object's pairs, `SceneDefinition::object_pairs`).
 void index_object_pairs(SceneDefinition& scene);
@@ -42,8 +52,15 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
                      const ResolvedOptions& options, IncrementalState& state,
                      std::vector<std::uint32_t>& evaluate, ReportCounts& counts);
 
-/// Records a finished evaluation as the state the next one starts from.
+/// Records a finished evaluation as the state the next one starts from; `evaluated` are the
+/// pairs the engine ran (their results now in `state.pairs`).
 void finish_evaluation(std::vector<Pose<double>> poses, const ResolvedOptions& options,
-                       IncrementalState& state);
+                       const std::vector<std::uint32_t>& evaluated, IncrementalState& state);
+
+/// The report's pairs under `mode`, in the scene's pair order: every pair's latest result
+/// (all_pairs), or only those `within_cutoff` (within_cutoff). `state_dies`: the state is
+/// not used again (a query's), so its results may be moved out instead of copied.
+void collect_report(IncrementalState& state, ReportMode mode, bool state_dies,
+                    std::vector<PairReport>& out);
 
 }  // namespace nearpoint::server

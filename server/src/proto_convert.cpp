@@ -32,6 +32,9 @@ static_assert(wire::penetration_mode(v1::PENETRATION_MODE_UNSPECIFIED) ==
 static_assert(wire::penetration_mode(v1::PENETRATION_MODE_NONE) == PenetrationMode::none);
 static_assert(wire::penetration_mode(v1::PENETRATION_MODE_BOUND) == PenetrationMode::bound);
 static_assert(wire::penetration_mode(v1::PENETRATION_MODE_DEPTH) == PenetrationMode::depth);
+static_assert(wire::report_mode(v1::REPORT_MODE_UNSPECIFIED) == ReportMode::unspecified);
+static_assert(wire::report_mode(v1::REPORT_MODE_ALL_PAIRS) == ReportMode::all_pairs);
+static_assert(wire::report_mode(v1::REPORT_MODE_WITHIN_CUTOFF) == ReportMode::within_cutoff);
 static_assert(wire::flow_control(v1::FLOW_CONTROL_UNSPECIFIED) == FlowControl::block);
 static_assert(wire::flow_control(v1::FLOW_CONTROL_BLOCK) == FlowControl::block);
 static_assert(wire::flow_control(v1::FLOW_CONTROL_COALESCE) == FlowControl::coalesce);
@@ -126,6 +129,7 @@ QueryOptionsInput to_input(const v1::QueryOptions& options) {
   if (options.has_epsilon()) out.epsilon = options.epsilon();
   if (options.has_near_points()) out.near_points = options.near_points();
   out.penetration = wire::penetration_mode(options.penetration());
+  out.report_mode = wire::report_mode(options.report_mode());
   if (options.has_gradient()) out.gradient = options.gradient();
   if (options.has_distance_cutoff()) out.distance_cutoff = options.distance_cutoff();
   if (options.has_warm_start()) out.warm_start = options.warm_start();
@@ -242,6 +246,8 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
   counts.set_pairs_evaluated(report.counts.pairs_evaluated);
   counts.set_pairs_pruned(report.counts.pairs_pruned);
   counts.set_pairs_unmoved(report.counts.pairs_unmoved);
+  out.set_report_mode(report.mode == ReportMode::within_cutoff ? v1::REPORT_MODE_WITHIN_CUTOFF
+                                                               : v1::REPORT_MODE_ALL_PAIRS);
 }
 
 void to_proto(const Error& error, std::uint64_t sequence, v1::DistanceReport& out) {

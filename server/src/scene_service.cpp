@@ -160,7 +160,7 @@ struct SceneService::Job {
   /// The pairs (indices in scene->pairs) this evaluation hands to the engine.
   std::vector<std::uint32_t> evaluate;
   /// Whether `state` outlives the job (a stream's): then the report gets a copy of its results,
-  /// else (a query's) they are moved into the report.
+  /// else (a query's) they may be moved into the report.
   bool keep_state = true;
   Report report;
   Clock::time_point received;
@@ -195,11 +195,9 @@ void SceneService::run(std::shared_ptr<Job> job) {
     // acq_rel: the last task sees every other task's pair results.
     if (job.tasks_left.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
     job.report.scene = job.scene;
-    if (job.keep_state)
-      job.report.pairs = state.pairs;
-    else
-      job.report.pairs = std::move(state.pairs);
-    finish_evaluation(std::move(job.poses), job.options, state);
+    job.report.mode = job.options.report_mode;
+    finish_evaluation(std::move(job.poses), job.options, job.evaluate, state);
+    collect_report(state, job.options.report_mode, !job.keep_state, job.report.pairs);
     const Clock::time_point end = Clock::now();
     ReportTiming& timing = job.report.timing;
     timing.server_us = microseconds(end - job.received);

@@ -217,6 +217,9 @@ Expected<ResolvedOptions> resolve_options(const ResolvedOptions& base,
     out.engine.distance_cutoff = cutoff;
   }
   if (overrides.warm_start) out.warm_start = *overrides.warm_start;
+  if (overrides.report_mode == ReportMode::unknown)
+    return invalid_argument(field + ".report_mode", "unknown ReportMode value");
+  if (overrides.report_mode != ReportMode::unspecified) out.report_mode = overrides.report_mode;
   // Without warm starts every query starts as the paper's Section VI does, from one support
   // point: the comparison of Table I, which the demo reproduces. With them, a pair's first query
   // uses the engine's default start (support point and centroids' point).

@@ -81,4 +81,18 @@ constexpr FlowControl flow_control(std::int64_t value) {
   }
 }
 
+/// nearpoint.v1.ReportMode → ReportMode.
+constexpr ReportMode report_mode(std::int64_t value) {
+  switch (value) {
+    case 0:
+      return ReportMode::unspecified;
+    case 1:
+      return ReportMode::all_pairs;
+    case 2:
+      return ReportMode::within_cutoff;
+    default:
+      return ReportMode::unknown;
+  }
+}
+
 }  // namespace nearpoint::server::wire

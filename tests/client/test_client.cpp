@@ -314,6 +314,18 @@ TEST_F(WithServer, QueryAgreesWithTheEngine) {
       Shape<double>::capsule({0, 0, -1}, {0, 0, 1}, 0.25), Pose<double>::from_quaternion(q, t));
   EXPECT_NEAR(report->pairs[0].distance, truth.distance, 1e-12);
   EXPECT_EQ(report->pairs[0].status, client::PairStatus::separated);
+  EXPECT_EQ(report->mode, client::ReportMode::all_pairs);
+  EXPECT_EQ(report->counts.pairs_evaluated, 1u);
+
+  // Only what is near: with a cutoff below the distance, the within-cutoff report is empty.
+  client::QueryOptions near;
+  near.distance_cutoff = truth.distance / 2;
+  near.report_mode = client::ReportMode::within_cutoff;
+  auto empty = client->query(created->scene_id, {client::ObjectPose("rod", q, t)}, near);
+  ASSERT_TRUE(empty.ok()) << empty.status().describe();
+  EXPECT_EQ(empty->mode, client::ReportMode::within_cutoff);
+  EXPECT_TRUE(empty->pairs.empty());
+  EXPECT_EQ(empty->counts.pairs_evaluated + empty->counts.pairs_pruned, 1u);
 }
 
 // Back-pressure: with nothing consumed, push blocks once the window is full (until its deadline).

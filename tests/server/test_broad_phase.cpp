@@ -501,3 +501,99 @@ TEST(OnlyMovedObjects, StreamAnswersEqualRecomputingEverything) {
 
 }  // namespace
 }  // namespace nearpoint::server
+
+namespace nearpoint::server {
+namespace {
+
+// ---- report modes ----
+
+// REPORT_MODE_WITHIN_CUTOFF is the all-pairs report less its BEYOND_CUTOFF pairs, in the same
+// order, bit for bit, update after update while objects move in and out of range (the stream
+// keeps its list of near pairs as results change). Switching a stream's mode recomputes nothing.
+// A scene's default mode applies to queries.
+TEST(ReportModes, WithinCutoffIsAllPairsLessThoseBeyondIt) {
+  for (std::uint64_t seed = 0; seed < 4; ++seed) {
+    Rng rng(900 + seed);
+    SceneService service(ServiceLimits{}, 2);
+    const Vec3d center = Vec3d::Constant(seed % 2 ? 1e6 : 0);
+    const std::size_t n = 30;
+    RandomScene scene = make_scene(service, rng, n, center, 12);
+    Expected<SceneInfo> info = service.create_scene(scene.input);
+    ASSERT_TRUE(info.ok());
+    std::unique_ptr<PoseStream> all = std::move(service.open_stream().value());
+    std::unique_ptr<PoseStream> near = std::move(service.open_stream().value());
+    QueryOptionsInput options;
+    options.warm_start = false;
+    options.distance_cutoff = 0.75;
+    std::vector<PoseInput> poses = scene.poses;
+    std::size_t near_total = 0, beyond_total = 0;
+    for (int update = 0; update < 30; ++update) {
+      PoseUpdateInput input;
+      input.scene_id = info->scene_id;
+      input.sequence = std::uint64_t(update) + 1;
+      input.options = options;
+      for (std::size_t m = 0, k = 1 + rng() % 5; m < k; ++m) {
+        const std::size_t i = rng() % n;
+        bool listed = false;
+        for (const ObjectPoseInput& pose : input.poses)
+          listed |= pose.object_id == "o" + std::to_string(i);
+        if (listed) continue;
+        poses[i] = random_pose(rng, center, 6);
+        input.poses.push_back({scene.input.objects[i].id, poses[i]});
+      }
+      const Report expected = run_prepared(*all, *all->prepare(input, Clock::now()));
+      // The near stream switches to all pairs for a few updates and back.
+      const bool switched = update >= 20 && update < 23;
+      input.options.report_mode = switched ? ReportMode::all_pairs : ReportMode::within_cutoff;
+      const Report got = run_prepared(*near, *near->prepare(input, Clock::now()));
+      const std::string where =
+          "seed " + std::to_string(seed) + " update " + std::to_string(update);
+      EXPECT_EQ(expected.mode, ReportMode::all_pairs);
+      EXPECT_EQ(got.mode, switched ? ReportMode::all_pairs : ReportMode::within_cutoff) << where;
+      EXPECT_EQ(got.counts.pairs_evaluated, expected.counts.pairs_evaluated) << where;
+      EXPECT_EQ(got.counts.pairs_pruned, expected.counts.pairs_pruned) << where;
+      EXPECT_EQ(got.counts.pairs_unmoved, expected.counts.pairs_unmoved) << where;
+      std::vector<const PairReport*> filtered;
+      for (const PairReport& pair : expected.pairs)
+        if (switched || within_cutoff(pair, 0.75)) filtered.push_back(&pair);
+      ASSERT_EQ(got.pairs.size(), filtered.size()) << where;
+      for (std::size_t j = 0; j < filtered.size(); ++j)
+        expect_same_bits(got.pairs[j], *filtered[j], where + " entry " + std::to_string(j));
+      near_total += filtered.size();
+      beyond_total += expected.pairs.size() - filtered.size();
+    }
+    // Both sides of the cutoff occur.
+    EXPECT_GT(near_total, 30u) << "seed " << seed;
+    EXPECT_GT(beyond_total, 30u * 100) << "seed " << seed;
+
+    // The scene's default mode applies to a query that does not choose one.
+    SceneInput defaults = scene.input;
+    defaults.default_options.report_mode = ReportMode::within_cutoff;
+    defaults.default_options.distance_cutoff = 0.75;
+    Expected<SceneInfo> near_scene = service.create_scene(defaults);
+    ASSERT_TRUE(near_scene.ok());
+    QueryInput query;
+    query.scene_id = near_scene->scene_id;
+    const Report report = run_query(service, query);
+    EXPECT_EQ(report.mode, ReportMode::within_cutoff);
+    for (const PairReport& pair : report.pairs) {
+      EXPECT_NE(pair.status, PairStatus::beyond_cutoff);
+      if (pair.status == PairStatus::separated) {
+        EXPECT_LE(pair.distance, 0.75);
+      }
+    }
+    EXPECT_LT(report.pairs.size(), report.scene->pairs.size());
+  }
+}
+
+TEST(ReportModes, AnUnknownModeIsRefusedNamingTheField) {
+  QueryOptionsInput options;
+  options.report_mode = ReportMode::unknown;
+  Expected<ResolvedOptions> resolved = resolve_options(ResolvedOptions{}, options, "options");
+  ASSERT_FALSE(resolved.ok());
+  EXPECT_EQ(resolved.error().field, "options.report_mode");
+  EXPECT_EQ(resolved.error().code, ErrorCode::invalid_argument);
+}
+
+}  // namespace
+}  // namespace nearpoint::server

@@ -457,6 +457,27 @@ TEST_F(GrpcServerTest, PairsBeyondTheCutoffAreReportedWithALowerBound) {
   }
   EXPECT_EQ(beyond, 20);
   EXPECT_GT(skipped_by_spheres, 10);
+  // The counts say the same (a query has no previous report, so nothing is unmoved).
+  EXPECT_EQ(report.report_mode(), v1::REPORT_MODE_ALL_PAIRS);
+  EXPECT_EQ(report.counts().pairs_pruned(), std::uint32_t(skipped_by_spheres));
+  EXPECT_EQ(report.counts().pairs_evaluated() + report.counts().pairs_pruned(),
+            std::uint32_t(report.pairs_size()));
+  EXPECT_EQ(report.counts().pairs_unmoved(), 0u);
+
+  // REPORT_MODE_WITHIN_CUTOFF: the same answers less the BEYOND_CUTOFF pairs.
+  query.mutable_options()->set_report_mode(v1::REPORT_MODE_WITHIN_CUTOFF);
+  v1::DistanceReport near;
+  ASSERT_TRUE(stub().Query(make_context().get(), query, &near).ok());
+  EXPECT_EQ(near.report_mode(), v1::REPORT_MODE_WITHIN_CUTOFF);
+  ASSERT_EQ(near.pairs_size(), report.pairs_size() - beyond);  // the others are within 0.3
+  int j = 0;
+  for (const v1::PairDistance& pair : report.pairs()) {
+    if (pair.status() == v1::PAIR_STATUS_BEYOND_CUTOFF) continue;
+    EXPECT_EQ(near.pairs(j).object_a(), pair.object_a());
+    EXPECT_EQ(near.pairs(j).object_b(), pair.object_b());
+    EXPECT_NEAR(near.pairs(j).distance(), pair.distance(), 2 * pair.error_bound() + 1e-12);
+    ++j;
+  }
 }
 
 // ---- error paths ----
@@ -707,6 +728,11 @@ TEST_F(GrpcServerTest, InvalidQueriesAndUnknownIdsAreRejectedNamingTheField) {
        grpc::StatusCode::INVALID_ARGUMENT, "options.penetration"},
       {"negative cutoff", [](v1::QueryRequest& r) { r.mutable_options()->set_distance_cutoff(-1); },
        grpc::StatusCode::INVALID_ARGUMENT, "options.distance_cutoff"},
+      {"unknown report mode",
+       [](v1::QueryRequest& r) {
+         r.mutable_options()->set_report_mode(static_cast<v1::ReportMode>(42));
+       },
+       grpc::StatusCode::INVALID_ARGUMENT, "options.report_mode"},
       {"zero iteration cap",
        [](v1::QueryRequest& r) { r.mutable_options()->set_max_iterations(0); },
        grpc::StatusCode::INVALID_ARGUMENT, "options.max_iterations"},

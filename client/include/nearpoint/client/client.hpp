@@ -99,6 +99,8 @@ using SceneObject = model::ObjectInput;
 using PairSelection = model::PairSelectionInput;
 using QueryOptions = model::QueryOptionsInput;
 using PenetrationMode = model::PenetrationMode;
+using ReportMode = model::ReportMode;
+using ReportCounts = model::ReportCounts;
 using SceneInfo = model::SceneInfo;
 
 /// Conversions between Eigen poses and the plain structs' (w, x, y, z) + translation.
@@ -166,6 +168,10 @@ struct Report {
   ReportTiming timing;
   std::uint32_t coalesced_updates = 0;
   std::uint64_t coalesced_from_sequence = 0;
+  /// Pairs evaluated, pruned by the broad phase, skipped as unmoved (see nearpoint.v1).
+  ReportCounts counts;
+  /// Which pairs `pairs` holds: all selected ones, or those within the cutoff.
+  ReportMode mode = ReportMode::all_pairs;
   /// Client side: when the update was handed to the transport and when the report arrived.
   Clock::time_point sent, received;
 };

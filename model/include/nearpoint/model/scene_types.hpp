@@ -71,6 +71,10 @@ struct GeometryInfo {
 /// `unknown`: a value this server does not know (a newer client); rejected naming the field.
 enum class PenetrationMode : unsigned char { unspecified, none, bound, depth, unknown };
 
+/// Which pairs a report holds (see nearpoint.v1.ReportMode). `unknown`: a value this server does
+/// not know; rejected naming the field.
+enum class ReportMode : unsigned char { unspecified, all_pairs, within_cutoff, unknown };
+
 /// Option overrides; an unset field inherits (update → scene defaults → engine defaults).
 struct QueryOptionsInput {
   std::optional<double> epsilon;
@@ -80,6 +84,7 @@ struct QueryOptionsInput {
   std::optional<double> distance_cutoff;
   std::optional<bool> warm_start;
   std::optional<std::uint64_t> max_iterations;
+  ReportMode report_mode = ReportMode::unspecified;
 };
 
 struct ObjectInput {

@@ -35,6 +35,8 @@ struct StoredGeometry {
 struct ResolvedOptions {
   DistanceOptions<double> engine;
   bool warm_start = true;
+  /// all_pairs or within_cutoff (never unspecified/unknown once resolved).
+  ReportMode report_mode = ReportMode::all_pairs;
 };
 
 struct SceneObject {

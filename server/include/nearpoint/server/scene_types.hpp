@@ -28,6 +28,7 @@ using model::PoseUpdateInput;
 using model::QueryInput;
 using model::QueryOptionsInput;
 using model::ReportCounts;
+using model::ReportMode;
 using model::ReportTiming;
 using model::SceneInfo;
 using model::SceneInput;
@@ -42,6 +43,8 @@ struct Report {
   std::vector<PairReport> pairs;
   ReportTiming timing;
   ReportCounts counts;
+  /// Which pairs `pairs` holds: all selected (all_pairs) or those not beyond the cutoff.
+  ReportMode mode = ReportMode::all_pairs;
   std::uint32_t coalesced_updates = 0;
   std::uint64_t coalesced_from_sequence = 0;
 };
