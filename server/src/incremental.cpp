@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 namespace nearpoint::server {
 namespace {
@@ -88,6 +89,9 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
   const bool everything = first || !same_options(state.options, options);
   if (first) {
     state.pairs.assign(scene.pairs.size(), PairReport{});
+    state.pruned_pairs.clear();
+    state.pruned_listed.assign(scene.pairs.size(), 0);
+    state.pruned_bound.assign(scene.pairs.size(), std::numeric_limits<double>::quiet_NaN());
     state.near_pairs.clear();
     state.near_position.assign(scene.pairs.size(), IncrementalState::kNotNear);
     state.broad_phase.reset(n);
@@ -129,6 +133,7 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
       ++touched;
       if (!prune) {
         evaluate.push_back(p);
+        state.pruned_bound[p] = std::numeric_limits<double>::quiet_NaN();  // the engine writes it
         continue;
       }
       // A partner the sweep did not find is beyond the cutoff on some axis; one it found may
@@ -136,8 +141,13 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
       const double gap = box_gap(box_a, state.broad_phase.box(b));
       if (state.near_stamp[b] == state.stamp && !(gap > cutoff)) {
         evaluate.push_back(p);
+        state.pruned_bound[p] = std::numeric_limits<double>::quiet_NaN();  // the engine writes it
       } else {
-        report_pruned(pair, gap, state.pairs[p]);
+        if (!state.pruned_listed[p]) {
+          state.pruned_listed[p] = 1;
+          state.pruned_pairs.push_back(p);
+        }
+        state.pruned_bound[p] = gap;
         set_near(state, p, false);
         ++counts.pairs_pruned;
       }
@@ -156,9 +166,18 @@ void finish_evaluation(std::vector<Pose<double>> poses, const ResolvedOptions& o
   state.valid = true;
 }
 
-void collect_report(IncrementalState& state, ReportMode mode, bool state_dies,
-                    std::vector<PairReport>& out) {
+void collect_report(const SceneDefinition& scene, IncrementalState& state, ReportMode mode,
+                    bool state_dies, std::vector<PairReport>& out) {
   if (mode != ReportMode::within_cutoff) {
+    // Write the pruned pairs' entries now that a report shows them. A listed pair that went to
+    // the engine since has a NaN bound: its entry is already the engine's.
+    for (const std::uint32_t p : state.pruned_pairs) {
+      const double bound = state.pruned_bound[p];
+      if (!std::isnan(bound)) report_pruned(scene.pairs[p], bound, state.pairs[p]);
+      state.pruned_bound[p] = std::numeric_limits<double>::quiet_NaN();
+      state.pruned_listed[p] = 0;
+    }
+    state.pruned_pairs.clear();
     if (state_dies)
       out = std::move(state.pairs);
     else

@@ -23,8 +23,16 @@ struct IncrementalState {
   bool valid = false;
   std::vector<Pose<double>> poses;
   ResolvedOptions options;
-  /// The latest result of every selected pair, in the scene's pair order.
+  /// The latest result of every selected pair, in the scene's pair order, except the pairs listed
+  /// in `pruned_pairs`: those were pruned since and their entries are written (from
+  /// `pruned_bound`) only when a report shows them, so that a moved object's far partners cost a
+  /// double each per update, not a 250-byte PairReport.
   std::vector<PairReport> pairs;
+  std::vector<std::uint32_t> pruned_pairs;
+  /// Per pair: whether it is in `pruned_pairs` (listed once however often it is pruned), and the
+  /// boxes' gap when its entry is still to be written, else NaN.
+  std::vector<char> pruned_listed;
+  std::vector<double> pruned_bound;
   SweepAndPrune broad_phase;
   /// The pairs whose latest result is `within_cutoff`, unordered, and each pair's position in
   /// that list (kNotNear: absent). Kept up to date as results change, so that a within-cutoff
@@ -60,7 +68,7 @@ void finish_evaluation(std::vector<Pose<double>> poses, const ResolvedOptions& o
 /// The report's pairs under `mode`, in the scene's pair order: every pair's latest result
 /// (all_pairs), or only those `within_cutoff` (within_cutoff). `state_dies`: the state is
 /// not used again (a query's), so its results may be moved out instead of copied.
-void collect_report(IncrementalState& state, ReportMode mode, bool state_dies,
-                    std::vector<PairReport>& out);
+void collect_report(const SceneDefinition& scene, IncrementalState& state, ReportMode mode,
+                    bool state_dies, std::vector<PairReport>& out);
 
 }  // namespace nearpoint::server
