@@ -206,9 +206,9 @@ void SceneService::run(std::shared_ptr<Job> job) {
     timing.geometry_us = double(job.geometry_ns.load(std::memory_order_relaxed)) / 1000.0;
     job.complete(job);
   };
-  // Planning (which pairs moved, the broad phase) touches every pair of a moved object and copies
-  // results, so it runs on the pool too, never on a transport thread; it then splits the pairs
-  // that reach the engine into tasks, this one included.
+  // Planning (which objects moved, the broad phase) touches every pair of a moved object, and the
+  // last task copies results into the report, so both run on the pool, never on a transport
+  // thread; planning then splits the pairs that reach the engine into tasks, this one included.
   pool_.post([this, job, work] {
     job->started = Clock::now();  // time before this is queueing
     plan_evaluation(*job->scene, job->poses, job->options, *job->state, job->evaluate,
