@@ -3,8 +3,8 @@
 # Two components, so that an operator's machine does not pull the -dev packages:
 #   runtime — nearpointd, the nearpoint CLI, the DDS loopback configuration, the example files
 #   dev     — headers under include/nearpoint/, the static libraries, the CMake package
-#             (find_package(nearpoint CONFIG) → nearpoint::core, nearpoint::proto,
-#             nearpoint::client, and nearpoint::hull when CGAL is found) and nearpoint-core.pc
+#             (find_package(nearpoint CONFIG) → nearpoint::core, nearpoint::model,
+#             nearpoint::proto, nearpoint::client, and nearpoint::hull when CGAL is found) and nearpoint-core.pc
 # `cmake --install` installs both; cpack makes one .deb per component.
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
@@ -59,9 +59,10 @@ endif()
 if(TARGET nearpoint_proto AND TARGET nearpoint_client)
   set_target_properties(nearpoint_proto PROPERTIES EXPORT_NAME proto)
   set_target_properties(nearpoint_client PROPERTIES EXPORT_NAME client)
+  set_target_properties(nearpoint_model PROPERTIES EXPORT_NAME model)
   target_include_directories(nearpoint_proto
     PUBLIC $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/nearpoint/proto>)
-  install(TARGETS nearpoint_proto nearpoint_client EXPORT nearpoint-client-targets
+  install(TARGETS nearpoint_model nearpoint_proto nearpoint_client EXPORT nearpoint-client-targets
           ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev
           INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
   install(DIRECTORY ${PROJECT_BINARY_DIR}/proto/
@@ -69,11 +70,9 @@ if(TARGET nearpoint_proto AND TARGET nearpoint_client)
           FILES_MATCHING PATTERN "*.pb.h" PATTERN "CMakeFiles" EXCLUDE)
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/client/include/nearpoint
           DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev)
-  # The client's public header includes the scene API's request structs and limits. They live
-  # in server/include today (to move with the scene model library); only these two are public.
-  install(FILES ${PROJECT_SOURCE_DIR}/server/include/nearpoint/server/scene_types.hpp
-                ${PROJECT_SOURCE_DIR}/server/include/nearpoint/server/limits.hpp
-          DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/nearpoint/server COMPONENT dev)
+  # The scene model (header-only): the plain request and report structs of the client's API.
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/model/include/nearpoint
+          DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev)
   # The protocol for clients in other languages.
   install(DIRECTORY ${PROJECT_SOURCE_DIR}/proto/nearpoint
           DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/proto COMPONENT dev

@@ -26,7 +26,7 @@ Quat = Tuple[float, float, float, float]
 #: Seconds a unary call may take before it fails with DEADLINE_EXCEEDED.
 DEFAULT_TIMEOUT = 10.0
 # The largest message sent or received, bytes: nearpointd's --max-message-bytes default (16 MiB,
-# server/include/nearpoint/server/limits.hpp), so that every report the server can send arrives.
+# model/include/nearpoint/model/scene_types.hpp), so that every report the server can send arrives.
 # gRPC's own default receive limit, 4 MiB, would fail a large scene's reports with
 # RESOURCE_EXHAUSTED "Received message larger than max".
 DEFAULT_MAX_MESSAGE_BYTES = 16 * 1024 * 1024
