@@ -48,10 +48,15 @@ constexpr std::size_t kPoseGradient = 2 * delimited_field(1, kVector3);
 /// ReportTiming: four doubles (fields 1–4).
 constexpr std::size_t kTiming = 4 * fixed64_field(1);
 
+/// ReportCounts: three uint32 (fields 1–3).
+constexpr std::size_t kCounts = 3 * uint32_field(1);
+
 /// DistanceReport without its pairs and without `error` (reports with pairs have none):
-/// sequence = 1, timing = 4, coalesced_updates = 5, coalesced_from_sequence = 6.
-constexpr std::size_t kReportEnvelope =
-    uint64_field(1) + delimited_field(4, kTiming) + uint32_field(5) + uint64_field(6);
+/// sequence = 1, timing = 4, coalesced_updates = 5, coalesced_from_sequence = 6, counts = 7,
+/// report_mode = 8.
+constexpr std::size_t kReportEnvelope = uint64_field(1) + delimited_field(4, kTiming) +
+                                        uint32_field(5) + uint64_field(6) +
+                                        delimited_field(7, kCounts) + small_field(8);
 
 /// The content of one PairDistance whatever the options: status = 3, distance = 4,
 /// distance_lower_bound = 5, error_bound = 6, iterations = 7, piece_pairs_evaluated = 8,

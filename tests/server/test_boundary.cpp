@@ -202,8 +202,9 @@ TEST(ReportLimits, AReportTooLargeToSendIsReplacedByAnErrorReport) {
 TEST(ReportLimits, TheReportSizeBoundHoldsForWorstCaseReports) {
   namespace size = report_size;
   EXPECT_EQ(v1::PairDistance::descriptor()->field_count(), 21);
-  EXPECT_EQ(v1::DistanceReport::descriptor()->field_count(), 6);
+  EXPECT_EQ(v1::DistanceReport::descriptor()->field_count(), 8);
   EXPECT_EQ(v1::ReportTiming::descriptor()->field_count(), 4);
+  EXPECT_EQ(v1::ReportCounts::descriptor()->field_count(), 3);
 
   auto fill = [](v1::Vector3& v) {
     v.set_x(-1.5e300);
@@ -219,6 +220,13 @@ TEST(ReportLimits, TheReportSizeBoundHoldsForWorstCaseReports) {
       report.set_sequence(~std::uint64_t(0));
       report.set_coalesced_updates(~std::uint32_t(0));
       report.set_coalesced_from_sequence(~std::uint64_t(0));
+      report.mutable_counts()->set_pairs_evaluated(~0u);
+      report.mutable_counts()->set_pairs_pruned(~0u);
+      report.mutable_counts()->set_pairs_unmoved(~0u);
+      report.set_report_mode(
+          v1::ReportMode(v1::ReportMode_descriptor()
+                             ->value(v1::ReportMode_descriptor()->value_count() - 1)
+                             ->number()));
       v1::ReportTiming& timing = *report.mutable_timing();
       timing.set_server_us(1.5), timing.set_queue_us(1.5), timing.set_evaluation_us(1.5);
       timing.set_geometry_us(1.5);
