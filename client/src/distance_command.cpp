@@ -190,7 +190,7 @@ Json DistanceSession::answer_json(std::string_view text, long line_number) {
     if (!all_finite(r))
       throw LineError{
           "the engine returned a non-finite number, which it must never do: please "
-          "report this line (coordinates beyond about 1e150 are a known trigger)"};
+          "report this line"};
 
     out["status"] = status_name(r.status);
     out["distance"] = r.distance + 0.0;  // + 0.0 turns a -0 into 0
