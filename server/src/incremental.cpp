@@ -17,7 +17,8 @@ bool same_pose(const Pose<double>& a, const Pose<double>& b) {
 
 /// Every field of ResolvedOptions (and of DistanceOptions) that changes a pair's result: a result
 /// is reused only under the options that produced it. A field added to either struct must be
-/// considered here. (report_mode only chooses which results are sent: not compared.)
+/// considered here. (report_mode and change_tolerance only choose which results are sent: not
+/// compared.)
 bool same_options(const ResolvedOptions& a, const ResolvedOptions& b) {
   const DistanceOptions<double>& x = a.engine;
   const DistanceOptions<double>& y = b.engine;
@@ -166,29 +167,107 @@ void finish_evaluation(std::vector<Pose<double>> poses, const ResolvedOptions& o
   state.valid = true;
 }
 
-void collect_report(const SceneDefinition& scene, IncrementalState& state, ReportMode mode,
-                    bool state_dies, std::vector<PairReport>& out) {
-  if (mode != ReportMode::within_cutoff) {
-    // Write the pruned pairs' entries now that a report shows them. A listed pair that went to
-    // the engine since has a NaN bound: its entry is already the engine's.
-    for (const std::uint32_t p : state.pruned_pairs) {
-      const double bound = state.pruned_bound[p];
-      if (!std::isnan(bound)) report_pruned(scene.pairs[p], bound, state.pairs[p]);
-      state.pruned_bound[p] = std::numeric_limits<double>::quiet_NaN();
-      state.pruned_listed[p] = 0;
-    }
-    state.pruned_pairs.clear();
-    if (state_dies)
-      out = std::move(state.pairs);
-    else
-      out = state.pairs;
-    return;
+namespace {
+
+/// Writes the pruned pairs' entries now that a report needs every pair. A listed pair that went
+/// to the engine since has a NaN bound: its entry is already the engine's.
+void write_pruned(const SceneDefinition& scene, IncrementalState& state) {
+  for (const std::uint32_t p : state.pruned_pairs) {
+    const double bound = state.pruned_bound[p];
+    if (!std::isnan(bound)) report_pruned(scene.pairs[p], bound, state.pairs[p]);
+    state.pruned_bound[p] = std::numeric_limits<double>::quiet_NaN();
+    state.pruned_listed[p] = 0;
   }
-  std::vector<std::uint32_t> order = state.near_pairs;
-  std::sort(order.begin(), order.end());  // the scene's pair order, as in all_pairs
+  state.pruned_pairs.clear();
+}
+
+/// Whether pair `p` is nearer than pair `q` (ties: the earlier pair), so that the choice never
+/// depends on the order of the near list.
+bool nearer(const IncrementalState& state, std::uint32_t p, std::uint32_t q) {
+  const double dp = nearness(state.pairs[p]);
+  const double dq = nearness(state.pairs[q]);
+  return dp < dq || (dp == dq && p < q);
+}
+
+}  // namespace
+
+double nearness(const PairReport& pair) {
+  if (pair.status == PairStatus::intersecting || pair.status == PairStatus::engine_error) return 0;
+  return pair.distance;
+}
+
+void collect_report(const SceneDefinition& scene, IncrementalState& state,
+                    const ResolvedOptions& options, bool state_dies, std::vector<PairReport>& out) {
+  const ReportMode mode = options.report_mode;
+  // Any other mode shows the client values the changed baseline does not hold.
+  if (mode != ReportMode::changed) state.sent_valid = false;
   out.clear();
-  out.reserve(order.size());
-  for (const std::uint32_t p : order) out.push_back(state.pairs[p]);
+  switch (mode) {
+    case ReportMode::within_cutoff: {
+      std::vector<std::uint32_t> order = state.near_pairs;
+      std::sort(order.begin(), order.end());  // the scene's pair order, as in all_pairs
+      out.reserve(order.size());
+      for (const std::uint32_t p : order) out.push_back(state.pairs[p]);
+      return;
+    }
+    case ReportMode::nearest_per_object: {
+      // The candidates are the near pairs (those within_cutoff would report): pairs the broad
+      // phase pruned are beyond the cutoff, so the answer is the same with or without it.
+      constexpr std::uint32_t kNone = IncrementalState::kNotNear;
+      std::vector<std::uint32_t> best(scene.objects.size(), kNone);
+      for (const std::uint32_t p : state.near_pairs)
+        for (const std::uint32_t object : {scene.pairs[p].object_a, scene.pairs[p].object_b})
+          if (best[object] == kNone || nearer(state, p, best[object])) best[object] = p;
+      std::vector<std::uint32_t> chosen;
+      for (const std::uint32_t p : best)
+        if (p != kNone) chosen.push_back(p);
+      std::sort(chosen.begin(), chosen.end());
+      chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
+      out.reserve(chosen.size());
+      for (const std::uint32_t p : chosen) out.push_back(state.pairs[p]);
+      return;
+    }
+    case ReportMode::global_minimum: {
+      if (state.near_pairs.empty()) return;
+      std::uint32_t best = state.near_pairs.front();
+      for (const std::uint32_t p : state.near_pairs)
+        if (nearer(state, p, best)) best = p;
+      out.push_back(state.pairs[best]);
+      return;
+    }
+    case ReportMode::changed: {
+      // Every pair is compared: a pair's result changes only when it is evaluated or pruned, but
+      // a scan is simpler to trust than a second dirty list, and costs no engine call.
+      write_pruned(scene, state);
+      const std::size_t count = state.pairs.size();
+      const bool first = !state.sent_valid;
+      if (first) {
+        state.sent_status.assign(count, PairStatus::engine_error);
+        state.sent_distance.assign(count, 0);
+      }
+      const double tolerance = options.change_tolerance;
+      for (std::size_t p = 0; p < count; ++p) {
+        const PairReport& pair = state.pairs[p];
+        // A BEYOND_CUTOFF pair's lower bound moves with every pose: only its status counts.
+        const bool changed = first || pair.status != state.sent_status[p] ||
+                             (pair.status != PairStatus::beyond_cutoff &&
+                              !(std::abs(pair.distance - state.sent_distance[p]) <= tolerance));
+        if (!changed) continue;
+        out.push_back(pair);
+        state.sent_status[p] = pair.status;
+        state.sent_distance[p] = pair.distance;
+      }
+      state.sent_valid = true;
+      return;
+    }
+    default:  // all_pairs
+      write_pruned(scene, state);
+      if (state_dies)
+        out = std::move(state.pairs);
+      else
+        out = state.pairs;
+      return;
+  }
 }
 
 }  // namespace nearpoint::server

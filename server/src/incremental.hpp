@@ -40,6 +40,13 @@ struct IncrementalState {
   static constexpr std::uint32_t kNotNear = 0xFFFFFFFFu;
   std::vector<std::uint32_t> near_pairs;
   std::vector<std::uint32_t> near_position;
+  /// REPORT_MODE_CHANGED's baseline: each pair's status and distance as this stream last
+  /// reported them. Valid only while every report since the baseline was taken was a changed
+  /// one (another mode's report shows the client other values: the next changed report then
+  /// carries every pair).
+  bool sent_valid = false;
+  std::vector<PairStatus> sent_status;
+  std::vector<double> sent_distance;
   // Scratch space, kept to avoid allocating per update.
   std::vector<char> moved;
   std::vector<std::uint32_t> near_stamp;
@@ -65,10 +72,18 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
 void finish_evaluation(std::vector<Pose<double>> poses, const ResolvedOptions& options,
                        const std::vector<std::uint32_t>& evaluated, IncrementalState& state);
 
-/// The report's pairs under `mode`, in the scene's pair order: every pair's latest result
-/// (all_pairs), or only those `within_cutoff` (within_cutoff). `state_dies`: the state is
+/// How near a pair is, for REPORT_MODE_NEAREST_PER_OBJECT and REPORT_MODE_GLOBAL_MINIMUM:
+/// INTERSECTING and ENGINE_ERROR pairs rank as 0 (a failed pair is not proven far), the rest by
+/// `distance`. Only meaningful for pairs `within_cutoff`.
+double nearness(const PairReport& pair);
+
+/// The one place that selects a report's pairs from the stream's per-pair results, under
+/// `options.report_mode`, in the scene's pair order (see nearpoint.v1.ReportMode): every pair's
+/// latest result (all_pairs); those `within_cutoff`; each object's nearest pair among those
+/// (nearest_per_object); the nearest of them (global_minimum); or those changed since the
+/// stream's previous report (changed, which updates the baseline). `state_dies`: the state is
 /// not used again (a query's), so its results may be moved out instead of copied.
-void collect_report(const SceneDefinition& scene, IncrementalState& state, ReportMode mode,
-                    bool state_dies, std::vector<PairReport>& out);
+void collect_report(const SceneDefinition& scene, IncrementalState& state,
+                    const ResolvedOptions& options, bool state_dies, std::vector<PairReport>& out);
 
 }  // namespace nearpoint::server

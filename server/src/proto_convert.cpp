@@ -35,6 +35,10 @@ static_assert(wire::penetration_mode(v1::PENETRATION_MODE_DEPTH) == PenetrationM
 static_assert(wire::report_mode(v1::REPORT_MODE_UNSPECIFIED) == ReportMode::unspecified);
 static_assert(wire::report_mode(v1::REPORT_MODE_ALL_PAIRS) == ReportMode::all_pairs);
 static_assert(wire::report_mode(v1::REPORT_MODE_WITHIN_CUTOFF) == ReportMode::within_cutoff);
+static_assert(wire::report_mode(v1::REPORT_MODE_NEAREST_PER_OBJECT) ==
+              ReportMode::nearest_per_object);
+static_assert(wire::report_mode(v1::REPORT_MODE_GLOBAL_MINIMUM) == ReportMode::global_minimum);
+static_assert(wire::report_mode(v1::REPORT_MODE_CHANGED) == ReportMode::changed);
 static_assert(wire::flow_control(v1::FLOW_CONTROL_UNSPECIFIED) == FlowControl::block);
 static_assert(wire::flow_control(v1::FLOW_CONTROL_BLOCK) == FlowControl::block);
 static_assert(wire::flow_control(v1::FLOW_CONTROL_COALESCE) == FlowControl::coalesce);
@@ -134,6 +138,7 @@ QueryOptionsInput to_input(const v1::QueryOptions& options) {
   if (options.has_distance_cutoff()) out.distance_cutoff = options.distance_cutoff();
   if (options.has_warm_start()) out.warm_start = options.warm_start();
   if (options.has_max_iterations()) out.max_iterations = options.max_iterations();
+  if (options.has_change_tolerance()) out.change_tolerance = options.change_tolerance();
   return out;
 }
 
@@ -246,8 +251,23 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
   counts.set_pairs_evaluated(report.counts.pairs_evaluated);
   counts.set_pairs_pruned(report.counts.pairs_pruned);
   counts.set_pairs_unmoved(report.counts.pairs_unmoved);
-  out.set_report_mode(report.mode == ReportMode::within_cutoff ? v1::REPORT_MODE_WITHIN_CUTOFF
-                                                               : v1::REPORT_MODE_ALL_PAIRS);
+  switch (report.mode) {
+    case ReportMode::within_cutoff:
+      out.set_report_mode(v1::REPORT_MODE_WITHIN_CUTOFF);
+      break;
+    case ReportMode::nearest_per_object:
+      out.set_report_mode(v1::REPORT_MODE_NEAREST_PER_OBJECT);
+      break;
+    case ReportMode::global_minimum:
+      out.set_report_mode(v1::REPORT_MODE_GLOBAL_MINIMUM);
+      break;
+    case ReportMode::changed:
+      out.set_report_mode(v1::REPORT_MODE_CHANGED);
+      break;
+    default:
+      out.set_report_mode(v1::REPORT_MODE_ALL_PAIRS);
+      break;
+  }
 }
 
 void to_proto(const Error& error, std::uint64_t sequence, v1::DistanceReport& out) {

@@ -197,7 +197,7 @@ void SceneService::run(std::shared_ptr<Job> job) {
     job.report.scene = job.scene;
     job.report.mode = job.options.report_mode;
     finish_evaluation(std::move(job.poses), job.options, job.evaluate, state);
-    collect_report(*job.scene, state, job.options.report_mode, !job.keep_state, job.report.pairs);
+    collect_report(*job.scene, state, job.options, !job.keep_state, job.report.pairs);
     const Clock::time_point end = Clock::now();
     ReportTiming& timing = job.report.timing;
     timing.server_us = microseconds(end - job.received);

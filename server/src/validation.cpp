@@ -220,6 +220,14 @@ Expected<ResolvedOptions> resolve_options(const ResolvedOptions& base,
   if (overrides.report_mode == ReportMode::unknown)
     return invalid_argument(field + ".report_mode", "unknown ReportMode value");
   if (overrides.report_mode != ReportMode::unspecified) out.report_mode = overrides.report_mode;
+  if (overrides.change_tolerance) {
+    const double tolerance = *overrides.change_tolerance;
+    if (!(tolerance >= 0))  // NaN-safe
+      return invalid_argument(
+          field + ".change_tolerance",
+          text("must be >= 0 metres (+inf: status changes only) (got ", tolerance, ")"));
+    out.change_tolerance = tolerance;
+  }
   // Without warm starts every query starts as the paper's Section VI does, from one support
   // point: the comparison of Table I, which the demo reproduces. With them, a pair's first query
   // uses the engine's default start (support point and centroids' point).

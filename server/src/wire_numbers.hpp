@@ -90,6 +90,12 @@ constexpr ReportMode report_mode(std::int64_t value) {
       return ReportMode::all_pairs;
     case 2:
       return ReportMode::within_cutoff;
+    case 3:
+      return ReportMode::nearest_per_object;
+    case 4:
+      return ReportMode::global_minimum;
+    case 5:
+      return ReportMode::changed;
     default:
       return ReportMode::unknown;
   }

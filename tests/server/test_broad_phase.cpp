@@ -7,7 +7,9 @@
 #include <cmath>
 #include <cstring>
 #include <future>
+#include <limits>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <set>
 
@@ -584,6 +586,248 @@ TEST(ReportModes, WithinCutoffIsAllPairsLessThoseBeyondIt) {
     }
     EXPECT_LT(report.pairs.size(), report.scene->pairs.size());
   }
+}
+
+// ---- nearest per object, global minimum, changed: each against a brute-force reference ----
+
+/// The reference: a unary query in all-pairs mode with warm starts off, which runs every pair
+/// not pruned from scratch (a fresh state), at `poses`.
+Report recompute_all(SceneService& service, const std::string& scene_id,
+                     const std::vector<PoseInput>& poses, const SceneInput& scene, double cutoff) {
+  QueryInput query;
+  query.scene_id = scene_id;
+  query.options.warm_start = false;
+  query.options.distance_cutoff = cutoff;
+  query.options.report_mode = ReportMode::all_pairs;
+  for (std::size_t i = 0; i < poses.size(); ++i)
+    query.poses.push_back({scene.objects[i].id, poses[i]});
+  return run_query(service, query);
+}
+
+/// Brute force over every pair: may `pair` be a nearest pair (what within_cutoff reports), and
+/// how near is it (written out again here rather than calling nearness()).
+bool candidate(const PairReport& pair, double cutoff) {
+  if (pair.status == PairStatus::beyond_cutoff) return false;
+  return !(pair.status == PairStatus::separated && pair.distance > cutoff);
+}
+double how_near(const PairReport& pair) {
+  return pair.status == PairStatus::intersecting || pair.status == PairStatus::engine_error
+             ? 0.0
+             : pair.distance;
+}
+
+/// Moves 1-5 random objects in `poses` and lists them in `input`.
+void move_some(Rng& rng, const RandomScene& scene, const Vec3d& center, double spread,
+               std::vector<PoseInput>& poses, PoseUpdateInput& input) {
+  const std::size_t n = poses.size();
+  for (std::size_t m = 0, k = 1 + rng() % 5; m < k; ++m) {
+    const std::size_t i = rng() % n;
+    bool listed = false;
+    for (const ObjectPoseInput& pose : input.poses)
+      listed |= pose.object_id == scene.input.objects[i].id;
+    if (listed) continue;
+    poses[i] = random_pose(rng, center, spread);
+    input.poses.push_back({scene.input.objects[i].id, poses[i]});
+  }
+}
+
+// NEAREST_PER_OBJECT and GLOBAL_MINIMUM, from streams that move a few objects per update (so
+// most results are reused and many pairs pruned), against a recompute of every pair searched by
+// brute force: per object the nearest candidate (ties: the earlier pair), each pair once, in the
+// scene's order; and the single nearest. An object with no pair within the cutoff has no entry.
+TEST(ReportModes, NearestPerObjectAndGlobalMinimumMatchBruteForce) {
+  for (std::uint64_t seed = 0; seed < 4; ++seed) {
+    Rng rng(1300 + seed);
+    SceneService service(ServiceLimits{}, 2);
+    const Vec3d center = Vec3d::Constant(seed % 2 ? 1e6 : 0);
+    const std::size_t n = 30;
+    const double cutoff = seed == 3 ? std::numeric_limits<double>::infinity() : 0.75;
+    RandomScene scene = make_scene(service, rng, n, center, 12);
+    Expected<SceneInfo> info = service.create_scene(scene.input);
+    ASSERT_TRUE(info.ok());
+    std::unique_ptr<PoseStream> nearest = std::move(service.open_stream().value());
+    std::unique_ptr<PoseStream> global = std::move(service.open_stream().value());
+    std::vector<PoseInput> poses = scene.poses;
+    std::size_t lonely = 0, reported = 0, empty_global = 0;
+    for (int update = 0; update < 30; ++update) {
+      PoseUpdateInput input;
+      input.scene_id = info->scene_id;
+      input.sequence = std::uint64_t(update) + 1;
+      input.options.warm_start = false;
+      input.options.distance_cutoff = cutoff;
+      move_some(rng, scene, center, 6, poses, input);
+      input.options.report_mode = ReportMode::nearest_per_object;
+      const Report got = run_prepared(*nearest, *nearest->prepare(input, Clock::now()));
+      input.options.report_mode = ReportMode::global_minimum;
+      const Report got_global = run_prepared(*global, *global->prepare(input, Clock::now()));
+      const Report all = recompute_all(service, info->scene_id, poses, scene.input, cutoff);
+      const std::string where =
+          "seed " + std::to_string(seed) + " update " + std::to_string(update);
+      EXPECT_EQ(got.mode, ReportMode::nearest_per_object) << where;
+      EXPECT_EQ(got_global.mode, ReportMode::global_minimum) << where;
+
+      std::set<std::size_t> expected;  // pair indices
+      for (std::size_t object = 0; object < n; ++object) {
+        std::size_t best = all.pairs.size();
+        for (std::size_t p = 0; p < all.pairs.size(); ++p) {
+          const PairReport& pair = all.pairs[p];
+          if ((pair.object_a != object && pair.object_b != object) || !candidate(pair, cutoff))
+            continue;
+          if (best == all.pairs.size() || how_near(pair) < how_near(all.pairs[best])) best = p;
+        }
+        if (best == all.pairs.size())
+          ++lonely;
+        else
+          expected.insert(best);
+      }
+      ASSERT_EQ(got.pairs.size(), expected.size()) << where;
+      std::size_t j = 0;
+      for (const std::size_t p : expected)
+        expect_same_bits(got.pairs[j++], all.pairs[p], where + " pair " + std::to_string(p));
+      reported += expected.size();
+
+      std::size_t best = all.pairs.size();
+      for (std::size_t p = 0; p < all.pairs.size(); ++p)
+        if (candidate(all.pairs[p], cutoff) &&
+            (best == all.pairs.size() || how_near(all.pairs[p]) < how_near(all.pairs[best])))
+          best = p;
+      if (best == all.pairs.size()) {
+        EXPECT_TRUE(got_global.pairs.empty()) << where;
+        ++empty_global;
+      } else {
+        ASSERT_EQ(got_global.pairs.size(), 1u) << where;
+        expect_same_bits(got_global.pairs[0], all.pairs[best], where + " global");
+      }
+    }
+    // The modes select something, and (with a cutoff) some objects have no near pair at all.
+    EXPECT_GT(reported, 30u) << "seed " << seed;
+    if (std::isfinite(cutoff)) {
+      EXPECT_GT(lonely, 0u) << "seed " << seed;
+    } else {
+      EXPECT_EQ(lonely, 0u) << "seed " << seed;
+      EXPECT_EQ(empty_global, 0u) << "seed " << seed;
+    }
+  }
+}
+
+// CHANGED: across a sequence of updates (some coalesced, one switched to another mode), each
+// report holds exactly the pairs whose status differs from, or whose distance moved more than
+// change_tolerance from, what the stream last reported for that pair; the baseline kept here by
+// brute force from a recompute of every pair. The first report, and the first after another
+// mode's, carries every pair. A coalesced update reports what changed since the last report sent,
+// including changes made by the updates it absorbed.
+TEST(ReportModes, ChangedReportsWhatChangedSinceTheLastReportSent) {
+  for (std::uint64_t seed = 0; seed < 4; ++seed) {
+    Rng rng(1700 + seed);
+    SceneService service(ServiceLimits{}, 2);
+    const Vec3d center = Vec3d::Constant(seed % 2 ? 1e6 : 0);
+    const std::size_t n = 25;
+    const double cutoff = 1.0;
+    const double tolerance = seed == 2 ? 0.0 : 0.05;
+    RandomScene scene = make_scene(service, rng, n, center, 10);
+    Expected<SceneInfo> info = service.create_scene(scene.input);
+    ASSERT_TRUE(info.ok());
+    std::unique_ptr<PoseStream> stream = std::move(service.open_stream().value());
+    std::vector<PoseInput> poses = scene.poses;
+    std::vector<PairStatus> sent_status;
+    std::vector<double> sent_distance;
+    bool baseline = false;
+    std::size_t partial_reports = 0, coalesced_reports = 0;
+    std::uint64_t sequence = 0;
+    for (int update = 0; update < 30; ++update) {
+      const std::string where =
+          "seed " + std::to_string(seed) + " update " + std::to_string(update);
+      const bool other_mode = update == 15;
+      // Every fourth report merges three updates, as FLOW_CONTROL_COALESCE does; the earlier
+      // ones may move objects the last one does not.
+      const int merged = update % 4 == 3 ? 3 : 1;
+      std::optional<PreparedUpdate> prepared;
+      for (int m = 0; m < merged; ++m) {
+        PoseUpdateInput input;
+        input.scene_id = info->scene_id;
+        input.sequence = ++sequence;
+        input.options.warm_start = false;
+        input.options.distance_cutoff = cutoff;
+        input.options.change_tolerance = tolerance;
+        input.options.report_mode = other_mode ? ReportMode::all_pairs : ReportMode::changed;
+        // Small moves (some objects barely move): some pairs change band, some do not.
+        const double spread = update % 2 ? 5 : 0.02;
+        const std::size_t i = rng() % n;
+        if (spread < 1) {
+          poses[i].translation +=
+              Vec3d(uniform(rng, -spread, spread), uniform(rng, -spread, spread),
+                    uniform(rng, -spread, spread));
+        } else {
+          poses[i] = random_pose(rng, center, spread);
+        }
+        input.poses.push_back({scene.input.objects[i].id, poses[i]});
+        Expected<PreparedUpdate> next = stream->prepare(input, Clock::now());
+        ASSERT_TRUE(next.ok()) << where;
+        if (prepared) PoseStream::coalesce(*next, *prepared);
+        prepared = std::move(next.value());
+      }
+      const Report got = run_prepared(*stream, std::move(*prepared));
+      const Report all = recompute_all(service, info->scene_id, poses, scene.input, cutoff);
+      EXPECT_EQ(got.coalesced_updates, std::uint32_t(merged - 1)) << where;
+      if (other_mode) {
+        EXPECT_EQ(got.mode, ReportMode::all_pairs) << where;
+        EXPECT_EQ(got.pairs.size(), all.pairs.size()) << where;
+        baseline = false;
+        continue;
+      }
+      EXPECT_EQ(got.mode, ReportMode::changed) << where;
+      if (!baseline) {
+        sent_status.assign(all.pairs.size(), PairStatus::engine_error);
+        sent_distance.assign(all.pairs.size(), 0);
+      }
+      std::vector<std::size_t> expected;
+      for (std::size_t p = 0; p < all.pairs.size(); ++p) {
+        const PairReport& pair = all.pairs[p];
+        bool changed = !baseline || pair.status != sent_status[p];
+        if (!changed && pair.status != PairStatus::beyond_cutoff)
+          changed = std::abs(pair.distance - sent_distance[p]) > tolerance;
+        if (!changed) continue;
+        expected.push_back(p);
+        sent_status[p] = pair.status;
+        sent_distance[p] = pair.distance;
+      }
+      if (!baseline || update == 16) {
+        EXPECT_EQ(expected.size(), all.pairs.size()) << where;
+      }
+      baseline = true;
+      ASSERT_EQ(got.pairs.size(), expected.size()) << where;
+      for (std::size_t j = 0; j < expected.size(); ++j) {
+        const PairReport& want = all.pairs[expected[j]];
+        if (want.status == PairStatus::beyond_cutoff) {
+          // The lower bound depends on which update pruned the pair, not on the pose alone.
+          EXPECT_EQ(got.pairs[j].object_a, want.object_a) << where;
+          EXPECT_EQ(got.pairs[j].object_b, want.object_b) << where;
+          EXPECT_EQ(got.pairs[j].status, want.status) << where;
+        } else {
+          expect_same_bits(got.pairs[j], want, where + " pair " + std::to_string(expected[j]));
+        }
+      }
+      if (!expected.empty() && expected.size() < all.pairs.size()) ++partial_reports;
+      if (merged > 1 && !expected.empty()) ++coalesced_reports;
+    }
+    // The mode did filter, and coalesced reports did carry changes.
+    EXPECT_GT(partial_reports, 10u) << "seed " << seed;
+    EXPECT_GT(coalesced_reports, 2u) << "seed " << seed;
+  }
+}
+
+// A negative or NaN change tolerance is refused, naming the field.
+TEST(ReportModes, ABadChangeToleranceIsRefusedNamingTheField) {
+  for (const double bad : {-0.1, std::numeric_limits<double>::quiet_NaN()}) {
+    QueryOptionsInput options;
+    options.change_tolerance = bad;
+    Expected<ResolvedOptions> resolved = resolve_options(ResolvedOptions{}, options, "options");
+    ASSERT_FALSE(resolved.ok());
+    EXPECT_EQ(resolved.error().field, "options.change_tolerance");
+  }
+  QueryOptionsInput inf;
+  inf.change_tolerance = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(resolve_options(ResolvedOptions{}, inf, "options").ok());
 }
 
 TEST(ReportModes, AnUnknownModeIsRefusedNamingTheField) {

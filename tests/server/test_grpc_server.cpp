@@ -478,6 +478,25 @@ TEST_F(GrpcServerTest, PairsBeyondTheCutoffAreReportedWithALowerBound) {
     EXPECT_NEAR(near.pairs(j).distance(), pair.distance(), 2 * pair.error_bound() + 1e-12);
     ++j;
   }
+
+  // REPORT_MODE_GLOBAL_MINIMUM over the wire: the one nearest of the all-pairs report's
+  // candidates, named as such (the modes themselves are checked in test_broad_phase).
+  query.mutable_options()->set_report_mode(v1::REPORT_MODE_GLOBAL_MINIMUM);
+  v1::DistanceReport global;
+  ASSERT_TRUE(stub().Query(make_context().get(), query, &global).ok());
+  EXPECT_EQ(global.report_mode(), v1::REPORT_MODE_GLOBAL_MINIMUM);
+  ASSERT_EQ(global.pairs_size(), 1);
+  for (const v1::PairDistance& pair : report.pairs())
+    if (pair.status() != v1::PAIR_STATUS_BEYOND_CUTOFF) {
+      EXPECT_LE(global.pairs(0).distance(), pair.distance() + 2 * pair.error_bound() + 1e-12);
+    }
+  // A negative change_tolerance is refused naming the field.
+  query.mutable_options()->set_change_tolerance(-1);
+  v1::DistanceReport refused;
+  const grpc::Status status = stub().Query(make_context().get(), query, &refused);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_EQ(status.error_message().rfind("options.change_tolerance: ", 0), 0u)
+      << status.error_message();
 }
 
 // ---- error paths ----

@@ -73,7 +73,15 @@ enum class PenetrationMode : unsigned char { unspecified, none, bound, depth, un
 
 /// Which pairs a report holds (see nearpoint.v1.ReportMode). `unknown`: a value this server does
 /// not know; rejected naming the field.
-enum class ReportMode : unsigned char { unspecified, all_pairs, within_cutoff, unknown };
+enum class ReportMode : unsigned char {
+  unspecified,
+  all_pairs,
+  within_cutoff,
+  nearest_per_object,
+  global_minimum,
+  changed,
+  unknown
+};
 
 /// Option overrides; an unset field inherits (update → scene defaults → engine defaults).
 struct QueryOptionsInput {
@@ -85,6 +93,9 @@ struct QueryOptionsInput {
   std::optional<bool> warm_start;
   std::optional<std::uint64_t> max_iterations;
   ReportMode report_mode = ReportMode::unspecified;
+  /// REPORT_MODE_CHANGED: how far (metres, >= 0, +inf allowed) a pair's distance may move from
+  /// the one last reported before it is reported again. Default 0 (any change).
+  std::optional<double> change_tolerance;
 };
 
 struct ObjectInput {

@@ -35,8 +35,10 @@ struct StoredGeometry {
 struct ResolvedOptions {
   DistanceOptions<double> engine;
   bool warm_start = true;
-  /// all_pairs or within_cutoff (never unspecified/unknown once resolved).
+  /// Never unspecified/unknown once resolved.
   ReportMode report_mode = ReportMode::all_pairs;
+  /// REPORT_MODE_CHANGED's distance tolerance, metres (only chooses what is sent).
+  double change_tolerance = 0;
 };
 
 struct SceneObject {
