@@ -64,6 +64,21 @@ const char* to_string(PairStatus status) {
   return "engine_error";
 }
 
+const char* to_string(ReportMode mode) {
+  switch (mode) {
+    case ReportMode::within_cutoff:
+      return "within-cutoff";
+    case ReportMode::nearest_per_object:
+      return "nearest";
+    case ReportMode::global_minimum:
+      return "global";
+    case ReportMode::changed:
+      return "changed";
+    default:
+      return "all";
+  }
+}
+
 model::PoseInput to_pose_input(const Eigen::Quaterniond& rotation,
                                const Eigen::Vector3d& translation) {
   model::PoseInput pose;

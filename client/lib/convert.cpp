@@ -106,10 +106,26 @@ void to_proto(const QueryOptions& options, v1::QueryOptions& out) {
   if (options.gradient) out.set_gradient(*options.gradient);
   if (options.distance_cutoff) out.set_distance_cutoff(*options.distance_cutoff);
   if (options.warm_start) out.set_warm_start(*options.warm_start);
-  if (options.report_mode == ReportMode::all_pairs)
-    out.set_report_mode(v1::REPORT_MODE_ALL_PAIRS);
-  else if (options.report_mode == ReportMode::within_cutoff)
-    out.set_report_mode(v1::REPORT_MODE_WITHIN_CUTOFF);
+  switch (options.report_mode) {
+    case ReportMode::all_pairs:
+      out.set_report_mode(v1::REPORT_MODE_ALL_PAIRS);
+      break;
+    case ReportMode::within_cutoff:
+      out.set_report_mode(v1::REPORT_MODE_WITHIN_CUTOFF);
+      break;
+    case ReportMode::nearest_per_object:
+      out.set_report_mode(v1::REPORT_MODE_NEAREST_PER_OBJECT);
+      break;
+    case ReportMode::global_minimum:
+      out.set_report_mode(v1::REPORT_MODE_GLOBAL_MINIMUM);
+      break;
+    case ReportMode::changed:
+      out.set_report_mode(v1::REPORT_MODE_CHANGED);
+      break;
+    default:  // unspecified: inherit; unknown has no wire value
+      break;
+  }
+  if (options.change_tolerance) out.set_change_tolerance(*options.change_tolerance);
   if (options.max_iterations)
     out.set_max_iterations(
         std::uint32_t(std::min<std::uint64_t>(*options.max_iterations, 0xFFFFFFFFull)));
@@ -198,8 +214,23 @@ Report from_proto(const v1::DistanceReport& report) {
   out.coalesced_from_sequence = report.coalesced_from_sequence();
   out.counts = {report.counts().pairs_evaluated(), report.counts().pairs_pruned(),
                 report.counts().pairs_unmoved()};
-  out.mode = report.report_mode() == v1::REPORT_MODE_WITHIN_CUTOFF ? ReportMode::within_cutoff
-                                                                   : ReportMode::all_pairs;
+  switch (report.report_mode()) {
+    case v1::REPORT_MODE_WITHIN_CUTOFF:
+      out.mode = ReportMode::within_cutoff;
+      break;
+    case v1::REPORT_MODE_NEAREST_PER_OBJECT:
+      out.mode = ReportMode::nearest_per_object;
+      break;
+    case v1::REPORT_MODE_GLOBAL_MINIMUM:
+      out.mode = ReportMode::global_minimum;
+      break;
+    case v1::REPORT_MODE_CHANGED:
+      out.mode = ReportMode::changed;
+      break;
+    default:  // an older server sends 0: its reports hold every pair
+      out.mode = ReportMode::all_pairs;
+      break;
+  }
   return out;
 }
 

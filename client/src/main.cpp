@@ -320,6 +320,21 @@ Example:
   });
 }
 
+void add_report_mode_options(CLI::App& command, nearpoint::cli::ReportModeFlags& flags) {
+  command
+      .add_option("--mode", flags.mode,
+                  "Which pairs each report holds: all | within-cutoff | nearest (each object's "
+                  "nearest pair) | global (the one nearest pair) | changed (pairs whose status or "
+                  "distance changed since the previous report); default: the scene's")
+      ->check(CLI::IsMember({"all", "within-cutoff", "nearest", "global", "changed"}));
+  command.add_option("--cutoff", flags.cutoff,
+                     "distance_cutoff, metres: pairs proven farther are BEYOND_CUTOFF (and left "
+                     "out by within-cutoff, nearest and global)");
+  command.add_option("--change-tolerance", flags.change_tolerance,
+                     "--mode changed: metres a pair's distance may move before it is reported "
+                     "again (default 0: any change)");
+}
+
 void add_query_subcommand(CLI::App& app, int& exit_code) {
   auto options = std::make_shared<nearpoint::cli::QueryCommandOptions>();
   CLI::App* command = app.add_subcommand("query", "One-shot distances for a scene");
@@ -333,6 +348,7 @@ void add_query_subcommand(CLI::App& app, int& exit_code) {
   command->add_flag("--near-points", options->near_points, "Report near points and normals");
   command->add_option("--penetration", options->penetration,
                       "none | bound (d⁻, a certified lower bound on the penetration depth)");
+  add_report_mode_options(*command, options->report);
   add_remote_options(*command, options->remote);
   command->footer(std::string(R"(
 Examples:
@@ -365,6 +381,7 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(1, 4096));
   command->add_flag("--near-points", options->near_points, "Report near points and normals");
   command->add_option("--penetration", options->penetration, "none | bound");
+  add_report_mode_options(*command, options->report);
   add_remote_options(*command, options->remote);
 #if NEARPOINT_HAVE_DDS
   command->add_flag("--dds", *use_dds, "Stream over DDS (nearpointd --dds) instead of gRPC");

@@ -102,6 +102,28 @@ bool options_from_flags(bool near_points, const std::string& penetration, client
   return true;
 }
 
+bool options_from_mode_flags(const ReportModeFlags& flags, client::QueryOptions& out,
+                             std::ostream& err) {
+  if (flags.mode == "all")
+    out.report_mode = client::ReportMode::all_pairs;
+  else if (flags.mode == "within-cutoff")
+    out.report_mode = client::ReportMode::within_cutoff;
+  else if (flags.mode == "nearest")
+    out.report_mode = client::ReportMode::nearest_per_object;
+  else if (flags.mode == "global")
+    out.report_mode = client::ReportMode::global_minimum;
+  else if (flags.mode == "changed")
+    out.report_mode = client::ReportMode::changed;
+  else if (!flags.mode.empty()) {
+    err << "nearpoint: --mode must be all, within-cutoff, nearest, global or changed\n";
+    return false;
+  }
+  // The server checks the values and names the field; here only "given or not".
+  if (!std::isnan(flags.cutoff)) out.distance_cutoff = flags.cutoff;
+  if (!std::isnan(flags.change_tolerance)) out.change_tolerance = flags.change_tolerance;
+  return true;
+}
+
 std::string number(double value, int digits = 6) {
   std::ostringstream text;
   text << std::setprecision(digits) << value;
@@ -256,7 +278,8 @@ int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostrea
     poses.push_back(pose);
   }
   client::QueryOptions query_options;
-  if (!options_from_flags(options.near_points, options.penetration, query_options, err))
+  if (!options_from_flags(options.near_points, options.penetration, query_options, err) ||
+      !options_from_mode_flags(options.report, query_options, err))
     return kExitBadInput;
   auto client = connect(options.remote, err);
   if (!client) return kExitBadInput;
@@ -288,7 +311,8 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
     return kExitBadInput;
   }
   client::SessionOptions session_options;
-  if (!options_from_flags(options.near_points, options.penetration, session_options.options, err))
+  if (!options_from_flags(options.near_points, options.penetration, session_options.options, err) ||
+      !options_from_mode_flags(options.report, session_options.options, err))
     return kExitBadInput;
   auto client = connect(options.remote, err);
   if (!client) return kExitBadInput;

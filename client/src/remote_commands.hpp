@@ -4,6 +4,7 @@
 #pragma once
 
 #include <iosfwd>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,13 @@ struct SceneCreateOptions {
 };
 int run_scene_create(const SceneCreateOptions& options, std::ostream& out, std::ostream& err);
 
+/// --mode, --cutoff and --change-tolerance of query and stream (NaN: not given, inherit).
+struct ReportModeFlags {
+  std::string mode;  // "", all, within-cutoff, nearest, global, changed
+  double cutoff = std::numeric_limits<double>::quiet_NaN();
+  double change_tolerance = std::numeric_limits<double>::quiet_NaN();
+};
+
 struct QueryCommandOptions {
   RemoteOptions remote;
   /// A scene id on the server, or a scene file (created first).
@@ -43,6 +51,7 @@ struct QueryCommandOptions {
   std::vector<std::string> poses;  // OBJECT=tx,ty,tz[,qw,qx,qy,qz]
   bool near_points = false;
   std::string penetration;  // "", none, bound
+  ReportModeFlags report;
 };
 int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostream& err);
 
@@ -53,6 +62,7 @@ struct StreamCommandOptions {
   std::size_t window = 32;
   bool near_points = false;
   std::string penetration;
+  ReportModeFlags report;
   /// Seconds between progress lines on `err` (human mode); 0: none.
   double progress_every = 0.5;
 };

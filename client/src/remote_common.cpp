@@ -103,6 +103,7 @@ Json to_json(const client::Report& report) {
     pairs.push_back(std::move(pair));
   }
   out["pairs"] = std::move(pairs);
+  out["report_mode"] = client::to_string(report.mode);
   out["server_us"] = report.timing.server_us;
   out["geometry_us"] = report.timing.geometry_us;
   if (report.coalesced_updates > 0) out["coalesced_updates"] = report.coalesced_updates;

@@ -326,6 +326,21 @@ TEST_F(WithServer, QueryAgreesWithTheEngine) {
   EXPECT_EQ(empty->mode, client::ReportMode::within_cutoff);
   EXPECT_TRUE(empty->pairs.empty());
   EXPECT_EQ(empty->counts.pairs_evaluated + empty->counts.pairs_pruned, 1u);
+
+  // The other modes reach the server and come back named: nearest per object and changed (a
+  // query has no previous report, so it carries every pair) each hold the one pair.
+  for (const client::ReportMode mode :
+       {client::ReportMode::nearest_per_object, client::ReportMode::global_minimum,
+        client::ReportMode::changed}) {
+    client::QueryOptions options;
+    options.report_mode = mode;
+    options.change_tolerance = 0.01;
+    auto got = client->query(created->scene_id, {client::ObjectPose("rod", q, t)}, options);
+    ASSERT_TRUE(got.ok()) << got.status().describe();
+    EXPECT_EQ(got->mode, mode) << client::to_string(mode);
+    ASSERT_EQ(got->pairs.size(), 1u) << client::to_string(mode);
+    EXPECT_NEAR(got->pairs[0].distance, truth.distance, 1e-12);
+  }
 }
 
 // Back-pressure: with nothing consumed, push blocks once the window is full (until its deadline).

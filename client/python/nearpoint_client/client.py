@@ -203,6 +203,8 @@ class Report:
     server_us: float
     coalesced_updates: int
     raw: distance_pb.DistanceReport
+    # The mode that chose `pairs`: "all", "within-cutoff", "nearest", "global" or "changed".
+    report_mode: str = "all"
 
     @staticmethod
     def from_proto(r: distance_pb.DistanceReport) -> "Report":
@@ -214,7 +216,8 @@ class Report:
         return Report(sequence=r.sequence,
                       pairs=tuple(PairDistance.from_proto(p) for p in r.pairs),
                       error=error, server_us=r.timing.server_us,
-                      coalesced_updates=r.coalesced_updates, raw=r)
+                      coalesced_updates=r.coalesced_updates, raw=r,
+                      report_mode=_REPORT_MODE_NAMES.get(r.report_mode, "all"))
 
     def pair(self, object_a: str, object_b: str) -> PairDistance:
         """The entry for the pair (object_a, object_b), in either order; KeyError if absent."""
@@ -232,14 +235,28 @@ _PENETRATION = {
     "depth": scene_pb.PENETRATION_MODE_DEPTH,
 }
 
+# ReportMode by the CLI's names (nearpoint query/stream --mode).
+_REPORT_MODE = {
+    "all": scene_pb.REPORT_MODE_ALL_PAIRS,
+    "within-cutoff": scene_pb.REPORT_MODE_WITHIN_CUTOFF,
+    "nearest": scene_pb.REPORT_MODE_NEAREST_PER_OBJECT,
+    "global": scene_pb.REPORT_MODE_GLOBAL_MINIMUM,
+    "changed": scene_pb.REPORT_MODE_CHANGED,
+}
+_REPORT_MODE_NAMES = {value: name for name, value in _REPORT_MODE.items()}
+
 
 def query_options(epsilon: Optional[float] = None, near_points: Optional[bool] = None,
                   penetration: Optional[str] = None, gradient: Optional[bool] = None,
                   distance_cutoff: Optional[float] = None, warm_start: Optional[bool] = None,
-                  max_iterations: Optional[int] = None) -> scene_pb.QueryOptions:
+                  max_iterations: Optional[int] = None, report_mode: Optional[str] = None,
+                  change_tolerance: Optional[float] = None) -> scene_pb.QueryOptions:
     """Query options; every argument left as None inherits (update → scene → server defaults).
 
     `penetration` is "none" or "bound" (a certified lower bound on the penetration depth).
+    `report_mode` chooses which pairs a report holds: "all", "within-cutoff", "nearest" (each
+    object's nearest pair), "global" (the one nearest pair) or "changed" (pairs whose status, or
+    distance by more than `change_tolerance` metres, changed since the stream's previous report).
     """
     options = scene_pb.QueryOptions()
     if epsilon is not None:
@@ -259,6 +276,13 @@ def query_options(epsilon: Optional[float] = None, near_points: Optional[bool] =
         options.warm_start = warm_start
     if max_iterations is not None:
         options.max_iterations = max_iterations
+    if report_mode is not None:
+        if report_mode not in _REPORT_MODE:
+            raise ValueError(f"report_mode must be one of {sorted(_REPORT_MODE)}, "
+                             f"got {report_mode!r}")
+        options.report_mode = _REPORT_MODE[report_mode]
+    if change_tolerance is not None:
+        options.change_tolerance = change_tolerance
     return options
 
 
@@ -266,10 +290,18 @@ OptionsArg = Union[None, Mapping[str, object], scene_pb.QueryOptions]
 PoseArg = Union[geometry_pb.Pose, Sequence[float]]
 
 
-def _options(options: OptionsArg) -> Optional[scene_pb.QueryOptions]:
-    if options is None or isinstance(options, scene_pb.QueryOptions):
+def _options(options: OptionsArg,
+             report_mode: Optional[str] = None) -> Optional[scene_pb.QueryOptions]:
+    """The options as a message; `report_mode`, when given, overrides theirs."""
+    if options is not None and not isinstance(options, scene_pb.QueryOptions):
+        options = query_options(**options)
+    if report_mode is None:
         return options
-    return query_options(**options)
+    merged = scene_pb.QueryOptions()
+    if options is not None:
+        merged.CopyFrom(options)
+    merged.MergeFrom(query_options(report_mode=report_mode))
+    return merged
 
 
 def _pose(value: PoseArg) -> geometry_pb.Pose:
@@ -372,19 +404,23 @@ class Client:
         self._call(self._stub.DeleteScene, scene_pb.DeleteSceneRequest(scene_id=scene_id))
 
     def query(self, scene_id: str, poses: Mapping[str, PoseArg] = None,
-              options: OptionsArg = None, sequence: int = 0) -> Report:
+              options: OptionsArg = None, sequence: int = 0,
+              report_mode: Optional[str] = None) -> Report:
         """Distances for the scene with the given object poses (others at their initial pose).
-        An unknown scene raises NOT_FOUND, a bad pose INVALID_ARGUMENT naming the field."""
+        An unknown scene raises NOT_FOUND, a bad pose INVALID_ARGUMENT naming the field.
+        `report_mode` ("all", "within-cutoff", "nearest", "global", "changed") overrides the
+        options' and the scene's."""
         request = distance_pb.QueryRequest(scene_id=scene_id, sequence=sequence,
                                            poses=_object_poses(poses or {}))
-        query_opts = _options(options)
+        query_opts = _options(options, report_mode)
         if query_opts is not None:
             request.options.CopyFrom(query_opts)
         return Report.from_proto(self._call(self._stub.Query, request))
 
     def stream(self, scene_id: str, updates: Iterable[Union[Update, Mapping[str, PoseArg]]],
                options: OptionsArg = None, flow_control: str = "block",
-               timeout: Optional[float] = None) -> Iterator[Report]:
+               timeout: Optional[float] = None,
+               report_mode: Optional[str] = None) -> Iterator[Report]:
         """Streams pose updates to the scene and yields one `Report` per update, in order.
 
         `updates` is any iterable (it may be a generator that runs as long as the robot moves) of
@@ -394,10 +430,11 @@ class Client:
         the stream itself (server gone, `timeout` seconds exceeded) raises `NearpointError`.
         `flow_control`: "block" (every update answered) or "coalesce" (the server merges updates
         that arrive while it is busy; only the first update's choice counts).
+        `report_mode` (see `query_options`) applies to every bare update, overriding `options`'.
         """
         if flow_control not in _FLOW_CONTROL:
             raise ValueError(f"flow_control must be one of {sorted(_FLOW_CONTROL)}")
-        default_options = _options(options)
+        default_options = _options(options, report_mode)
 
         def requests():
             counter = itertools.count(1)

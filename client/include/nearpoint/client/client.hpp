@@ -127,6 +127,8 @@ struct ObjectPose {
 
 enum class PairStatus { separated, intersecting, beyond_cutoff, iteration_limit, engine_error };
 const char* to_string(PairStatus status);
+/// The mode's name as the CLI spells it: all, within-cutoff, nearest, global, changed.
+const char* to_string(ReportMode mode);
 
 /// One object pair's answer (see nearpoint.v1.PairDistance): world frame, metres.
 struct PairDistance {
