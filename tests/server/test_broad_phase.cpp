@@ -722,7 +722,8 @@ TEST(ReportModes, ChangedReportsWhatChangedSinceTheLastReportSent) {
     SceneService service(ServiceLimits{}, 2);
     const Vec3d center = Vec3d::Constant(seed % 2 ? 1e6 : 0);
     const std::size_t n = 25;
-    const double cutoff = 1.0;
+    // Without a cutoff every pair carries a distance, so drift below the tolerance is exercised.
+    const double cutoff = seed < 2 ? std::numeric_limits<double>::infinity() : 1.0;
     const double tolerance = seed == 2 ? 0.0 : 0.05;
     RandomScene scene = make_scene(service, rng, n, center, 10);
     Expected<SceneInfo> info = service.create_scene(scene.input);
@@ -751,8 +752,10 @@ TEST(ReportModes, ChangedReportsWhatChangedSinceTheLastReportSent) {
         input.options.change_tolerance = tolerance;
         input.options.report_mode = other_mode ? ReportMode::all_pairs : ReportMode::changed;
         // Small moves (some objects barely move): some pairs change band, some do not.
-        const double spread = update % 2 ? 5 : 0.02;
-        const std::size_t i = rng() % n;
+        // Small moves go to three objects only, so that their drift adds up over reports: a
+        // pair is reported once it moved more than the tolerance from what was last sent.
+        const double spread = update % 3 == 0 ? 5 : 0.02;
+        const std::size_t i = spread < 1 ? rng() % 3 : rng() % n;
         if (spread < 1) {
           poses[i].translation +=
               Vec3d(uniform(rng, -spread, spread), uniform(rng, -spread, spread),
@@ -811,8 +814,8 @@ TEST(ReportModes, ChangedReportsWhatChangedSinceTheLastReportSent) {
       if (merged > 1 && !expected.empty()) ++coalesced_reports;
     }
     // The mode did filter, and coalesced reports did carry changes.
-    EXPECT_GT(partial_reports, 10u) << "seed " << seed;
-    EXPECT_GT(coalesced_reports, 2u) << "seed " << seed;
+    EXPECT_GT(partial_reports, 4u) << "seed " << seed;
+    EXPECT_GT(coalesced_reports, 0u) << "seed " << seed;
   }
 }
 
