@@ -149,6 +149,28 @@ class PythonClientTest(unittest.TestCase):
         self.assertGreater(verdicts["separated"], 30, verdicts)
         self.assertGreater(verdicts["intersecting"], 20, verdicts)
 
+    def test_report_mode_passes_through(self):
+        """report_mode= reaches the server: "global" gives the all-pairs report's nearest pair and
+        the report names its mode; a stream in "changed" mode sends every pair first, then only
+        the pairs a move changed."""
+        ids = [self.register_box((0.5, 0.5, 0.5)) for _ in range(3)]
+        scene = self.client.create_scene({"a": (ids[0], (0, 0, 0)), "b": (ids[1], (3, 0, 0)),
+                                          "c": (ids[2], (0, 10, 0))})
+        everything = self.client.query(scene, {})
+        self.assertEqual(everything.report_mode, "all")
+        nearest = min(everything.pairs, key=lambda p: p.distance)
+        best = self.client.query(scene, {}, report_mode="global")
+        self.assertEqual(best.report_mode, "global")
+        self.assertEqual([(p.object_a, p.object_b) for p in best.pairs],
+                         [(nearest.object_a, nearest.object_b)])
+        reports = list(self.client.stream(scene, [{}, {"c": (0, 11, 0)}], report_mode="changed"))
+        self.assertEqual([r.report_mode for r in reports], ["changed", "changed"])
+        self.assertEqual(len(reports[0].pairs), 3)
+        self.assertEqual(sorted((p.object_a, p.object_b) for p in reports[1].pairs),
+                         [("a", "c"), ("b", "c")])
+        with self.assertRaises(ValueError):
+            npc.query_options(report_mode="nearest-ish")
+
     def test_stream_reports_in_order_with_sequences_and_warm_starts(self):
         fixed, moving = self.register_box((0.5, 0.5, 0.5)), self.register_box((0.3, 0.2, 0.1))
         scene = self.client.create_scene({"fixed": fixed, "moving": (moving, (3, 0, 0))})
