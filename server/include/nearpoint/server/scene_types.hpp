@@ -43,7 +43,7 @@ struct Report {
   std::vector<PairReport> pairs;
   ReportTiming timing;
   ReportCounts counts;
-  /// Which pairs `pairs` holds: all selected (all_pairs) or those not beyond the cutoff.
+  /// The mode that chose `pairs` (see nearpoint.v1.ReportMode; never unspecified/unknown).
   ReportMode mode = ReportMode::all_pairs;
   std::uint32_t coalesced_updates = 0;
   std::uint64_t coalesced_from_sequence = 0;
