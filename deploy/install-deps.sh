@@ -22,6 +22,8 @@ packages=(
   # Python client (client/python): Debian's /usr/bin/python3 with the runtimes matching the
   # protoc 3.21 / grpc_python_plugin 1.51 above, which generate its modules
   python3-grpcio python3-protobuf
+  # server: the Prometheus endpoint (--metrics-listen; optional at build time)
+  prometheus-cpp-dev
   # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged)
   cyclonedds-dev cyclonedds-tools
   # TLS tests (a throw-away CA made with openssl) and the deploy/k8s check (yamllint, PyYAML)

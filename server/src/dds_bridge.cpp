@@ -12,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "metrics.hpp"
 #include "nearpoint/server/log.hpp"
 #include "nearpoint_dds.hpp"
 #include "validation.hpp"
@@ -328,6 +329,7 @@ struct DdsBridge::Impl {
     std::string client_id = own(sample.client_id);
     std::lock_guard lock(mutex);
     ++stats.updates_taken;
+    metrics::record_dds_sample(/*in=*/true);
     // The same id and name rules as on gRPC, checked before the strings become a stream key, a
     // log value or the key of a report: an over-long or malformed scene id is answered (keyed by
     // its first bytes, for the writer's GUID) without opening a stream.
@@ -375,6 +377,7 @@ struct DdsBridge::Impl {
     StreamState& stream = *found->second;
     ++stream.updates;
     Expected<PreparedUpdate> prepared = stream.stream->prepare(input, received);
+    metrics::record_update(prepared ? nullptr : &prepared.error());
     if (!prepared) {
       // The error report is queued behind the stream's earlier answers, so that a stream's
       // reports, errors included, come in the order its updates were taken. (A stream whose
@@ -536,6 +539,7 @@ struct DdsBridge::Impl {
   bool count_write(dds_return_t written, std::uint64_t sequence, const StreamState* stream) {
     if (written >= 0) {
       ++stats.reports_written;
+      metrics::record_dds_sample(/*in=*/false);
       return true;
     }
     ++stats.write_failures;

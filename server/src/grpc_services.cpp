@@ -6,6 +6,7 @@
 #include <variant>
 #include <vector>
 
+#include "metrics.hpp"
 #include "nearpoint/server/log.hpp"
 #include "proto_convert.hpp"
 #include "tsan_handoff.hpp"
@@ -39,6 +40,7 @@ class UnaryCall {
       status =
           grpc::SerializationTraits<Response>::Serialize(response, response_bytes_, &own_buffer);
     }
+    metrics::record_grpc_status(rpc, status.error_code());
     reactor_->Finish(status);
     calls_.end_unary();
   }
@@ -136,7 +138,9 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
           .kv("peer", peer_)
           .kv("message", stream.error().message);
       finished_ = true;
-      Finish(to_grpc_status(stream.error()));
+      const grpc::Status refused = to_grpc_status(stream.error());
+      metrics::record_grpc_status("StreamPoses", refused.error_code());
+      Finish(refused);
       return;
     }
     stream_ = std::move(stream.value());
@@ -184,6 +188,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     const PoseUpdateInput update = to_input(parsed_);
     last_sequence_ = update.sequence;
     Expected<PreparedUpdate> prepared = stream_->prepare(update, Clock::now());
+    metrics::record_update(prepared ? nullptr : &prepared.error());
     if (!prepared) {
       ++updates_rejected_;
       const Error& error = prepared.error();
@@ -338,6 +343,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   void End(const grpc::Status& status, const char* reason) {
     finished_ = true;
     finish_reason_ = reason;
+    metrics::record_grpc_status("StreamPoses", status.error_code());
     Finish(status);
   }
 
@@ -564,7 +570,9 @@ void query(SceneService& scenes, std::size_t max_message_bytes,
   Outcome started =
       scenes.query(to_input(call->request), Clock::now(), [call, max_message_bytes](Report report) {
         to_proto(report, call->response);
-        if (auto error = check_report_fits(call->response, max_message_bytes)) {
+        auto error = check_report_fits(call->response, max_message_bytes);
+        metrics::record_query(error ? &*error : nullptr);
+        if (error) {
           log_error("report_too_large").kv("rpc", "Query").kv("message", error->message);
           call->response.Clear();
           call->finish(to_grpc_status(*error));
@@ -572,7 +580,10 @@ void query(SceneService& scenes, std::size_t max_message_bytes,
         }
         call->finish(grpc::Status::OK);
       });
-  if (!started) call->reject(started.error());
+  if (!started) {
+    metrics::record_query(&started.error());
+    call->reject(started.error());
+  }
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 //   nearpointd --scene cell.json [--scene other.yaml]   (preloads scenes under their ids)
 //   nearpointd --listen 0.0.0.0:50051 --tls-cert server.pem --tls-key server.key
 //              [--tls-client-ca clients-ca.pem] [--token-file token]   (or --insecure)
+//   nearpointd --metrics-listen 127.0.0.1:9464   (Prometheus text at /metrics; off by default)
 //
 // Both transports serve one SceneService: a scene created over gRPC is streamed to over DDS.
 // Logs one key=value line per event to stderr. SIGTERM or SIGINT: graceful shutdown (stop
@@ -19,6 +20,7 @@
 #include <memory>
 #include <thread>
 
+#include "metrics.hpp"
 #include "nearpoint/server/log.hpp"
 #include "nearpoint/server/scene_service.hpp"
 #include "nearpoint/server/server.hpp"
@@ -33,7 +35,6 @@ using nearpoint::server::LogLevel;
 using nearpoint::server::SceneService;
 using nearpoint::server::ServerConfig;
 
-#if NEARPOINT_HAVE_GRPC
 /// Writes the port atomically (temporary file, then rename), so a reader never sees a partial
 /// number.
 bool write_port_file(const std::string& path, int port) {
@@ -46,13 +47,14 @@ bool write_port_file(const std::string& path, int port) {
   std::filesystem::rename(temporary, path, error);
   return !error;
 }
-#endif
 
 }  // namespace
 
 int main(int argc, char** argv) {
   ServerConfig config;
   std::string port_file;
+  std::string metrics_listen;
+  std::string metrics_port_file;
   std::string log_level = "info";
   long long drain_timeout_ms = config.drain_timeout.count();
   long long flush_timeout_ms = config.flush_timeout.count();
@@ -95,6 +97,12 @@ int main(int argc, char** argv) {
                "Allow plaintext on a non-loopback --listen address (without it, TLS is required "
                "there)");
 #endif
+  app.add_option("--metrics-listen", metrics_listen,
+                 "Serve Prometheus metrics (plaintext HTTP, /metrics) on this IP:PORT (port 0: any "
+                 "free port); off when empty. A non-loopback address needs --insecure")
+      ->envname("NEARPOINT_METRICS_LISTEN");
+  app.add_option("--metrics-port-file", metrics_port_file,
+                 "Write the bound metrics port to this file once serving");
 #if NEARPOINT_HAVE_DDS
   bool dds = false;
   nearpoint::server::DdsConfig dds_config;
@@ -179,7 +187,26 @@ int main(int argc, char** argv) {
     }
     config.security = std::move(security.value());
   }
+  // The metrics endpoint is plaintext HTTP whatever the gRPC port uses, so off this machine it
+  // needs the same acknowledgement as a plaintext --listen.
+  if (!metrics_listen.empty() && !security_flags.insecure &&
+      !nearpoint::server::is_loopback_listen(metrics_listen)) {
+    nearpoint::server::log_error("start_failed")
+        .kv("flag", "--metrics-listen")
+        .kv("message", "'" + metrics_listen +
+                           "' is not a loopback address and metrics are plaintext HTTP: pass "
+                           "--insecure to serve them there");
+    return 2;
+  }
 #endif
+  if (!metrics_listen.empty() && !nearpoint::server::metrics::built_with_metrics()) {
+    nearpoint::server::log_error("start_failed")
+        .kv("flag", "--metrics-listen")
+        .kv("message",
+            "this nearpointd was built without metrics (NEARPOINT_WITH_METRICS=OFF): install "
+            "prometheus-cpp-dev and rebuild, or drop --metrics-listen");
+    return 2;
+  }
 
   // Block the shutdown signals in every thread (gRPC's and the pool's inherit this mask); this
   // thread then waits for them synchronously, outside any signal handler.
@@ -205,6 +232,26 @@ int main(int argc, char** argv) {
         .kv("scene_file", file)
         .kv("scene_id", preloaded->scene_id)
         .kv("pairs", preloaded->pair_count);
+  }
+
+  if (!metrics_listen.empty()) {
+    auto serving = nearpoint::server::metrics::start_metrics(metrics_listen, *scenes);
+    if (!serving) {
+      nearpoint::server::log_error("start_failed")
+          .kv("flag", serving.error().field)
+          .kv("message", serving.error().message);
+      return serving.error().code == nearpoint::server::ErrorCode::invalid_argument ? 2 : 1;
+    }
+    if (!metrics_port_file.empty() && !write_port_file(metrics_port_file, serving.value())) {
+      nearpoint::server::log_error("start_failed")
+          .kv("metrics_port_file", metrics_port_file)
+          .kv("message", "cannot write the metrics port file");
+      return 1;
+    }
+    nearpoint::server::log_info("metrics_listening")
+        .kv("metrics_listen", metrics_listen)
+        .kv("port", serving.value())
+        .kv("path", "/metrics");
   }
 
 #if NEARPOINT_HAVE_GRPC
@@ -273,5 +320,7 @@ int main(int argc, char** argv) {
 #if NEARPOINT_HAVE_GRPC
   server.shutdown();
 #endif
+  // Last: a scrape during the drain still sees the streams end.
+  nearpoint::server::metrics::stop_metrics();
   return 0;
 }

@@ -5,6 +5,7 @@
 
 #include "evaluation.hpp"
 #include "incremental.hpp"
+#include "metrics.hpp"
 #include "report_size.hpp"
 #include "validation.hpp"
 
@@ -126,6 +127,11 @@ std::string quoted(std::string_view value, std::size_t max_bytes) {
   return out;
 }
 
+std::size_t SceneService::geometry_count() const {
+  std::shared_lock lock(geometries_mutex_);
+  return geometries_.size();
+}
+
 // ---- scenes ----
 
 std::int64_t SceneDefinition::find_object(const std::string& object_id) const {
@@ -179,6 +185,8 @@ void SceneService::run(std::shared_ptr<Job> job) {
     IncrementalState& state = *job.state;
     const std::size_t count = job.evaluate.size();
     std::int64_t nanoseconds = 0;
+    metrics::PairTally tally;  // recorded once per task, not per pair
+    const bool tallying = metrics::enabled();
     for (;;) {
       const std::size_t i = job.next_pair.fetch_add(1, std::memory_order_relaxed);
       if (i >= count) break;
@@ -190,8 +198,10 @@ void SceneService::run(std::shared_ptr<Job> job) {
       const Clock::time_point begin = Clock::now();
       evaluate_pair(*job.scene, pair, job.poses, job.options, caches, state.pairs[p]);
       nanoseconds += std::chrono::nanoseconds(Clock::now() - begin).count();
+      if (tallying) tally.add(state.pairs[p].iterations, state.pairs[p].warm_started);
     }
     job.geometry_ns.fetch_add(nanoseconds, std::memory_order_relaxed);
+    if (tallying) metrics::record_pairs(tally);
     // acq_rel: the last task sees every other task's pair results.
     if (job.tasks_left.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
     job.report.scene = job.scene;
@@ -204,6 +214,9 @@ void SceneService::run(std::shared_ptr<Job> job) {
     timing.queue_us = microseconds(job.started - job.received);
     timing.evaluation_us = microseconds(end - job.started);
     timing.geometry_us = double(job.geometry_ns.load(std::memory_order_relaxed)) / 1000.0;
+    // A query's state is its own (keep_state false); a stream's outlives the job.
+    metrics::record_report(!job.keep_state, timing, job.report.counts,
+                           job.report.coalesced_updates);
     job.complete(job);
   };
   // Planning (which objects moved, the broad phase) touches every pair of a moved object, and the
@@ -432,6 +445,11 @@ Outcome SceneService::delete_scene(const std::string& scene_id) {
   }
   scene->mark_deleted();
   return {};
+}
+
+std::size_t SceneService::scene_count() const {
+  std::shared_lock lock(scenes_mutex_);
+  return scenes_.size();
 }
 
 std::shared_ptr<Scene> SceneService::find_scene(const std::string& scene_id) const {

@@ -205,6 +205,9 @@ class SceneService {
   const ServiceLimits& limits() const { return limits_; }
   std::size_t worker_count() const { return pool_.size(); }
   std::size_t open_streams() const { return open_streams_.load(); }
+  /// Live scenes and stored geometries (the metrics' gauges, read at each scrape).
+  std::size_t scene_count() const;
+  std::size_t geometry_count() const;
 
  private:
   friend class PoseStream;
