@@ -130,6 +130,18 @@ def main():
           "the Service targets the gRPC port")
     check("--tls-cert" in flags and "--tls-key" in flags or "--insecure" in flags,
           "non-loopback --listen with TLS (or --insecure)")
+    # The scrape annotations, the metrics containerPort and --metrics-listen name one port.
+    annotations = deployment["spec"]["template"].get("metadata", {}).get("annotations", {})
+    metrics_listen = flags.get("--metrics-listen", [""])[0]
+    check(bool(metrics_listen), "--metrics-listen is set (the pod is scraped)")
+    if metrics_listen:
+        metrics_port = int(metrics_listen.rsplit(":", 1)[1])
+        check(annotations.get("prometheus.io/scrape") == "true", "prometheus.io/scrape: true")
+        check(annotations.get("prometheus.io/port") == str(metrics_port),
+              f"prometheus.io/port = the --metrics-listen port {metrics_port}")
+        check(annotations.get("prometheus.io/path") == "/metrics", "prometheus.io/path: /metrics")
+        check(ports.get("metrics") == metrics_port,
+              f"containerPort metrics = the --metrics-listen port {metrics_port}")
 
     drain_s = int(flags.get("--drain-timeout-ms", ["5000"])[0]) / 1000
     grace = pod.get("terminationGracePeriodSeconds", 30)
