@@ -189,6 +189,14 @@ int main(int argc, char** argv) {
   }
   // The metrics endpoint is plaintext HTTP whatever the gRPC port uses, so off this machine it
   // needs the same acknowledgement as a plaintext --listen.
+  if (nearpoint::server::Outcome shape =
+          nearpoint::server::metrics::check_metrics_listen(metrics_listen);
+      !metrics_listen.empty() && !shape) {
+    nearpoint::server::log_error("start_failed")
+        .kv("flag", "--metrics-listen")
+        .kv("message", shape.error().message);
+    return 2;
+  }
   if (!metrics_listen.empty() && !security_flags.insecure &&
       !nearpoint::server::is_loopback_listen(metrics_listen)) {
     nearpoint::server::log_error("start_failed")

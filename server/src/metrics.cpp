@@ -48,6 +48,20 @@ const char* grpc_code_name(int code) {
 
 }  // namespace
 
+Outcome check_metrics_listen(const std::string& listen) {
+  const char* flag = "--metrics-listen";
+  // civetweb takes "IP:PORT" or "[IPv6]:PORT"; check the shape here so that the message names
+  // the flag rather than a civetweb internal.
+  const auto colon = listen.rfind(':');
+  const std::string port = colon == std::string::npos ? "" : listen.substr(colon + 1);
+  const bool digits = !port.empty() && port.size() <= 5 &&
+                      port.find_first_not_of("0123456789") == std::string::npos;
+  if (colon == 0 || colon == std::string::npos || !digits || std::stol(port) > 65535)
+    return invalid_argument(
+        flag, text("'", listen, "' is not HOST:PORT (e.g. 127.0.0.1:9464; port 0: any free port)"));
+  return {};
+}
+
 #if NEARPOINT_HAVE_METRICS
 
 namespace {
@@ -246,15 +260,7 @@ void record_dds_sample(bool in) {
 
 Expected<int> start_metrics(const std::string& listen, const SceneService& scenes) {
   const char* flag = "--metrics-listen";
-  // civetweb takes "IP:PORT" or "[IPv6]:PORT"; check the shape here so that the message names
-  // the flag rather than a civetweb internal.
-  const auto colon = listen.rfind(':');
-  const std::string port = colon == std::string::npos ? "" : listen.substr(colon + 1);
-  const bool digits = !port.empty() && port.size() <= 5 &&
-                      port.find_first_not_of("0123456789") == std::string::npos;
-  if (colon == 0 || colon == std::string::npos || !digits || std::stol(port) > 65535)
-    return invalid_argument(
-        flag, text("'", listen, "' is not HOST:PORT (e.g. 127.0.0.1:9464; port 0: any free port)"));
+  if (Outcome shape = check_metrics_listen(listen); !shape) return shape.error();
   std::lock_guard lock(g_start_mutex);
   if (state()) return invalid_argument(flag, "the metrics endpoint is already serving");
   auto fresh = std::make_unique<State>();

@@ -65,6 +65,10 @@ void record_dds_sample(bool in);
 /// Whether this build has the endpoint (NEARPOINT_WITH_METRICS).
 bool built_with_metrics();
 
+/// Checks the shape of a --metrics-listen value (IP:PORT, port 0 … 65535) without binding, so
+/// that a malformed value is named as such before any other check looks at its host.
+Outcome check_metrics_listen(const std::string& listen);
+
 /// Serves the metrics on `listen` (HOST:PORT, port 0: any free port) and turns the hooks on. The
 /// gauges (open streams, scenes, geometries) are read from `scenes` at each scrape, so `scenes`
 /// must outlive stop_metrics(). Returns the bound port. The error's field is "--metrics-listen".

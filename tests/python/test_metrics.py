@@ -64,11 +64,12 @@ def main():
     import nearpoint_client as npc
 
     # Bad configuration stops the server at start (exit 2) with a message naming the flag.
-    for bad, why in (("nonsense", "not HOST:PORT"), ("127.0.0.1:99999", "port out of range"),
-                     ("0.0.0.0:0", "non-loopback without --insecure")):
+    for bad, why, expect in (("nonsense", "not HOST:PORT", "not HOST:PORT"),
+                             ("127.0.0.1:99999", "port out of range", "not HOST:PORT"),
+                             ("0.0.0.0:0", "non-loopback without --insecure", "--insecure")):
         run = subprocess.run([args.nearpointd, "--listen", "127.0.0.1:0", "--metrics-listen", bad],
                              capture_output=True, text=True, timeout=30)
-        check(run.returncode == 2 and "--metrics-listen" in run.stderr,
+        check(run.returncode == 2 and "--metrics-listen" in run.stderr and expect in run.stderr,
               f"--metrics-listen {bad} ({why}): exit 2 naming the flag (got {run.returncode}: "
               f"{run.stderr.strip()[-200:]})")
 
