@@ -131,50 +131,106 @@ Shape<S> read_shape(ByteReader& in, int scale, bool& finite_flag) {
 }
 
 // ---- the reference: support functions in long double, from the shapes' definitions ----
+// Plain scalar code rather than Eigen expressions: it runs for every input, and in a coverage-
+// instrumented build each of Eigen's small loops costs a comparison callback.
 
+struct P3 {
+  LD x = 0, y = 0, z = 0;
+};
+inline LD dot(const P3& a, const P3& b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+inline LD norm(const P3& a) {
+  return std::sqrt(dot(a, a));
+}
+inline P3 operator-(const P3& a, const P3& b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+inline P3 operator*(LD k, const P3& a) {
+  return {k * a.x, k * a.y, k * a.z};
+}
 template <class S>
-V3L ld(const Vec3<S>& v) {
-  return v.template cast<LD>();
+P3 p3(const Vec3<S>& v) {
+  return {LD(v.x()), LD(v.y()), LD(v.z())};
 }
 
-// h_C(u) of the core (radius excluded), local frame.
+// One piece placed in the world by the very floating-point rotation and translation entries the
+// engine was given (composed here as the engine composes them): vertex shapes as their world
+// vertices, smooth ones by their parameters and frame. h(u) = h_core(u) + r|u|.
+struct RefPiece {
+  enum Kind { vertices, cylinder, cone, ellipsoid } kind = vertices;
+  std::vector<P3> world;  // vertex shapes: R·v + t
+  LD rot[9] = {};         // smooth shapes: R (row-major) and t
+  P3 t;
+  LD p0 = 0, p1 = 0, p2 = 0;  // cylinder/cone: radius, half height; ellipsoid: radii
+  LD radius = 0;
+
+  LD support(const P3& u) const {
+    LD h;
+    if (kind == vertices) {
+      h = -std::numeric_limits<LD>::infinity();
+      for (const P3& w : world) h = std::max(h, dot(u, w));
+    } else {
+      const P3 l{rot[0] * u.x + rot[3] * u.y + rot[6] * u.z,
+                 rot[1] * u.x + rot[4] * u.y + rot[7] * u.z,
+                 rot[2] * u.x + rot[5] * u.y + rot[8] * u.z};  // Rᵀu
+      const LD radial = std::sqrt(l.x * l.x + l.y * l.y);
+      if (kind == cylinder)
+        h = p0 * radial + p1 * std::abs(l.z);
+      else if (kind == cone)
+        h = std::max(p1 * l.z, -p1 * l.z + p0 * radial);
+      else
+        h = std::sqrt((p0 * l.x) * (p0 * l.x) + (p1 * l.y) * (p1 * l.y) + (p2 * l.z) * (p2 * l.z));
+      h += dot(u, t);
+    }
+    return h + radius * norm(u);
+  }
+};
+
 template <class S>
-LD core_support(const Shape<S>& shape, const V3L& u) {
-  return std::visit(
-      [&](const auto& g) -> LD {
+RefPiece reference_piece(const Shape<S>& shape, const Pose<S>& pose) {
+  RefPiece out;
+  out.radius = shape.radius;
+  for (int i = 0; i < 9; ++i) out.rot[i] = LD(pose.rotation(i / 3, i % 3));
+  out.t = p3(pose.translation);
+  const auto place = [&](const Vec3<S>& v) {
+    const P3 l = p3(v);
+    out.world.push_back({out.rot[0] * l.x + out.rot[1] * l.y + out.rot[2] * l.z + out.t.x,
+                         out.rot[3] * l.x + out.rot[4] * l.y + out.rot[5] * l.z + out.t.y,
+                         out.rot[6] * l.x + out.rot[7] * l.y + out.rot[8] * l.z + out.t.z});
+  };
+  std::visit(
+      [&](const auto& g) {
         using G = std::decay_t<decltype(g)>;
         if constexpr (std::is_same_v<G, Point>) {
-          return 0;
+          place(Vec3<S>::Zero());
         } else if constexpr (std::is_same_v<G, Segment<S>>) {
-          return std::max(u.dot(ld(g.a)), u.dot(ld(g.b)));
+          place(g.a);
+          place(g.b);
         } else if constexpr (std::is_same_v<G, Box<S>>) {
-          const V3L h = ld(g.half_extents);
-          return std::abs(u.x()) * h.x() + std::abs(u.y()) * h.y() + std::abs(u.z()) * h.z();
+          for (int c = 0; c < 8; ++c)
+            place(Vec3<S>((c & 1) ? g.half_extents.x() : -g.half_extents.x(),
+                          (c & 2) ? g.half_extents.y() : -g.half_extents.y(),
+                          (c & 4) ? g.half_extents.z() : -g.half_extents.z()));
         } else if constexpr (std::is_same_v<G, Polytope<S>>) {
-          LD best = -std::numeric_limits<LD>::infinity();
-          for (std::size_t i = 0; i < g.size(); ++i) best = std::max(best, u.dot(ld(g.vertex(i))));
-          return best;
+          for (std::size_t i = 0; i < g.size(); ++i) place(g.vertex(i));
         } else if constexpr (std::is_same_v<G, Cylinder<S>>) {
-          return LD(g.radius) * std::hypot(u.x(), u.y()) + LD(g.half_height) * std::abs(u.z());
+          out.kind = RefPiece::cylinder;
+          out.p0 = g.radius;
+          out.p1 = g.half_height;
         } else if constexpr (std::is_same_v<G, Cone<S>>) {
-          const LD apex = LD(g.half_height) * u.z();
-          const LD base = -LD(g.half_height) * u.z() + LD(g.radius) * std::hypot(u.x(), u.y());
-          return std::max(apex, base);
+          out.kind = RefPiece::cone;
+          out.p0 = g.radius;
+          out.p1 = g.half_height;
         } else {
-          const V3L r = ld(g.radii);
-          return std::sqrt(LD(r.x() * u.x()) * (r.x() * u.x()) + (r.y() * u.y()) * (r.y() * u.y()) +
-                           (r.z() * u.z()) * (r.z() * u.z()));
+          out.kind = RefPiece::ellipsoid;
+          out.p0 = g.radii.x();
+          out.p1 = g.radii.y();
+          out.p2 = g.radii.z();
         }
       },
       shape.geometry);
-}
-
-// h(u) of a placed, rounded shape, world frame: h_C(Rᵀu) + u·t + r|u|, with R and t the very
-// floating-point entries the engine was given.
-template <class S>
-LD placed_support(const Shape<S>& shape, const Pose<S>& pose, const V3L& u) {
-  const V3L local = pose.rotation.template cast<LD>().transpose() * u;
-  return core_support(shape, local) + u.dot(ld(pose.translation)) + LD(shape.radius) * u.norm();
+  return out;
 }
 
 template <class S>
@@ -182,30 +238,36 @@ Pose<S> piece_pose(const Body<S>& body, std::size_t i) {
   return body.pose.compose(body.pieces[i].offset);
 }
 
-// h of the union of a body's pieces (of its convex hull, which is what a bracket can see).
-template <class S>
-LD body_support(const Body<S>& body, const V3L& u) {
-  LD best = -std::numeric_limits<LD>::infinity();
-  for (std::size_t i = 0; i < body.pieces.size(); ++i)
-    best = std::max(best, placed_support(body.pieces[i].shape, piece_pose(body, i), u));
-  return best;
-}
+// A body's pieces for the reference, and h of their union (of its convex hull: what a bracket
+// can see), and a magnitude bounding every coordinate the engine handled for the body: a few ulps
+// of it is the rounding a correct answer may carry beyond its error bound in world coordinates.
+struct RefBody {
+  std::vector<RefPiece> pieces;
+  LD magnitude = 0;
+  P3 centre_sum;
 
-// A magnitude that bounds every coordinate the engine handled for the body: a few ulps of it is
-// the rounding a correct answer may carry beyond its error bound in a world-frame coordinate.
+  LD support(const P3& u) const {
+    LD best = -std::numeric_limits<LD>::infinity();
+    for (const RefPiece& p : pieces) best = std::max(best, p.support(u));
+    return best;
+  }
+};
+
 template <class S>
-LD body_magnitude(const Body<S>& body) {
-  LD m = 0;
+RefBody reference_body(const Body<S>& body) {
+  RefBody out;
   for (std::size_t i = 0; i < body.pieces.size(); ++i) {
     const Pose<S> pose = piece_pose(body, i);
     const Shape<S>& s = body.pieces[i].shape;
-    m = std::max(m, LD(pose.translation.template cast<LD>().norm()) +
-                        LD(core_center(s).template cast<LD>().norm()) + LD(core_extent(s)) +
-                        LD(s.radius));
-    m = std::max(m, LD(body.pieces[i].offset.translation.template cast<LD>().norm()) +
-                        LD(body.pose.translation.template cast<LD>().norm()));
+    out.pieces.push_back(reference_piece(s, pose));
+    const P3 c = p3(pose.apply(core_center(s)));
+    out.centre_sum = {out.centre_sum.x + c.x, out.centre_sum.y + c.y, out.centre_sum.z + c.z};
+    out.magnitude = std::max(out.magnitude, norm(p3(pose.translation)) + norm(p3(core_center(s))) +
+                                                LD(core_extent(s)) + LD(s.radius));
+    out.magnitude = std::max(out.magnitude, norm(p3(body.pieces[i].offset.translation)) +
+                                                norm(p3(body.pose.translation)));
   }
-  return m;
+  return out;
 }
 
 template <class S>
@@ -258,40 +320,39 @@ void check_result(const DistanceResult<S>& r, const Body<S>& a, const Body<S>& b
 
   // Roundoff a correct answer may carry in world coordinates beyond its certified bound: a few
   // ulps of the coordinates involved (in Scalar), plus this reference's own long double error.
-  const LD magnitude = body_magnitude(a) + body_magnitude(b);
+  const RefBody ra = reference_body(a), rb = reference_body(b);
   const LD ulp = LD(std::numeric_limits<S>::epsilon());
-  const LD slack = 16 * ulp * magnitude + LD(std::numeric_limits<S>::denorm_min());
+  const LD slack =
+      16 * ulp * (ra.magnitude + rb.magnitude) + LD(std::numeric_limits<S>::denorm_min());
   const LD d = r.distance, e = r.error_bound;
 
-  std::vector<V3L> directions = extra_directions;
-  directions.push_back(V3L::UnitX());
-  directions.push_back(V3L::UnitY());
-  directions.push_back(V3L::UnitZ());
-  V3L centres = V3L::Zero();
-  for (std::size_t i = 0; i < b.pieces.size(); ++i)
-    centres += ld(piece_pose(b, i).apply(core_center(b.pieces[i].shape)));
-  for (std::size_t i = 0; i < a.pieces.size(); ++i)
-    centres -= ld(piece_pose(a, i).apply(core_center(a.pieces[i].shape)));
-  directions.push_back(centres);
+  std::vector<P3> directions;
+  for (const V3L& u : extra_directions) directions.push_back({u.x(), u.y(), u.z()});
+  directions.push_back({1, 0, 0});
+  directions.push_back({0, 1, 0});
+  directions.push_back({0, 0, 1});
+  directions.push_back(rb.centre_sum - ra.centre_sum);
   if (r.has_near_points) {
-    directions.push_back(ld(r.normal));
-    directions.push_back(ld(r.point_b) - ld(r.point_a));
+    directions.push_back(p3(r.normal));
+    directions.push_back(p3(r.point_b) - p3(r.point_a));
+  }
+  for (P3& u : directions) {  // unit length, or dropped
+    const LD n = norm(u);
+    u = (n > 0 && std::isfinite(n)) ? (1 / n) * u : P3{};
   }
 
   // Single shapes: the hulls are the shapes, so d⁻ ≤ depth ≤ h_A(u) + h_B(−u) holds for every u.
-  // Compounds: d⁻ is the largest over intersecting piece pairs, checked against those pieces.
+  // (Compounds: d⁻ is the largest over intersecting piece pairs; not checked here.)
   LD depth_upper = std::numeric_limits<LD>::infinity();
-  for (V3L u : directions) {
-    const LD n = u.norm();
-    if (!(n > 0) || !std::isfinite(n)) continue;
-    u /= n;
-    const LD ha = body_support(a, u), hb = body_support(b, -u);
+  for (const P3& u : directions) {
+    if (dot(u, u) == 0) continue;
+    const LD ha = ra.support(u), hb = rb.support(-1 * u);
     const LD lower = -hb - ha;  // ≤ the distance between the hulls ≤ the distance
     if (!(lower <= d + e + slack)) {
       std::ostringstream msg;
       msg.precision(20);
-      msg << "the separating-plane bracket " << lower << " along (" << u.transpose()
-          << ") exceeds distance + error_bound = " << d + e << " (slack " << slack << "); ";
+      msg << "the separating-plane bracket " << lower << " along (" << u.x << " " << u.y << " "
+          << u.z << ") exceeds distance + error_bound = " << d + e << " (slack " << slack << "); ";
       fuzz::fail(__FILE__, __LINE__, msg.str() + where());
     }
     if (a.pieces.size() == 1 && b.pieces.size() == 1) depth_upper = std::min(depth_upper, ha + hb);
@@ -308,26 +369,22 @@ void check_result(const DistanceResult<S>& r, const Body<S>& a, const Body<S>& b
 
   if (r.has_near_points && r.status == Status::separated) {
     // The near points are `distance` apart and each lies in (the rounded surface of) its piece.
-    const LD gap = (ld(r.point_b) - ld(r.point_a)).norm();
+    const LD gap = norm(p3(r.point_b) - p3(r.point_a));
     if (!(std::abs(gap - d) <= e + slack)) {
       std::ostringstream msg;
       msg.precision(20);
       msg << "|point_b - point_a| = " << gap << " differs from distance by more than the bound; ";
       fuzz::fail(__FILE__, __LINE__, msg.str() + where());
     }
-    const Shape<S>& sa = a.pieces[std::size_t(piece_a)].shape;
-    const Shape<S>& sb = b.pieces[std::size_t(piece_b)].shape;
-    const Pose<S> pa = piece_pose(a, std::size_t(piece_a)),
-                  pb = piece_pose(b, std::size_t(piece_b));
-    for (V3L u : directions) {
-      const LD n = u.norm();
-      if (!(n > 0) || !std::isfinite(n)) continue;
-      u /= n;
+    const RefPiece& pa = ra.pieces[std::size_t(piece_a)];
+    const RefPiece& pb = rb.pieces[std::size_t(piece_b)];
+    for (const P3& u : directions) {
+      if (dot(u, u) == 0) continue;
       for (const LD sign : {LD(1), LD(-1)}) {
-        const V3L v = sign * u;
-        NEARPOINT_FUZZ_CHECK(v.dot(ld(r.point_a)) <= placed_support(sa, pa, v) + e + slack,
+        const P3 v = sign * u;
+        NEARPOINT_FUZZ_CHECK(dot(v, p3(r.point_a)) <= pa.support(v) + e + slack,
                              "point_a lies outside its shape; " + where());
-        NEARPOINT_FUZZ_CHECK(v.dot(ld(r.point_b)) <= placed_support(sb, pb, v) + e + slack,
+        NEARPOINT_FUZZ_CHECK(dot(v, p3(r.point_b)) <= pb.support(v) + e + slack,
                              "point_b lies outside its shape; " + where());
       }
     }
@@ -383,7 +440,7 @@ void run(ByteReader& in) {
   std::vector<V3L> directions;
   for (int i = 0; i < 2; ++i) {
     bool ignored = true;
-    directions.push_back(ld(read_vec<S>(in, 0, ignored)));
+    directions.push_back(read_vec<S>(in, 0, ignored).template cast<LD>());
   }
   // The perturbation for the perturbed-warm check: a small rotation and translation of B.
   const S angle = S(std::int8_t(in.byte())) * S(1e-3);

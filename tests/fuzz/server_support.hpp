@@ -34,12 +34,20 @@ inline server::ServiceLimits small_limits() {
 /// does not fit could never be sent.
 inline constexpr std::size_t kMaxMessageBytes = 16u << 20;
 
+/// The longest error (field and message) a client should get back.
+inline constexpr std::size_t kMaxErrorBytes = 2048;
+
 /// A rejected request: a known code that is not a bug, a message, and a gRPC status a client can
 /// act on (never OK, UNKNOWN, INTERNAL or UNIMPLEMENTED).
 inline void check_error(const server::Error& error, const char* what) {
   const std::string where = std::string(what) + ": " + error.describe();
   NEARPOINT_FUZZ_CHECK(error.code != server::ErrorCode::internal, "internal error; " + where);
   NEARPOINT_FUZZ_CHECK(!error.message.empty(), "an error without a message; " + where);
+  // Messages quote what the client sent (ids, keys); quoting it whole lets a client make every
+  // error and log line as large as its request. 2 KiB is far more than any message needs.
+  NEARPOINT_FUZZ_CHECK(error.describe().size() <= kMaxErrorBytes,
+                       "an error message of " + std::to_string(error.describe().size()) +
+                           " bytes (unbounded echo of the request?); " + where.substr(0, 600));
   const grpc::StatusCode code = server::to_grpc_status(error).error_code();
   NEARPOINT_FUZZ_CHECK(code != grpc::StatusCode::OK && code != grpc::StatusCode::UNKNOWN &&
                            code != grpc::StatusCode::INTERNAL &&
