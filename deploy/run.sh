@@ -53,27 +53,32 @@ tsan_env() {
 # corpus input once and then each target for $NEARPOINT_FUZZ_SECONDS, one process per target.
 fuzz_stage() {
   local seconds="${NEARPOINT_FUZZ_SECONDS:-60}"
-  asan_env
-  # libFuzzer checks leaks itself, per input; the DDS bridge and its tests are not fuzzed.
-  ( build=build-fuzz
+  # The ctest timeout only catches a wedged run: libFuzzer stops itself after the time (or the
+  # number of inputs, NEARPOINT_FUZZ_RUNS, which has no time bound: two days then).
+  local timeout=$((seconds + 600))
+  if [ -n "${NEARPOINT_FUZZ_RUNS:-}" ]; then timeout=172800; fi
+  # Subshells, here and below: one stage's build directory and options stay out of the next.
+  # The DDS bridge and its tests are not fuzzed.
+  ( asan_env
+    build=build-fuzz
     BUILD_TARGETS="fuzz_engine fuzz_jsonl fuzz_scene_file fuzz_requests" configure_and_build \
       -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang -DNEARPOINT_FUZZ=ON \
       -DNEARPOINT_BUILD_TESTS=OFF -DNEARPOINT_WITH_DDS=OFF &&
     NEARPOINT_FUZZ_SECONDS="$seconds" ctest --test-dir build-fuzz --output-on-failure -j "$jobs" \
-      -L fuzz --timeout $((seconds + 600)) ${CTEST_ARGS:-} )
+      -L fuzz --timeout "$timeout" ${CTEST_ARGS:-} )
 }
 
 # The sanitizer stages. ASan+UBSan: the suite as in the main stage. TSan: the tests of the
 # threaded parts (server, client, DDS), with only their targets built.
 asan_stage() {
-  asan_env
-  ( build=build-asan
+  ( asan_env
+    build=build-asan
     configure_and_build -DNEARPOINT_SANITIZE=address,undefined &&
     ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE "soak" ${CTEST_ARGS:-} )
 }
 tsan_stage() {
-  tsan_env
-  ( build=build-tsan
+  ( tsan_env
+    build=build-tsan
     BUILD_TARGETS="test_server_scene_service test_server_grpc test_server_process test_client
                    test_dds_bridge test_dds_end_to_end nearpointd nearpoint" \
       configure_and_build -DNEARPOINT_SANITIZE=thread &&
