@@ -9,6 +9,8 @@ set -euo pipefail
 packages=(
   # toolchain
   g++ cmake ninja-build pkg-config ccache python3
+  # the fuzz targets (tests/fuzz): clang and its libFuzzer/sanitizer runtimes, in build-fuzz only
+  clang libclang-rt-14-dev
   # core: Eigen only
   libeigen3-dev
   # command-line tool; mesh import (assimp reads the files; CGAL, listed below, finds the hulls)

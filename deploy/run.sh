@@ -1,23 +1,90 @@
 #!/usr/bin/env bash
-# The README's two commands, and a developer's third.
+# The README's two commands, and a developer's others.
 #   deploy/run.sh demo   installs what is missing, builds, and runs the main job
-#   deploy/run.sh test   installs what is missing, builds, and runs the whole test suite
+#   deploy/run.sh test   installs what is missing, builds, and runs every stage of CI (what .ci/run
+#                        runs), each in its own build tree, each printing ctest's summary:
+#                          main   the whole suite (ctest -LE soak) in build/, seeds and saved fuzz
+#                                 findings replayed included (label fuzz-replay)
+#                          fuzz   the libFuzzer targets (clang, build-fuzz/): every corpus input
+#                                 once, then each target for $NEARPOINT_FUZZ_SECONDS (default 60)
+#                          asan   the suite under ASan+UBSan (build-asan/)
+#                          tsan   the server, client and DDS tests under TSan (build-tsan/)
+#                        All stages run; the command fails if any failed, and says which.
+#                        TEST_STAGES="main fuzz" (say) runs a subset.
+#   deploy/run.sh fuzz [SECONDS]
+#                        the fuzz stage alone, each target for SECONDS (default 60); the documented
+#                        longer run is `deploy/run.sh fuzz 3600` (tests/fuzz/README.md).
 #   deploy/run.sh sanitize [address|thread]
 #                        the whole test suite (ctest -LE soak) under ASan+UBSan (default) or TSan,
-#                        in its own build tree (build-asan or build-tsan, or $BUILD_DIR). Slow (a
-#                        first build takes 10-20 minutes on 2 cores): not part of CI.
-# Environment: BUILD_DIR (default build), JOBS (default: number of cores), CTEST_ARGS (extra),
-# DEMO_PLOT (the demo's SVG, default demo.svg here), DEMO_ARGS (e.g. "--steps 100 --json").
+#                        in its own build tree (build-asan or build-tsan).
+# Environment: BUILD_DIR (default build; the main tree only), JOBS (default: number of cores),
+# CTEST_ARGS (extra, every stage), DEMO_PLOT (the demo's SVG, default demo.svg here), DEMO_ARGS
+# (e.g. "--steps 100 --json"), NEARPOINT_FUZZ_SECONDS / NEARPOINT_FUZZ_RUNS (tests/fuzz/README.md).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 build="${BUILD_DIR:-build}"
 jobs="${JOBS:-$(nproc)}"
 
+# Chained with &&, here and in the stages: `test` runs them in an && list, where set -e is off.
 configure_and_build() {
-  deploy/install-deps.sh
-  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@"
-  cmake --build "$build" -j "$jobs"
+  deploy/install-deps.sh &&
+    cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" &&
+    cmake --build "$build" -j "$jobs" ${BUILD_TARGETS:+--target $BUILD_TARGETS}
+}
+
+# Cyclone DDS must never run without the loopback configuration: the ctest definitions set it for
+# the DDS tests, and this covers anything else that starts it.
+export CYCLONEDDS_URI="file://$root/deploy/cyclonedds-loopback.xml"
+
+# The sanitizers' options. Every report stops the process that made it (the test fails).
+asan_env() {
+  # Leaks are checked at exit.
+  export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:detect_stack_use_after_return=1:check_initialization_order=1:strict_init_order=1:print_stacktrace=1${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
+  export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1${UBSAN_OPTIONS:+:$UBSAN_OPTIONS}"
+}
+tsan_env() {
+  # tsan.supp: races TSan reports inside Debian's uninstrumented gRPC/protobuf/Abseil/Cyclone
+  # DDS, whose synchronisation it cannot see (the file says why, entry by entry).
+  export TSAN_OPTIONS="halt_on_error=1:history_size=7:second_deadlock_stack=1:suppressions=$root/tests/sanitizers/tsan.supp${TSAN_OPTIONS:+:$TSAN_OPTIONS}"
+}
+
+# The fuzz stage: the libFuzzer targets of tests/fuzz in build-fuzz (clang; ASan+UBSan), every
+# corpus input once and then each target for $NEARPOINT_FUZZ_SECONDS, one process per target.
+fuzz_stage() {
+  local seconds="${NEARPOINT_FUZZ_SECONDS:-60}"
+  # The ctest timeout only catches a wedged run: libFuzzer stops itself after the time (or the
+  # number of inputs, NEARPOINT_FUZZ_RUNS, which has no time bound: two days then).
+  local timeout=$((seconds + 600))
+  if [ -n "${NEARPOINT_FUZZ_RUNS:-}" ]; then timeout=172800; fi
+  # Subshells, here and below: one stage's build directory and options stay out of the next.
+  # The DDS bridge and its tests are not fuzzed.
+  ( asan_env
+    build=build-fuzz
+    BUILD_TARGETS="fuzz_engine fuzz_jsonl fuzz_scene_file fuzz_requests" configure_and_build \
+      -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang -DNEARPOINT_FUZZ=ON \
+      -DNEARPOINT_BUILD_TESTS=OFF -DNEARPOINT_WITH_DDS=OFF &&
+    NEARPOINT_FUZZ_SECONDS="$seconds" ctest --test-dir build-fuzz --output-on-failure -j "$jobs" \
+      -L fuzz --timeout "$timeout" ${CTEST_ARGS:-} )
+}
+
+# The sanitizer stages. ASan+UBSan: the suite as in the main stage. TSan: the tests of the
+# threaded parts (server, client, DDS), with only their targets built.
+asan_stage() {
+  ( asan_env
+    build=build-asan
+    configure_and_build -DNEARPOINT_SANITIZE=address,undefined &&
+    ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE "soak" ${CTEST_ARGS:-} )
+}
+tsan_stage() {
+  ( tsan_env
+    build=build-tsan
+    BUILD_TARGETS="test_server_scene_service test_server_broad_phase test_server_grpc
+                   test_server_boundary test_server_process test_client test_dds_bridge
+                   test_dds_end_to_end nearpointd nearpoint nearpoint_python" \
+      configure_and_build -DNEARPOINT_SANITIZE=thread &&
+    ctest --test-dir build-tsan --output-on-failure -j "$jobs" -L "^(server|client|dds)$" \
+      ${CTEST_ARGS:-} )
 }
 
 case "${1:-}" in
@@ -33,27 +100,43 @@ case "${1:-}" in
     "$build/client/nearpoint" distance examples/pairs.jsonl
     ;;
   test)
-    configure_and_build
-    # Long soaks carry the label 'soak' and run only when asked (CTEST_ARGS="-L soak").
-    ctest --test-dir "$build" --output-on-failure -j "$jobs" -LE soak ${CTEST_ARGS:-}
+    # Each stage runs whatever the one before it did; the command fails if any failed.
+    failed=()
+    for stage in ${TEST_STAGES:-main fuzz asan tsan}; do
+      start=$SECONDS
+      echo "== deploy/run.sh test: stage $stage"
+      case "$stage" in
+        # Long soaks carry the label 'soak' and run only when asked (CTEST_ARGS="-L soak").
+        main) (configure_and_build &&
+                 ctest --test-dir "$build" --output-on-failure -j "$jobs" -LE soak ${CTEST_ARGS:-}) ;;
+        fuzz) fuzz_stage ;;
+        asan) asan_stage ;;
+        tsan) tsan_stage ;;
+        *) echo "deploy/run.sh test: unknown stage '$stage' (main fuzz asan tsan)" >&2; false ;;
+      esac && status=passed || { status=FAILED; failed+=("$stage"); }
+      echo "== deploy/run.sh test: stage $stage $status in $((SECONDS - start)) s"
+    done
+    if [ ${#failed[@]} -gt 0 ]; then
+      echo "== deploy/run.sh test: FAILED stages: ${failed[*]}" >&2
+      exit 1
+    fi
+    echo "== deploy/run.sh test: every stage passed"
+    ;;
+  fuzz)
+    NEARPOINT_FUZZ_SECONDS="${2:-${NEARPOINT_FUZZ_SECONDS:-60}}" fuzz_stage
     ;;
   sanitize)
     kind="${2:-address}"
-    supp="$root/tests/sanitizers"
     case "$kind" in
       address)
         build="${BUILD_DIR:-build-asan}"
         sanitizers=address,undefined
-        # Every report stops the process that made it (the test fails); leaks are checked at exit.
-        export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:detect_stack_use_after_return=1:check_initialization_order=1:strict_init_order=1:print_stacktrace=1${ASAN_OPTIONS:+:$ASAN_OPTIONS}"
-        export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1${UBSAN_OPTIONS:+:$UBSAN_OPTIONS}"
+        asan_env
         ;;
       thread)
         build="${BUILD_DIR:-build-tsan}"
         sanitizers=thread
-        # tsan.supp: races TSan reports inside Debian's uninstrumented gRPC/protobuf/Abseil/Cyclone
-        # DDS, whose synchronisation it cannot see (the file says why, entry by entry).
-        export TSAN_OPTIONS="halt_on_error=1:history_size=7:second_deadlock_stack=1:suppressions=$supp/tsan.supp${TSAN_OPTIONS:+:$TSAN_OPTIONS}"
+        tsan_env
         ;;
       *)
         echo "usage: deploy/run.sh sanitize [address|thread]" >&2
@@ -61,13 +144,10 @@ case "${1:-}" in
         ;;
     esac
     configure_and_build -DNEARPOINT_SANITIZE="$sanitizers"
-    # The ctest definitions set CYCLONEDDS_URI for the DDS tests; this covers anything else that
-    # starts Cyclone DDS, which must never run without the loopback configuration.
-    export CYCLONEDDS_URI="file://$root/deploy/cyclonedds-loopback.xml"
     ctest --test-dir "$build" --output-on-failure -j "$jobs" -LE soak ${CTEST_ARGS:-}
     ;;
   *)
-    echo "usage: deploy/run.sh demo|test|sanitize [address|thread]" >&2
+    echo "usage: deploy/run.sh demo|test|fuzz [SECONDS]|sanitize [address|thread]" >&2
     exit 2
     ;;
 esac
