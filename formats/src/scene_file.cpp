@@ -23,8 +23,12 @@ std::string quoted(const std::string& path) {
   return "\"" + path + "\"";
 }
 
+// A key of the file in a field path: cut short, since a path is quoted in every error about the
+// field and a hostile file's key (a geometry's name, say) may be megabytes long.
 std::string member(const std::string& path, const std::string& key) {
-  return path.empty() ? key : path + "." + key;
+  constexpr std::size_t kMaxKeyBytes = 60;
+  const std::string shown = key.size() <= kMaxKeyBytes ? key : short_prefix(key, kMaxKeyBytes);
+  return path.empty() ? shown : path + "." + shown;
 }
 
 std::string element(const std::string& path, std::size_t index) {
