@@ -185,6 +185,12 @@ TEST(NearpointdProcess, SigtermUnderLoadAnswersEveryUpdateReadOnEveryStream) {
 // touches gRPC), idle on an open stream when it is killed; a half-closing client, for contrast,
 // must still be logged ok.
 TEST(NearpointdProcess, ClientKilledWithSigkillIsLoggedCancelled) {
+#if defined(__SANITIZE_THREAD__)
+  // The client is a fork of this (multi-threaded) test process that starts gRPC's threads: TSan
+  // does not support threads started after such a fork and kills the child. The main and ASan
+  // builds run this test.
+  GTEST_SKIP() << "forks a gRPC client from a multi-threaded process, which TSan cannot follow";
+#endif
   ChildProcess daemon({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "1"});
   ASSERT_TRUE(daemon.started());
   const std::string listening = daemon.wait_for_stderr("event=listening", std::chrono::seconds(20));
