@@ -4,45 +4,67 @@
 #
 #   deploy/install-deps.sh            # build + test dependencies
 #   deploy/install-deps.sh --bench    # also the benchmark peers (FCL, libccd, Bullet)
+#   deploy/install-deps.sh --image    # only what building nearpointd and nearpoint needs (the
+#                                     # build stage of deploy/Containerfile: no tests, no tools)
 set -euo pipefail
 
-packages=(
+# What a Release build of nearpointd and the nearpoint CLI needs (deploy/Containerfile's build
+# stage installs these alone).
+build_packages=(
   # toolchain
   g++ cmake ninja-build pkg-config ccache python3
-  # the fuzz targets (tests/fuzz): clang and its libFuzzer/sanitizer runtimes, in build-fuzz only
-  clang libclang-rt-14-dev
   # core: Eigen only
   libeigen3-dev
-  # command-line tool; mesh import (assimp reads the files; CGAL, listed below, finds the hulls)
-  nlohmann-json3-dev libcli11-dev libassimp-dev
+  # command-line tool; mesh import (assimp reads the files; CGAL finds the hulls, exactly)
+  nlohmann-json3-dev libcli11-dev libassimp-dev libcgal-dev libgmp-dev libmpfr-dev
   # scene files in YAML (optional at build time; JSON always works)
   libyaml-cpp-dev
-  # tests: GoogleTest, and CGAL's exact arithmetic as the distance oracle
-  libgtest-dev libgmock-dev libcgal-dev libgmp-dev libmpfr-dev
-  # server: gRPC (nearpointd, its protos, reflection and health checking)
+  # server: gRPC (nearpointd, its protos, reflection and health checking); the Python client's
+  # modules are generated at configure time with grpc_python_plugin (protobuf-compiler-grpc)
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
-  # Python client (client/python): Debian's /usr/bin/python3 with the runtimes matching the
-  # protoc 3.21 / grpc_python_plugin 1.51 above, which generate its modules
-  python3-grpcio python3-protobuf
   # server: the Prometheus endpoint (--metrics-listen; optional at build time)
   prometheus-cpp-dev
   # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged)
   cyclonedds-dev cyclonedds-tools
+)
+# The tests, the fuzz targets and the tools CI runs, on top of the build's.
+test_packages=(
+  # the fuzz targets (tests/fuzz): clang and its libFuzzer/sanitizer runtimes, in build-fuzz only
+  clang libclang-rt-14-dev
+  # tests: GoogleTest (CGAL, above, is also the distance oracle)
+  libgtest-dev libgmock-dev
+  # Python client (client/python): Debian's /usr/bin/python3 with the runtimes matching the
+  # protoc 3.21 / grpc_python_plugin 1.51 above, which generate its modules
+  python3-grpcio python3-protobuf
   # TLS tests (a throw-away CA made with openssl) and the deploy/k8s check (yamllint, PyYAML)
   openssl yamllint python3-yaml
+  # the container image's test (deploy/test-container.sh): podman builds and runs the image
+  # (buildah's engine inside; runc as the runtime, no daemon), debootstrap makes its local base
+  # image, uidmap/slirp4netns/fuse-overlayfs are what podman needs beside them on Debian 12
+  podman buildah runc debootstrap uidmap slirp4netns fuse-overlayfs
 )
-# kubectl renders deploy/k8s (`kubectl kustomize`). Debian's is kubernetes-client; a machine that
-# already has a kubectl (e.g. Google Cloud SDK's package) keeps it: the two conflict.
-if ! command -v kubectl >/dev/null 2>&1; then packages+=(kubernetes-client); fi
+image=false
+bench=false
 for arg in "$@"; do
   case "$arg" in
+    --image) image=true ;;
     # peers for bench/ (FCL, libccd, Bullet; CGAL above gives the hulls fcl::Convex needs) and
     # matplotlib for bench/run.sh's plots (Debian's /usr/bin/python3)
-    --bench) packages+=(libbenchmark-dev libfcl-dev libccd-dev libbullet-dev python3-matplotlib) ;;
-    -h|--help) sed -n '2,7p' "$0"; exit 0 ;;
+    --bench) bench=true ;;
+    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
     *) echo "install-deps.sh: unknown option '$arg'" >&2; exit 2 ;;
   esac
 done
+packages=("${build_packages[@]}")
+if ! $image; then
+  packages+=("${test_packages[@]}")
+  # kubectl renders deploy/k8s (`kubectl kustomize`). Debian's is kubernetes-client; a machine
+  # that already has a kubectl (e.g. Google Cloud SDK's package) keeps it: the two conflict.
+  if ! command -v kubectl >/dev/null 2>&1; then packages+=(kubernetes-client); fi
+fi
+if $bench; then
+  packages+=(libbenchmark-dev libfcl-dev libccd-dev libbullet-dev python3-matplotlib)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
