@@ -79,8 +79,8 @@ int main(int argc, char** argv) {
   // Transport security (issue 23): checked before anything binds (load_server_security).
   nearpoint::server::SecurityFlags security_flags;
   // Each also from the environment (a container's configuration): NEARPOINT_LISTEN,
-  // NEARPOINT_TLS_CERT, NEARPOINT_TLS_KEY, NEARPOINT_TLS_CLIENT_CA, NEARPOINT_TOKEN_FILE; a flag
-  // wins over its variable.
+  // NEARPOINT_TLS_CERT, NEARPOINT_TLS_KEY, NEARPOINT_TLS_CLIENT_CA, NEARPOINT_TOKEN_FILE,
+  // NEARPOINT_INSECURE (1 or true; 0 or false leaves it off); a flag wins over its variable.
   app.add_option("--tls-cert", security_flags.tls_cert,
                  "PEM certificate chain: serve gRPC over TLS only (with --tls-key)")
       ->envname("NEARPOINT_TLS_CERT");
@@ -95,7 +95,8 @@ int main(int argc, char** argv) {
       ->envname("NEARPOINT_TOKEN_FILE");
   app.add_flag("--insecure", security_flags.insecure,
                "Allow plaintext on a non-loopback --listen address (without it, TLS is required "
-               "there)");
+               "there)")
+      ->envname("NEARPOINT_INSECURE");
 #endif
   app.add_option("--metrics-listen", metrics_listen,
                  "Serve Prometheus metrics (plaintext HTTP, /metrics) on this IP:PORT (port 0: any "

@@ -174,6 +174,10 @@ def case_bad_config(d):
          None, "--listen"),
         ("missing certificate from $NEARPOINT_TLS_CERT", ["--tls-key", p("server.key")],
          {"NEARPOINT_TLS_CERT": missing}, "127.0.0.1:0", "--tls-cert"),
+        # NEARPOINT_INSECURE=1 acknowledges (deploy/test-container.sh serves 0.0.0.0 so, inside
+        # a container without a network); 0 must not.
+        ("0.0.0.0 with NEARPOINT_INSECURE=0", [], {"NEARPOINT_INSECURE": "0"}, "0.0.0.0:0",
+         "--listen"),
         ("[::] without TLS", [], None, "[::]:0", "--listen"),
         ("a host name without TLS", [], None, "example.invalid:50051", "--listen"),
     ]
