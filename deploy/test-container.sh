@@ -95,6 +95,7 @@ fi
 # with --network none or in another container's namespace.
 say "podman build -f deploy/Containerfile -t $image (BASE=$base)"
 build_start=$SECONDS
+previous="$(podman image inspect --format '{{.Id}}' "$image" 2>/dev/null || true)"
 if ! podman build --format docker --network host --build-arg "BASE=$base" \
        --build-arg "JOBS=${JOBS:-2}" -f "$root/deploy/Containerfile" -t "$image" "$root" \
        >"$work/build.log" 2>&1; then
@@ -104,6 +105,12 @@ if ! podman build --format docker --network host --build-arg "BASE=$base" \
 fi
 grep -E 'cache hit|cache miss|Using cache' "$work/build.log" | sort | uniq -c | head -n 8 || true
 say "image built in $((SECONDS - build_start)) s"
+# The image this tag named before (a source change since): removed, so that CI runs do not pile
+# up old images. Its layers that are still build cache stay.
+current="$(podman image inspect --format '{{.Id}}' "$image")"
+if [ -n "$previous" ] && [ "$previous" != "$current" ]; then
+  podman rmi "$previous" >/dev/null 2>&1 || true
+fi
 
 size="$(podman image inspect --format '{{.Size}}' "$image")"
 user="$(podman image inspect --format '{{.Config.User}}' "$image")"
