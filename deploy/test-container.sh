@@ -16,7 +16,9 @@
 #    (every report checked against this build's `nearpoint distance`, tests/deploy/
 #    compare_stream.py), a scrape of /metrics (updates counted, non-zero); the image's own
 #    HEALTHCHECK (podman healthcheck run);
-# 6. sends SIGTERM while a stream is open: nearpointd drains, logs shutdown_complete, exits 0.
+# 6. sends SIGTERM while a stream is open: nearpointd drains it and exits 0;
+# 7. runs it with TLS (a throw-away CA made with openssl) on 0.0.0.0 without --insecure: the
+#    image's HEALTHCHECK turns healthy through NEARPOINT_HEALTH_TLS_CA, plaintext is refused.
 #
 # Exit 0: passed; 1: failed; 77: skipped, with the reason printed (no podman, podman cannot run
 # a container here, or no root for debootstrap) — never a silent pass.
@@ -51,7 +53,7 @@ image="${NEARPOINT_CONTAINER_IMAGE:-localhost/nearpoint:test-$(printf '%s' "$roo
 server="nearpoint-test-$$"
 work="$(mktemp -d)"
 cleanup() {
-  podman rm -f -t 0 "$server-load" "$server" >/dev/null 2>&1 || true
+  podman rm -f -t 0 "$server-load" "$server" "$server-tls" >/dev/null 2>&1 || true
   rm -rf "$work"
 }
 trap cleanup EXIT
@@ -236,12 +238,61 @@ code="$(timeout 60 podman wait "$server" || echo timeout)"
 podman rm -f -t 0 "$server-load" >/dev/null 2>&1 || true
 wait "$load" || true
 podman logs "$server" >"$work/server.log" 2>&1
+# The stream was open when the drain began, and the drain finished it.
 if [ "$code" = 0 ] && grep -q 'event=signal.*SIGTERM' "$work/server.log" &&
-   grep -q 'event=shutdown_complete' "$work/server.log"; then
+   grep -q 'event=shutdown_begin open_streams=1' "$work/server.log" &&
+   grep -q 'event=shutdown_complete drained=all' "$work/server.log"; then
   echo "ok   SIGTERM: drained and exited 0 ($(grep -o 'event=shutdown_complete.*' "$work/server.log" | head -c 200))"
 else
   tail -n 15 "$work/server.log"
-  fail "SIGTERM: exit status $code (expected 0 after shutdown_complete)"
+  fail "SIGTERM: exit status $code (expected 0 after a drain of the open stream)"
+fi
+
+# --- 7. TLS: the documented configuration for a published port, and its HEALTHCHECK ---
+# A throw-away CA and a server certificate for localhost (what nearpoint-healthcheck dials).
+if command -v openssl >/dev/null; then
+  say "TLS: NEARPOINT_TLS_CERT/KEY, the HEALTHCHECK through NEARPOINT_HEALTH_TLS_CA"
+  tls="$work/tls"
+  mkdir -p "$tls"
+  ec=(-newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes)
+  openssl req -x509 "${ec[@]}" -keyout "$tls/ca.key" -out "$tls/ca.pem" -days 2 \
+    -subj /CN=nearpoint-test-ca >/dev/null 2>&1
+  openssl req "${ec[@]}" -keyout "$tls/server.key" -out "$tls/server.csr" \
+    -subj /CN=localhost >/dev/null 2>&1
+  printf 'subjectAltName=DNS:localhost,IP:127.0.0.1\n' >"$tls/san"
+  openssl x509 -req -in "$tls/server.csr" -CA "$tls/ca.pem" -CAkey "$tls/ca.key" \
+    -CAcreateserial -out "$tls/server.pem" -days 2 -extfile "$tls/san" >/dev/null 2>&1
+  # Readable by the image's user (uid 10001); a throw-away key in a temporary directory.
+  chmod 755 "$work" "$tls" && chmod 644 "$tls"/*
+  d=/etc/nearpoint/tls
+  podman run -d --name "$server-tls" --network none --read-only --health-interval disable \
+    -v "$tls:$d:ro" -e NEARPOINT_LISTEN=0.0.0.0:50051 \
+    -e NEARPOINT_TLS_CERT="$d/server.pem" -e NEARPOINT_TLS_KEY="$d/server.key" \
+    -e NEARPOINT_HEALTH_TLS_CA="$d/ca.pem" "$image" >/dev/null 2>"$work/start-tls.err" ||
+    cat "$work/start-tls.err"
+  healthy=""
+  for _ in $(seq 1 100); do
+    if podman healthcheck run "$server-tls" >/dev/null 2>&1; then healthy=yes; break; fi
+    if [ "$(podman inspect --format '{{.State.Running}}' "$server-tls")" != true ]; then break; fi
+  done
+  if [ -n "$healthy" ]; then
+    echo "ok   TLS on 0.0.0.0 without --insecure: the HEALTHCHECK is healthy"
+  else
+    podman logs "$server-tls" 2>&1 | tail -n 5
+    fail "TLS: the HEALTHCHECK never turned healthy"
+  fi
+  if out="$(podman run --rm --network "container:$server-tls" --no-healthcheck \
+              --entrypoint nearpoint "$image" health --target 127.0.0.1:50051 \
+              --timeout-ms 2000 2>&1)"; then
+    fail "TLS: a plaintext health check was answered: $out"
+  else
+    echo "ok   TLS: plaintext to the TLS port is refused"
+  fi
+  podman stop -t 20 "$server-tls" >/dev/null 2>&1 || true
+  code="$(podman inspect --format '{{.State.ExitCode}}' "$server-tls")"
+  [ "$code" = 0 ] || fail "TLS: nearpointd exited $code on podman stop"
+else
+  echo "not checked: TLS in the image (no openssl here to make a throw-away CA)"
 fi
 
 say "done"
