@@ -696,8 +696,11 @@ Expected<std::uint64_t> SessionImpl::push(const std::vector<ObjectPose>& poses,
   if (resync_) {
     // A new stream starts from the scene's initial poses: send every pose pushed before.
     for (const auto& [id, pose] : latest_poses_) {
-      const bool listed = std::any_of(poses.begin(), poses.end(),
-                                      [&](const ObjectPose& p) { return p.object_id == id; });
+      // An init-capture, not the binding itself: clang 14 (the fuzz and sanitizer builds)
+      // cannot capture structured bindings.
+      const bool listed =
+          std::any_of(poses.begin(), poses.end(),
+                      [&object_id = id](const ObjectPose& p) { return p.object_id == object_id; });
       if (!listed) detail::to_proto(pose, *update.add_poses());
     }
     resync_ = false;

@@ -365,7 +365,8 @@ TEST(Gradient, MatchesCentralDifferences) {
         continue;
       }
       if (!r.gradient_a.allFinite() || !r.gradient_b.allFinite()) log.add("NaN gradient", where);
-      auto distance_of = [&](const Pose<double>& qa, const Pose<double>& qb, double& d, double& e) {
+      auto distance_of = [&a = a, &b = b](const Pose<double>& qa, const Pose<double>& qb, double& d,
+                                          double& e) {
         const auto rr = nearpoint::distance(a, qa, b, qb, DistanceOptions<double>{});
         d = rr.distance;
         e = rr.error_bound;
