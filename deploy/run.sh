@@ -8,11 +8,10 @@
 #                          fuzz   the libFuzzer targets (clang, build-fuzz/): every corpus input
 #                                 once, then 20,000 inputs per target from seed 1 (reproducible;
 #                                 NEARPOINT_FUZZ_RUNS / NEARPOINT_FUZZ_ARGS change it)
+#                          asan   the suite under ASan+UBSan, in the same clang tree as the fuzz
+#                                 stage (build-fuzz/: one instrumented build serves both), without
+#                                 the soaks, the fuzz runs and the container image
 #                          tsan   the server, client and DDS tests under TSan (build-tsan/)
-#                          asan   the suite under ASan+UBSan (build-asan/): not in the default
-#                                 list, since its first build alone (core/src/distance.cpp takes
-#                                 ~6 CPU-minutes under ASan+UBSan) would take CI's 2 cores past
-#                                 its time; TEST_STAGES="main fuzz tsan asan" adds it
 #                        All stages run; the command fails if any failed, and says which.
 #                        TEST_STAGES="main fuzz" (say) runs a subset.
 #   deploy/run.sh fuzz [SECONDS]
@@ -20,7 +19,7 @@
 #                        longer run is `deploy/run.sh fuzz 3600` (tests/fuzz/README.md).
 #   deploy/run.sh sanitize [address|thread]
 #                        the whole test suite (ctest -LE soak) under ASan+UBSan (default) or TSan,
-#                        in its own build tree (build-asan or build-tsan).
+#                        built with g++ in its own build tree (build-asan or build-tsan).
 # Environment: BUILD_DIR (default build; the main tree only), JOBS (default: number of cores),
 # CTEST_ARGS (extra, every stage), DEMO_PLOT (the demo's SVG, default demo.svg here), DEMO_ARGS
 # (e.g. "--steps 100 --json"), NEARPOINT_FUZZ_SECONDS / NEARPOINT_FUZZ_RUNS (tests/fuzz/README.md).
@@ -53,6 +52,14 @@ tsan_env() {
   export TSAN_OPTIONS="halt_on_error=1:history_size=7:second_deadlock_stack=1:suppressions=$root/tests/sanitizers/tsan.supp${TSAN_OPTIONS:+:$TSAN_OPTIONS}"
 }
 
+# build-fuzz: clang, everything instrumented for coverage and ASan+UBSan, the tests included, so
+# that the fuzz stage and the asan stage configure it alike and share its objects.
+configure_and_build_fuzz_tree() {
+  build=build-fuzz
+  configure_and_build -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang -DNEARPOINT_FUZZ=ON \
+    -DNEARPOINT_BUILD_TESTS=ON -DNEARPOINT_WITH_DDS=ON
+}
+
 # The fuzz stage: the libFuzzer targets of tests/fuzz in build-fuzz (clang; ASan+UBSan), every
 # corpus input once and then each target for $NEARPOINT_FUZZ_SECONDS, one process per target.
 fuzz_stage() {
@@ -62,23 +69,22 @@ fuzz_stage() {
   local timeout=$((seconds + 600))
   if [ -n "${NEARPOINT_FUZZ_RUNS:-}" ]; then timeout=172800; fi
   # Subshells, here and below: one stage's build directory and options stay out of the next.
-  # The DDS bridge and its tests are not fuzzed.
+  # The DDS bridge is not fuzzed (the asan stage runs its tests).
   ( asan_env
-    build=build-fuzz
-    BUILD_TARGETS="fuzz_engine fuzz_jsonl fuzz_scene_file fuzz_requests" configure_and_build \
-      -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang -DNEARPOINT_FUZZ=ON \
-      -DNEARPOINT_BUILD_TESTS=OFF -DNEARPOINT_WITH_DDS=OFF &&
+    BUILD_TARGETS="fuzz_engine fuzz_jsonl fuzz_scene_file fuzz_requests" \
+      configure_and_build_fuzz_tree &&
     NEARPOINT_FUZZ_SECONDS="$seconds" ctest --test-dir build-fuzz --output-on-failure -j "$jobs" \
       -L fuzz --timeout "$timeout" ${CTEST_ARGS:-} )
 }
 
-# The sanitizer stages. ASan+UBSan: the suite as in the main stage. TSan: the tests of the
-# threaded parts (server, client, DDS), with only their targets built.
+# The sanitizer stages. ASan+UBSan: the suite as in the main stage, in build-fuzz (the fuzz runs
+# and the container image, which holds its own Release build, are the other stages' and left
+# out). TSan: the tests of the threaded parts (server, client, DDS), with only their targets built.
 asan_stage() {
   ( asan_env
-    build=build-asan
-    configure_and_build -DNEARPOINT_SANITIZE=address,undefined &&
-    ctest --test-dir build-asan --output-on-failure -j "$jobs" -LE "soak" ${CTEST_ARGS:-} )
+    configure_and_build_fuzz_tree &&
+    ctest --test-dir build-fuzz --output-on-failure -j "$jobs" -LE "^(soak|fuzz|container)$" \
+      ${CTEST_ARGS:-} )
 }
 tsan_stage() {
   ( tsan_env
@@ -106,7 +112,7 @@ case "${1:-}" in
   test)
     # Each stage runs whatever the one before it did; the command fails if any failed.
     failed=()
-    for stage in ${TEST_STAGES:-main fuzz tsan}; do
+    for stage in ${TEST_STAGES:-main fuzz asan tsan}; do
       start=$SECONDS
       echo "== deploy/run.sh test: stage $stage"
       case "$stage" in
