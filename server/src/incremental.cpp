@@ -111,6 +111,8 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
   state.broad_phase.sort();
 
   evaluate.clear();
+  state.pruned_now.clear();
+  const bool watching = state.watches != nullptr;
   counts = ReportCounts{};
   const double cutoff = options.engine.distance_cutoff;
   const bool prune = std::isfinite(cutoff);
@@ -149,6 +151,7 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
           state.pruned_pairs.push_back(p);
         }
         state.pruned_bound[p] = gap;
+        if (watching) state.pruned_now.push_back(p);
         set_near(state, p, false);
         ++counts.pairs_pruned;
       }

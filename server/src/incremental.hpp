@@ -13,6 +13,7 @@
 
 #include "broad_phase.hpp"
 #include "nearpoint/server/scene_service.hpp"
+#include "thresholds.hpp"
 
 namespace nearpoint::server {
 
@@ -47,6 +48,11 @@ struct IncrementalState {
   bool sent_valid = false;
   std::vector<PairStatus> sent_status;
   std::vector<double> sent_distance;
+  /// The stream's thresholds (null: none) and, per watch, whether its pair is inside.
+  std::shared_ptr<const WatchSet> watches;
+  std::vector<char> inside;
+  /// With watches: the pairs the latest plan pruned (their watches see the boxes' gap).
+  std::vector<std::uint32_t> pruned_now;
   // Scratch space, kept to avoid allocating per update.
   std::vector<char> moved;
   std::vector<std::uint32_t> near_stamp;

@@ -86,6 +86,17 @@ constexpr std::size_t pair_options(bool near_points, bool penetration_bound, boo
          (gradient ? kPairGradient : 0);
 }
 
+/// One entry of DistanceReport.events (field 9): a ThresholdEvent with threshold = 1 (the
+/// name), threshold_index = 2, object_a = 3, object_b = 4, crossing = 5, distance = 6,
+/// sequence = 7.
+constexpr std::size_t event_entry(std::size_t name_bytes, std::size_t id_a_bytes,
+                                  std::size_t id_b_bytes) {
+  const std::size_t content = delimited_field(1, name_bytes) + uint32_field(2) +
+                              delimited_field(3, id_a_bytes) + delimited_field(4, id_b_bytes) +
+                              small_field(5) + fixed64_field(6) + uint64_field(7);
+  return delimited_field(9, content);
+}
+
 // PairDistance.message (21), the engine's text for PAIR_STATUS_ENGINE_ERROR, is not counted: the
 // engine refuses only what the server's validation already refuses, so it marks a server bug.
 // Should it ever make a report too large, the transport answers with an error report instead

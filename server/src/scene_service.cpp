@@ -1,12 +1,14 @@
 #include "nearpoint/server/scene_service.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <unordered_set>
 
 #include "evaluation.hpp"
 #include "incremental.hpp"
 #include "metrics.hpp"
 #include "report_size.hpp"
+#include "thresholds.hpp"
 #include "validation.hpp"
 
 namespace nearpoint::server {
@@ -53,11 +55,22 @@ std::string extras(const DistanceOptions<double>& options) {
 /// RESOURCE_EXHAUSTED when a report of `scene` with `options` could be larger than `limit`: such
 /// a report could never be sent, so the scene (at creation) or the request is refused instead.
 /// The message names the limit, the bound and what would fit. `field` is "" at creation.
+/// `event_bytes`: what a stream's threshold events may add (one update's crossings).
 std::optional<Error> check_report_bytes(const SceneDefinition& scene,
                                         const DistanceOptions<double>& options, std::size_t limit,
-                                        const std::string& field) {
-  const std::size_t bound = report_bytes_bound(scene, options);
+                                        const std::string& field, std::size_t event_bytes = 0) {
+  const std::size_t pairs_bound = report_bytes_bound(scene, options);
+  const std::size_t bound = pairs_bound + event_bytes;
   if (bound <= limit) return std::nullopt;
+  if (pairs_bound <= limit)
+    return resource_exhausted(
+        "thresholds",
+        text("a report of scene ", quoted(scene.id), " could take up to ", pairs_bound,
+             " bytes for its pairs and ", event_bytes,
+             " for the thresholds' events (one per watched pair and threshold), more than the ",
+             limit,
+             " bytes the server sends in one message (--max-message-bytes): watch fewer "
+             "pairs, or ask for fewer outputs"));
   const std::size_t pairs = std::max<std::size_t>(1, scene.pairs.size());
   const std::size_t per_pair =
       std::max<std::size_t>(1, (bound - report_size::kReportEnvelope) / pairs);
@@ -75,6 +88,66 @@ std::optional<Error> check_report_bytes(const SceneDefinition& scene,
     return resource_exhausted(field, what + "select fewer pairs or use shorter object ids");
   return resource_exhausted(
       field, what + "ask for fewer outputs, or create a scene with fewer pairs or shorter ids");
+}
+
+/// The crossings of the updates a merged one absorbed: from the stream's previous poses, each
+/// absorbed update's poses in turn, and for each the watched pairs of the objects it moved
+/// through the engine (results kept apart: the stream's per-pair results stay those of its
+/// reports). Runs on a worker, before the merged update's own evaluation.
+void replay_steps(const SceneDefinition& scene, IncrementalState& state,
+                  const std::vector<WatchStep>& steps, const ResolvedOptions& options,
+                  std::span<SimplexCache> caches, std::vector<std::uint32_t>& touched,
+                  std::vector<ThresholdEvent>& events) {
+  const WatchSet& watches = *state.watches;
+  std::vector<Pose<double>> poses;
+  if (state.valid) {
+    poses = state.poses;
+  } else {
+    poses.reserve(scene.objects.size());
+    for (const SceneObject& object : scene.objects) poses.push_back(object.initial_pose);
+  }
+  std::vector<std::uint32_t> pairs;
+  PairReport result;
+  for (const WatchStep& step : steps) {
+    pairs.clear();
+    for (const auto& [object, pose] : step.moves) {
+      poses[object] = pose;
+      for (std::uint32_t k = scene.object_pairs_begin[object];
+           k < scene.object_pairs_begin[object + 1]; ++k)
+        if (watches.watched(scene.object_pairs[k])) pairs.push_back(scene.object_pairs[k]);
+    }
+    std::sort(pairs.begin(), pairs.end());
+    pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+    for (const std::uint32_t p : pairs) {
+      const ScenePair& pair = scene.pairs[p];
+      evaluate_pair(scene, pair, poses, options,
+                    caches.empty() ? caches : caches.subspan(pair.cache_offset, pair.cache_count),
+                    result);
+      double distance = 0;
+      if (watch_distance(result, distance))
+        check_crossings(watches, pair, p, distance, step.sequence, state.inside, events);
+      touched.push_back(p);
+    }
+  }
+}
+
+/// The crossings of the evaluation just finished: every watched pair whose result it changed
+/// (evaluated, pruned) or that a replay left at another pose's result.
+void check_evaluation(const SceneDefinition& scene, IncrementalState& state,
+                      const std::vector<std::uint32_t>& evaluated,
+                      const std::vector<std::uint32_t>& replayed, std::uint64_t sequence,
+                      std::vector<ThresholdEvent>& events) {
+  const WatchSet& watches = *state.watches;
+  auto check = [&](std::uint32_t p) {
+    if (!watches.watched(p)) return;
+    // A pruned pair's entry may not be written yet: its bound is the boxes' gap.
+    double distance = state.pruned_bound[p];
+    if (std::isnan(distance) && !watch_distance(state.pairs[p], distance)) return;
+    check_crossings(watches, scene.pairs[p], p, distance, sequence, state.inside, events);
+  };
+  for (const std::uint32_t p : evaluated) check(p);
+  for (const std::uint32_t p : state.pruned_now) check(p);
+  for (const std::uint32_t p : replayed) check(p);  // a second check of a pair adds nothing
 }
 
 double microseconds(Clock::duration d) {
@@ -165,6 +238,9 @@ struct SceneService::Job {
   std::shared_ptr<IncrementalState> state;
   /// The pairs (indices in scene->pairs) this evaluation hands to the engine.
   std::vector<std::uint32_t> evaluate;
+  /// With thresholds: the absorbed updates' poses to replay, and the pairs the replay evaluated.
+  std::vector<WatchStep> replay;
+  std::vector<std::uint32_t> replayed_pairs;
   /// Whether `state` outlives the job (a stream's): then the report gets a copy of its results,
   /// else (a query's) they may be moved into the report.
   bool keep_state = true;
@@ -207,6 +283,12 @@ void SceneService::run(std::shared_ptr<Job> job) {
     job.report.scene = job.scene;
     job.report.mode = job.options.report_mode;
     finish_evaluation(std::move(job.poses), job.options, job.evaluate, state);
+    if (state.watches) {
+      check_evaluation(*job.scene, state, job.evaluate, job.replayed_pairs, job.report.sequence,
+                       job.report.events);
+      sort_events(job.report.events);
+      job.report.threshold_names = state.watches->names;
+    }
     collect_report(*job.scene, state, job.options, !job.keep_state, job.report.pairs);
     const Clock::time_point end = Clock::now();
     ReportTiming& timing = job.report.timing;
@@ -224,6 +306,9 @@ void SceneService::run(std::shared_ptr<Job> job) {
   // thread; planning then splits the pairs that reach the engine into tasks, this one included.
   pool_.post([this, job, work] {
     job->started = Clock::now();  // time before this is queueing
+    if (job->state->watches && !job->replay.empty())
+      replay_steps(*job->scene, *job->state, job->replay, job->options, job->caches,
+                   job->replayed_pairs, job->report.events);
     plan_evaluation(*job->scene, job->poses, job->options, *job->state, job->evaluate,
                     job->report.counts);
     const std::size_t tasks =
@@ -569,8 +654,23 @@ Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
   Expected<ResolvedOptions> options =
       resolve_options(definition.default_options, update.options, "options");
   if (!options) return options.error();
+  // Thresholds come with the first update; later ones keep them.
+  std::shared_ptr<const WatchSet> watches = watches_;
+  if (!update.thresholds.empty()) {
+    if (scene_)
+      return invalid_argument("thresholds",
+                              "are named by a stream's first update only; open another stream "
+                              "to watch other thresholds");
+    Expected<std::shared_ptr<const WatchSet>> resolved =
+        resolve_thresholds(definition, update.thresholds, service_.limits_.max_pairs_per_scene);
+    if (!resolved) return resolved.error();
+    watches = std::move(resolved.value());
+  }
+  const std::size_t event_bytes = watches ? watches->event_bytes_per_update : 0;
+  if (watches)
+    if (auto error = check_cutoff(*watches, options->engine.distance_cutoff)) return *error;
   if (auto error = check_report_bytes(definition, options->engine,
-                                      service_.limits_.max_report_bytes, "options"))
+                                      service_.limits_.max_report_bytes, "options", event_bytes))
     return *error;
   std::vector<Pose<double>> start;
   if (scene_) {
@@ -588,6 +688,7 @@ Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
     scene_ = std::move(scene);
     caches_.assign(definition.piece_pair_count, SimplexCache{});
     flow_control_ = update.flow_control;
+    watches_ = watches;
   }
   current_poses_ = poses.value();
   has_sequence_ = true;
@@ -597,6 +698,20 @@ Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
   prepared.poses = std::move(poses.value());
   prepared.options = options.value();
   prepared.received = received;
+  if (watches) {
+    prepared.step.sequence = update.sequence;
+    for (const ObjectPoseInput& pose : update.poses) {
+      const auto object = std::uint32_t(definition.find_object(pose.object_id));
+      if (watches->watched_object[object])
+        prepared.step.moves.emplace_back(object, prepared.poses[object]);
+    }
+    // A merged report carries the crossings of every update it replays: as many as fit in one
+    // message beside the pairs (checked above for one update's worth).
+    const std::size_t room = service_.limits_.max_report_bytes -
+                             report_bytes_bound(definition, options->engine) - event_bytes;
+    prepared.replay_limit =
+        std::min(kMaxReplayedUpdates, room / std::max<std::size_t>(1, event_bytes));
+  }
   return prepared;
 }
 
@@ -604,6 +719,21 @@ void PoseStream::coalesce(PreparedUpdate& newer, const PreparedUpdate& older) {
   newer.coalesced_updates += older.coalesced_updates + 1;
   newer.coalesced_from_sequence =
       older.coalesced_updates > 0 ? older.coalesced_from_sequence : older.sequence;
+  if (older.absorbed.empty() && older.step.moves.empty()) return;  // no watched object moved
+  std::vector<WatchStep> steps = older.absorbed;
+  if (!older.step.moves.empty()) steps.push_back(older.step);
+  for (WatchStep& step : newer.absorbed) steps.push_back(std::move(step));
+  // Beyond the limit the two oldest become one: the older one's poses are then judged together
+  // with the newer one's (crossings between them may go unseen, never a report too large).
+  while (steps.size() > newer.replay_limit) {
+    if (steps.size() == 1) {
+      steps.clear();
+      break;
+    }
+    steps[1].moves.insert(steps[1].moves.begin(), steps[0].moves.begin(), steps[0].moves.end());
+    steps.erase(steps.begin());
+  }
+  newer.absorbed = std::move(steps);
 }
 
 void PoseStream::evaluate(PreparedUpdate update, ReportCallback done) {
@@ -612,8 +742,15 @@ void PoseStream::evaluate(PreparedUpdate update, ReportCallback done) {
   job->poses = std::move(update.poses);
   job->options = update.options;
   if (update.options.warm_start) job->caches = caches_;
-  if (!incremental_) incremental_ = std::make_shared<IncrementalState>();
+  if (!incremental_) {
+    incremental_ = std::make_shared<IncrementalState>();
+    if (watches_) {
+      incremental_->watches = watches_;
+      incremental_->inside.assign(watches_->watch_count(), 0);
+    }
+  }
   job->state = incremental_;
+  job->replay = std::move(update.absorbed);
   job->received = update.received;
   job->report.sequence = update.sequence;
   job->report.coalesced_updates = update.coalesced_updates;

@@ -12,6 +12,7 @@
 #include <optional>
 #include <random>
 #include <set>
+#include <tuple>
 
 #include "broad_phase.hpp"
 #include "incremental.hpp"
@@ -840,6 +841,189 @@ TEST(ReportModes, AnUnknownModeIsRefusedNamingTheField) {
   ASSERT_FALSE(resolved.ok());
   EXPECT_EQ(resolved.error().field, "options.report_mode");
   EXPECT_EQ(resolved.error().code, ErrorCode::invalid_argument);
+}
+
+// ---- watched pairs: thresholds and events ----
+
+// Events against a brute-force reference: every update (absorbed ones included) recomputed for
+// every pair by a cold query, and a reference flag per (pair, threshold) driven by the rule
+// "ENTER below distance, EXIT above distance + hysteresis". The stream must report exactly the
+// reference's crossings, each once, with the sequence of the update that caused it, also when
+// three updates are merged into one (as FLOW_CONTROL_COALESCE does): a merged report replays the
+// poses of the updates it absorbed. Without the replay, crossings inside absorbed updates (an
+// ENTER then an EXIT) would be lost; without hysteresis, pairs in the band would fire again.
+TEST(Thresholds, EventsMatchABruteForceReferenceThroughCoalescedUpdates) {
+  std::size_t enters = 0, exits = 0, absorbed_events = 0, band_holds = 0;
+  for (std::uint64_t seed = 0; seed < 4; ++seed) {
+    Rng rng(2200 + seed);
+    SceneService service(ServiceLimits{}, 2);
+    const Vec3d center = Vec3d::Constant(seed % 2 ? 1e6 : 0);
+    const std::size_t n = 14;
+    const double cutoff = seed < 2 ? std::numeric_limits<double>::infinity() : 1.5;
+    RandomScene scene = make_scene(service, rng, n, center, 5);
+    for (std::size_t i = 0; i < n; ++i) scene.input.objects[i].group = i % 4 == 0 ? 2u : 1u;
+    Expected<SceneInfo> info = service.create_scene(scene.input);
+    ASSERT_TRUE(info.ok());
+
+    std::vector<ThresholdInput> thresholds(4);
+    thresholds[0] = {"pair", 0.8, 0.2, "o0", "o1", 0};
+    thresholds[1] = {"object", 0.5, 0.1, "o2", "", 0};
+    thresholds[2] = {"group", 0.3, 0.3, "", "", 2};
+    thresholds[3] = {"all", 0.2, 0.0, "", "", 0};
+    // The reference's idea of what each threshold watches, written out from the rule.
+    const Report first = recompute_all(service, info->scene_id, scene.poses, scene.input, cutoff);
+    const std::size_t pairs = first.pairs.size();
+    auto group = [&](std::uint32_t o) { return scene.input.objects[o].group.value_or(1); };
+    auto watches = [&](std::size_t p, std::size_t t) {
+      const PairReport& pair = first.pairs[p];
+      const std::uint32_t a = pair.object_a, b = pair.object_b;
+      switch (t) {
+        case 0:
+          return (a == 0 && b == 1) || (a == 1 && b == 0);
+        case 1:
+          return a == 2 || b == 2;
+        case 2:
+          return (group(a) & 2u) != 0 || (group(b) & 2u) != 0;
+        default:
+          return true;
+      }
+    };
+    std::vector<std::vector<char>> inside(pairs, std::vector<char>(4, 0));
+
+    std::unique_ptr<PoseStream> stream = std::move(service.open_stream().value());
+    std::vector<PoseInput> poses = scene.poses;
+    std::uint64_t sequence = 0;
+    for (int report = 0; report < 40; ++report) {
+      const std::string where =
+          "seed " + std::to_string(seed) + " report " + std::to_string(report);
+      const int merged = report % 3 == 2 ? 3 : 1;
+      std::optional<PreparedUpdate> prepared;
+      std::vector<std::tuple<std::uint64_t, std::uint32_t, std::uint32_t, Crossing>> expected;
+      for (int m = 0; m < merged; ++m) {
+        PoseUpdateInput input;
+        input.scene_id = info->scene_id;
+        input.sequence = ++sequence;
+        input.options.warm_start = false;
+        input.options.distance_cutoff = cutoff;
+        if (sequence == 1) input.thresholds = thresholds;
+        // A random walk of two objects, the watched o0..o2 often among them, so that pairs come
+        // and go across the thresholds and through the hysteresis band.
+        for (int k = 0; k < 2; ++k) {
+          const std::size_t i = k == 0 ? rng() % 3 : 3 + rng() % (n - 3);
+          poses[i].translation +=
+              Vec3d(uniform(rng, -0.4, 0.4), uniform(rng, -0.4, 0.4), uniform(rng, -0.4, 0.4));
+          poses[i].translation =
+              center + (poses[i].translation - center).cwiseMax(-2.5).cwiseMin(2.5);
+          bool listed = false;
+          for (ObjectPoseInput& pose : input.poses)
+            if (pose.object_id == scene.input.objects[i].id) pose.pose = poses[i], listed = true;
+          if (!listed) input.poses.push_back({scene.input.objects[i].id, poses[i]});
+        }
+        Expected<PreparedUpdate> next = stream->prepare(input, Clock::now());
+        ASSERT_TRUE(next.ok()) << where << ": " << next.error().describe();
+        if (prepared) PoseStream::coalesce(*next, *prepared);
+        prepared = std::move(next.value());
+
+        const Report all = recompute_all(service, info->scene_id, poses, scene.input, cutoff);
+        for (std::size_t p = 0; p < pairs; ++p) {
+          const PairReport& pair = all.pairs[p];
+          const double d = pair.status == PairStatus::intersecting    ? 0.0
+                           : pair.status == PairStatus::beyond_cutoff ? pair.distance_lower_bound
+                                                                      : pair.distance;
+          for (std::size_t t = 0; t < 4; ++t) {
+            if (!watches(p, t)) continue;
+            const double enter = thresholds[t].distance;
+            const double exit = enter + thresholds[t].hysteresis;
+            if (!inside[p][t] && d < enter) {
+              inside[p][t] = 1;
+              expected.emplace_back(sequence, std::uint32_t(p), std::uint32_t(t), Crossing::enter);
+            } else if (inside[p][t] && d > exit) {
+              inside[p][t] = 0;
+              expected.emplace_back(sequence, std::uint32_t(p), std::uint32_t(t), Crossing::exit);
+            } else if (inside[p][t] && d >= enter) {
+              ++band_holds;  // no EXIT thanks to the hysteresis
+            }
+          }
+        }
+      }
+      const Report got = run_prepared(*stream, std::move(*prepared));
+      ASSERT_EQ(got.sequence, sequence) << where;
+      ASSERT_EQ(got.events.size(), expected.size()) << where;
+      ASSERT_TRUE(got.threshold_names) << where;
+      for (std::size_t e = 0; e < expected.size(); ++e) {
+        const ThresholdEvent& event = got.events[e];
+        const auto& [want_sequence, want_pair, want_threshold, want_crossing] = expected[e];
+        EXPECT_EQ(event.sequence, want_sequence) << where;
+        EXPECT_EQ(event.pair, want_pair) << where;
+        EXPECT_EQ(event.threshold, want_threshold) << where;
+        EXPECT_EQ(event.crossing, want_crossing) << where;
+        EXPECT_EQ(event.object_a, first.pairs[want_pair].object_a) << where;
+        EXPECT_EQ(event.object_b, first.pairs[want_pair].object_b) << where;
+        EXPECT_EQ((*got.threshold_names)[event.threshold], thresholds[want_threshold].name);
+        (event.crossing == Crossing::enter ? enters : exits)++;
+        if (event.sequence < got.sequence) ++absorbed_events;
+      }
+    }
+  }
+  // The sample crossed thresholds both ways, inside merged updates too, and sat in the band.
+  EXPECT_GT(enters, 20u);
+  EXPECT_GT(exits, 20u);
+  EXPECT_GT(absorbed_events, 5u);
+  EXPECT_GT(band_holds, 5u);
+}
+
+// Thresholds are checked when the stream's first update names them, each error naming its
+// field; later updates cannot rename them, nor lower the cutoff below an exit distance (a pair
+// beyond the cutoff has no distance to compare).
+TEST(Thresholds, BadThresholdsAreRefusedNamingTheField) {
+  Rng rng(77);
+  SceneService service(ServiceLimits{}, 1);
+  RandomScene scene = make_scene(service, rng, 4, Vec3d::Zero(), 4);
+  scene.input.pair_selection.mode = PairSelectionInput::Mode::excluded_pairs;
+  scene.input.pair_selection.pairs = {{"o2", "o3"}};
+  Expected<SceneInfo> info = service.create_scene(scene.input);
+  ASSERT_TRUE(info.ok());
+  struct Case {
+    ThresholdInput threshold;
+    double cutoff;
+    const char* field;
+    ErrorCode code;
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  const Case cases[] = {
+      {{"", 0.0, 0, "", "", 0}, inf, "thresholds[0].distance", ErrorCode::invalid_argument},
+      {{"", 0.1, -1, "", "", 0}, inf, "thresholds[0].hysteresis", ErrorCode::invalid_argument},
+      {{"", 0.1, 0, "nope", "", 0}, inf, "thresholds[0].object_a", ErrorCode::not_found},
+      {{"", 0.1, 0, "", "o1", 0}, inf, "thresholds[0].object_b", ErrorCode::invalid_argument},
+      {{"", 0.1, 0, "o2", "o3", 0}, inf, "thresholds[0]", ErrorCode::invalid_argument},
+      {{"", 0.1, 0, "", "", 8}, inf, "thresholds[0]", ErrorCode::invalid_argument},
+      {{"", 0.5, 0.5, "o0", "", 0}, 0.9, "options.distance_cutoff", ErrorCode::invalid_argument},
+  };
+  for (const Case& c : cases) {
+    std::unique_ptr<PoseStream> stream = std::move(service.open_stream().value());
+    PoseUpdateInput input;
+    input.scene_id = info->scene_id;
+    input.sequence = 1;
+    input.options.distance_cutoff = c.cutoff;
+    input.thresholds = {c.threshold};
+    Expected<PreparedUpdate> prepared = stream->prepare(input, Clock::now());
+    ASSERT_FALSE(prepared.ok()) << c.field;
+    EXPECT_EQ(prepared.error().field, c.field);
+    EXPECT_EQ(prepared.error().code, c.code) << c.field;
+    // The stream is still unbound: a good first update is accepted.
+    input.thresholds = {{"ok", 0.5, 0.5, "o0", "o1", 0}};
+    input.options.distance_cutoff = 1.0;
+    ASSERT_TRUE(stream->prepare(input, Clock::now()).ok()) << c.field;
+    input.sequence = 2;
+    Expected<PreparedUpdate> again = stream->prepare(input, Clock::now());
+    ASSERT_FALSE(again.ok());
+    EXPECT_EQ(again.error().field, "thresholds");
+    input.thresholds.clear();
+    input.options.distance_cutoff = 0.5;
+    Expected<PreparedUpdate> lower = stream->prepare(input, Clock::now());
+    ASSERT_FALSE(lower.ok());
+    EXPECT_EQ(lower.error().field, "options.distance_cutoff");
+  }
 }
 
 }  // namespace

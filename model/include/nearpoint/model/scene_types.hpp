@@ -134,6 +134,23 @@ struct ObjectPoseInput {
   PoseInput pose;
 };
 
+/// A watched distance (see nearpoint.v1.Threshold): a stream's reports carry an ENTER event when
+/// a watched pair comes closer than `distance`, an EXIT event when it gets farther than
+/// `distance + hysteresis`. Which pairs: both ids, that pair; `object_a` alone, its pairs; no id,
+/// every selected pair; a non-zero `groups` further keeps the pairs whose other object (with no id:
+/// either object) has a group bit in it.
+struct ThresholdInput {
+  /// Echoed in events; at most 256 bytes of UTF-8, may be empty.
+  std::string name;
+  /// Metres, finite, > 0.
+  double distance = 0;
+  /// Metres, finite, >= 0.
+  double hysteresis = 0;
+  std::string object_a;
+  std::string object_b;
+  std::uint32_t groups = 0;
+};
+
 /// See nearpoint.v1.FlowControl. `unknown`: a value this server does not know; rejected.
 enum class FlowControl : unsigned char { block, coalesce, unknown };
 
@@ -144,6 +161,8 @@ struct PoseUpdateInput {
   QueryOptionsInput options;
   /// Read from a stream's first update only.
   FlowControl flow_control = FlowControl::block;
+  /// The stream's watched thresholds; set by its first update only (later updates: empty).
+  std::vector<ThresholdInput> thresholds;
 };
 
 struct QueryInput {
@@ -191,6 +210,24 @@ struct PairReport {
   Eigen::Matrix<double, 6, 1> gradient_b = Eigen::Matrix<double, 6, 1>::Zero();
   /// Static text for engine_error, else nullptr.
   const char* engine_message = nullptr;
+};
+
+enum class Crossing : unsigned char { enter, exit };
+
+/// A watched pair crossed a threshold (see nearpoint.v1.ThresholdEvent).
+struct ThresholdEvent {
+  /// Index in the stream's thresholds.
+  std::uint32_t threshold = 0;
+  /// Index in the scene's pairs, and the pair's objects (indices into the scene's objects).
+  std::uint32_t pair = 0;
+  std::uint32_t object_a = 0;
+  std::uint32_t object_b = 0;
+  Crossing crossing = Crossing::enter;
+  /// The distance that crossed, metres: the pair's distance (0 when intersecting), or for a pair
+  /// proven beyond the cutoff the lower bound that proves it.
+  double distance = 0;
+  /// The update whose poses crossed (an absorbed one's when coalesced).
+  std::uint64_t sequence = 0;
 };
 
 /// Server-side timing of one report, microseconds (steady clock).

@@ -13,6 +13,7 @@
 #include <shared_mutex>
 #include <string>
 #include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "nearpoint/compound.hpp"
@@ -111,6 +112,15 @@ class Scene {
   std::atomic<bool> deleted_{false};
 };
 
+struct WatchSet;
+
+/// The poses one update set on watched objects (object index, world pose), and its sequence:
+/// what a merged update replays for the crossings of the updates it absorbed.
+struct WatchStep {
+  std::uint64_t sequence = 0;
+  std::vector<std::pair<std::uint32_t, Pose<double>>> moves;
+};
+
 /// An update that passed validation: everything its evaluation needs, by value.
 struct PreparedUpdate {
   std::uint64_t sequence = 0;
@@ -121,6 +131,11 @@ struct PreparedUpdate {
   Clock::time_point received;
   std::uint32_t coalesced_updates = 0;
   std::uint64_t coalesced_from_sequence = 0;
+  /// With thresholds: the poses this update set on watched objects, and those of the updates it
+  /// absorbed (oldest first, at most `replay_limit` of them), replayed for their crossings.
+  WatchStep step;
+  std::vector<WatchStep> absorbed;
+  std::size_t replay_limit = 0;
 };
 
 using ReportCallback = std::function<void(Report)>;
@@ -144,7 +159,9 @@ class PoseStream {
   Expected<PreparedUpdate> prepare(const PoseUpdateInput& update, Clock::time_point received);
 
   /// Folds `older` (accepted earlier, not yet evaluated) into `newer`: since a prepared update
-  /// carries every object's pose, the newer one already holds the older one's poses.
+  /// carries every object's pose, the newer one already holds the older one's poses. With
+  /// thresholds, `newer` keeps the poses `older` (and what it absorbed) set on watched objects,
+  /// so that the crossings they caused are still reported.
   static void coalesce(PreparedUpdate& newer, const PreparedUpdate& older);
 
   /// Evaluates the update on the worker pool; `done` gets the report (every selected pair) on a
@@ -170,6 +187,8 @@ class PoseStream {
   /// The previous evaluation's poses, options and results, and the broad phase's boxes: pairs of
   /// unmoved objects are not evaluated again.
   std::shared_ptr<IncrementalState> incremental_;
+  /// The thresholds named by the first update (null: none).
+  std::shared_ptr<const WatchSet> watches_;
   bool has_sequence_ = false;
   std::uint64_t last_sequence_ = 0;
   FlowControl flow_control_ = FlowControl::block;

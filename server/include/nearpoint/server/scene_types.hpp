@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "nearpoint/model/scene_types.hpp"
@@ -12,6 +13,7 @@
 namespace nearpoint::server {
 
 using Clock = std::chrono::steady_clock;
+using model::Crossing;
 using model::FlowControl;
 using model::GeometryInfo;
 using model::GeometryInput;
@@ -32,6 +34,8 @@ using model::ReportMode;
 using model::ReportTiming;
 using model::SceneInfo;
 using model::SceneInput;
+using model::ThresholdEvent;
+using model::ThresholdInput;
 using model::Vec3d;
 
 class SceneDefinition;
@@ -47,6 +51,10 @@ struct Report {
   ReportMode mode = ReportMode::all_pairs;
   std::uint32_t coalesced_updates = 0;
   std::uint64_t coalesced_from_sequence = 0;
+  /// Threshold crossings, oldest update first, then in the scene's pair order; and the names of
+  /// the stream's thresholds (`ThresholdEvent::threshold` indexes them; null without thresholds).
+  std::vector<ThresholdEvent> events;
+  std::shared_ptr<const std::vector<std::string>> threshold_names;
 };
 
 }  // namespace nearpoint::server
