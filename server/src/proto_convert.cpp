@@ -185,6 +185,11 @@ PoseUpdateInput to_input(const v1::PoseUpdate& update) {
   out.poses = to_pose_inputs(update.poses());
   out.options = to_input(update.options());
   out.flow_control = wire::flow_control(update.flow_control());
+  out.thresholds.reserve(std::size_t(update.thresholds_size()));
+  for (const v1::Threshold& threshold : update.thresholds())
+    out.thresholds.push_back(ThresholdInput{threshold.name(), threshold.distance(),
+                                            threshold.hysteresis(), threshold.object_a(),
+                                            threshold.object_b(), threshold.groups()});
   return out;
 }
 
@@ -267,6 +272,18 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
     default:
       out.set_report_mode(v1::REPORT_MODE_ALL_PAIRS);
       break;
+  }
+  out.mutable_events()->Reserve(int(report.events.size()));
+  for (const ThresholdEvent& event : report.events) {
+    v1::ThresholdEvent& e = *out.add_events();
+    if (report.threshold_names) e.set_threshold((*report.threshold_names)[event.threshold]);
+    e.set_threshold_index(event.threshold);
+    e.set_object_a(report.scene->objects[event.object_a].id);
+    e.set_object_b(report.scene->objects[event.object_b].id);
+    e.set_crossing(event.crossing == Crossing::enter ? v1::THRESHOLD_CROSSING_ENTER
+                                                     : v1::THRESHOLD_CROSSING_EXIT);
+    e.set_distance(event.distance);
+    e.set_sequence(event.sequence);
   }
 }
 

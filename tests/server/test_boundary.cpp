@@ -202,7 +202,8 @@ TEST(ReportLimits, AReportTooLargeToSendIsReplacedByAnErrorReport) {
 TEST(ReportLimits, TheReportSizeBoundHoldsForWorstCaseReports) {
   namespace size = report_size;
   EXPECT_EQ(v1::PairDistance::descriptor()->field_count(), 21);
-  EXPECT_EQ(v1::DistanceReport::descriptor()->field_count(), 8);
+  EXPECT_EQ(v1::DistanceReport::descriptor()->field_count(), 9);
+  EXPECT_EQ(v1::ThresholdEvent::descriptor()->field_count(), 7);
   EXPECT_EQ(v1::ReportTiming::descriptor()->field_count(), 4);
   EXPECT_EQ(v1::ReportCounts::descriptor()->field_count(), 3);
 
@@ -231,6 +232,19 @@ TEST(ReportLimits, TheReportSizeBoundHoldsForWorstCaseReports) {
       timing.set_server_us(1.5), timing.set_queue_us(1.5), timing.set_evaluation_us(1.5);
       timing.set_geometry_us(1.5);
       std::size_t bound = size::kReportEnvelope;
+      // Events: one per pair, the threshold's name up to a name's 256 bytes.
+      for (int i = 0; i < kPairCount; ++i) {
+        const std::size_t name_length = std::size_t(i % 2 ? 256 : 1);
+        v1::ThresholdEvent& event = *report.add_events();
+        event.set_threshold(std::string(name_length, 'n'));
+        event.set_threshold_index(~0u);
+        event.set_object_a(std::string(id_length, 'a'));
+        event.set_object_b(std::string(id_length, 'b'));
+        event.set_crossing(v1::THRESHOLD_CROSSING_EXIT);
+        event.set_distance(1.5);
+        event.set_sequence(~std::uint64_t(0));
+        bound += size::event_entry(name_length, id_length, id_length);
+      }
       for (int i = 0; i < kPairCount; ++i) {
         v1::PairDistance& pair = *report.add_pairs();
         pair.set_object_a(std::string(id_length, 'a'));

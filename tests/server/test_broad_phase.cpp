@@ -1026,5 +1026,44 @@ TEST(Thresholds, BadThresholdsAreRefusedNamingTheField) {
   }
 }
 
+// A stream whose thresholds' events could not fit in one report beside its pairs is refused at
+// its first update, naming the thresholds and the limit, rather than answered with reports that
+// could never be sent.
+TEST(Thresholds, EventsThatCouldNotFitInAReportAreRefused) {
+  Rng rng(78);
+  ServiceLimits limits;
+  SceneService probe(limits, 1);
+  RandomScene scene = make_scene(probe, rng, 30, Vec3d::Zero(), 4);  // 435 pairs
+  std::vector<ThresholdInput> thresholds;
+  for (int t = 0; t < 3; ++t)
+    thresholds.push_back({std::string(200, 'n'), 0.1 * (t + 1), 0, "", "", 0});
+  for (const std::size_t limit : {std::size_t(60000), std::size_t(1000000)}) {
+    limits.max_report_bytes = limit;
+    SceneService service(limits, 1);
+    for (ObjectInput& object : scene.input.objects) {
+      Rng again(78);
+      object.geometry_id = service.register_geometry(random_geometry(again))->geometry_id;
+    }
+    Expected<SceneInfo> info = service.create_scene(scene.input);
+    ASSERT_TRUE(info.ok()) << info.error().describe();
+    std::unique_ptr<PoseStream> stream = std::move(service.open_stream().value());
+    PoseUpdateInput input;
+    input.scene_id = info->scene_id;
+    input.sequence = 1;
+    input.thresholds = thresholds;
+    Expected<PreparedUpdate> prepared = stream->prepare(input, Clock::now());
+    if (limit < 1000000) {
+      // 3 × 435 events of ~230 bytes: ~300 kB, beyond 60 kB.
+      ASSERT_FALSE(prepared.ok());
+      EXPECT_EQ(prepared.error().code, ErrorCode::resource_exhausted);
+      EXPECT_EQ(prepared.error().field, "thresholds");
+      EXPECT_NE(prepared.error().message.find("--max-message-bytes"), std::string::npos);
+    } else {
+      ASSERT_TRUE(prepared.ok()) << prepared.error().describe();
+      EXPECT_GE(prepared->replay_limit, 1u);  // room for a few absorbed updates' events
+    }
+  }
+}
+
 }  // namespace
 }  // namespace nearpoint::server

@@ -370,6 +370,72 @@ TEST_F(GrpcServerTest, CoalescePolicyMergesUpdatesForASlowReader) {
   EXPECT_GT(merged_reports, 0);
 }
 
+// Thresholds over the wire, through COALESCE: while the workers are held, the writer moves one
+// object of a watched pair onto its partner and away again, twenty times; the server merges
+// what it reads into few reports, yet every ENTER and EXIT arrives, once, in order, with the
+// sequence number of the update that caused it, the threshold's name and the pair's ids. Guards
+// the replay of absorbed updates (a merged update alone would see only its last poses) and the
+// proto conversion of events.
+TEST_F(GrpcServerTest, ThresholdEventsSurviveCoalescedUpdates) {
+  const LocalScene scene = make_scene(stub());
+  StreamClient stream(stub());
+  constexpr int kUpdates = 20;
+  testkit::HeldWorkers held(running_.server->scenes(), scene.scene_id);
+  ASSERT_TRUE(held.held());
+  const std::vector<TestPose> base = trajectory(scene.size(), 0);
+  std::promise<void> all_written;
+  std::thread writer([&] {
+    for (int step = 0; step < kUpdates; ++step) {
+      std::vector<TestPose> poses = base;
+      // Odd steps: object 1 on object 0 (intersecting, distance 0); even steps: 10 m away.
+      poses[1].translation = poses[0].translation + Vec3<double>(step % 2 ? 0.0 : 10.0, 0, 0);
+      v1::PoseUpdate update = make_update(scene, std::uint64_t(step) + 1, poses);
+      if (step == 0) {
+        update.set_flow_control(v1::FLOW_CONTROL_COALESCE);
+        v1::Threshold& threshold = *update.add_thresholds();
+        threshold.set_name("keep-out");
+        threshold.set_distance(0.05);
+        threshold.set_hysteresis(0.01);
+        threshold.set_object_a(scene.object_ids[1]);
+        threshold.set_object_b(scene.object_ids[0]);
+      }
+      if (!stream.write(update)) break;
+    }
+    all_written.set_value();
+    stream.writes_done();
+  });
+  ASSERT_EQ(all_written.get_future().wait_for(std::chrono::seconds(15)), std::future_status::ready);
+  held.release();
+  std::vector<v1::DistanceReport> reports;
+  const grpc::Status status = stream.read_to_end(reports);
+  writer.join();
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  std::vector<std::pair<std::uint64_t, v1::ThresholdCrossing>> events;
+  int merged = 0;
+  for (const v1::DistanceReport& report : reports) {
+    ASSERT_FALSE(report.has_error()) << report.error().message();
+    merged += report.coalesced_updates() > 0;
+    for (const v1::ThresholdEvent& event : report.events()) {
+      EXPECT_EQ(event.threshold(), "keep-out");
+      EXPECT_EQ(event.threshold_index(), 0u);
+      EXPECT_EQ(event.object_a(), scene.object_ids[0]);  // the scene's pair order
+      EXPECT_EQ(event.object_b(), scene.object_ids[1]);
+      EXPECT_LE(event.sequence(), report.sequence());
+      if (event.crossing() == v1::THRESHOLD_CROSSING_ENTER)
+        EXPECT_EQ(event.distance(), 0.0);
+      else
+        EXPECT_GT(event.distance(), 0.06);
+      events.emplace_back(event.sequence(), event.crossing());
+    }
+  }
+  EXPECT_GT(merged, 0);
+  ASSERT_EQ(events.size(), std::size_t(kUpdates - 1));
+  for (std::size_t e = 0; e < events.size(); ++e) {
+    EXPECT_EQ(events[e].first, e + 2);  // update 1 is far: nothing to report
+    EXPECT_EQ(events[e].second, e % 2 ? v1::THRESHOLD_CROSSING_EXIT : v1::THRESHOLD_CROSSING_ENTER);
+  }
+}
+
 // ---- unary queries ----
 
 TEST_F(GrpcServerTest, UnaryQueryMatchesTheEngineAndWarmStartsFromTheSceneCache) {
