@@ -79,6 +79,10 @@ const char* to_string(ReportMode mode) {
   }
 }
 
+const char* to_string(Crossing crossing) {
+  return crossing == Crossing::exit ? "exit" : "enter";
+}
+
 model::PoseInput to_pose_input(const Eigen::Quaterniond& rotation,
                                const Eigen::Vector3d& translation) {
   model::PoseInput pose;
@@ -203,6 +207,7 @@ class SessionImpl final : public Session {
   std::uint64_t next_sequence_ = 1;
   std::map<std::string, ObjectPose> latest_poses_;  // for the resync after a reconnect
   bool resync_ = false;
+  bool send_thresholds_ = true;  // on the first update of each stream
   Status failure_;
   std::atomic<std::uint64_t> reconnects_{0};
   std::thread reader_;
@@ -579,6 +584,7 @@ bool SessionImpl::reconnect() {
         call_ = std::move(call);
         server_scene_id_ = *server_id;
         resync_ = true;
+        send_thresholds_ = true;
         state_ = State::connected;
         reconnects_.fetch_add(1);
         changed_.notify_all();
@@ -689,6 +695,11 @@ Expected<std::uint64_t> SessionImpl::push(const std::vector<ObjectPose>& poses,
   update.set_sequence(sequence);
   update.set_flow_control(options_.coalesce ? v1::FLOW_CONTROL_COALESCE : v1::FLOW_CONTROL_BLOCK);
   detail::to_proto(options != nullptr ? *options : options_.options, *update.mutable_options());
+  if (send_thresholds_) {
+    for (const Threshold& threshold : options_.thresholds)
+      detail::to_proto(threshold, *update.add_thresholds());
+    send_thresholds_ = false;
+  }
   for (const ObjectPose& pose : poses) {
     detail::to_proto(pose, *update.add_poses());
     latest_poses_[pose.object_id] = pose;

@@ -131,6 +131,15 @@ void to_proto(const QueryOptions& options, v1::QueryOptions& out) {
         std::uint32_t(std::min<std::uint64_t>(*options.max_iterations, 0xFFFFFFFFull)));
 }
 
+void to_proto(const Threshold& threshold, v1::Threshold& out) {
+  out.set_name(threshold.name);
+  out.set_distance(threshold.distance);
+  out.set_hysteresis(threshold.hysteresis);
+  out.set_object_a(threshold.object_a);
+  out.set_object_b(threshold.object_b);
+  out.set_groups(threshold.groups);
+}
+
 void to_proto(const Scene& scene, v1::CreateSceneRequest& out) {
   out.set_name(scene.name);
   out.set_scene_id(scene.requested_id);
@@ -231,6 +240,12 @@ Report from_proto(const v1::DistanceReport& report) {
       out.mode = ReportMode::all_pairs;
       break;
   }
+  out.events.reserve(std::size_t(report.events_size()));
+  for (const v1::ThresholdEvent& e : report.events())
+    out.events.push_back(ThresholdEvent{
+        e.threshold(), e.threshold_index(), e.object_a(), e.object_b(),
+        e.crossing() == v1::THRESHOLD_CROSSING_EXIT ? Crossing::exit : Crossing::enter,
+        e.distance(), e.sequence()});
   return out;
 }
 

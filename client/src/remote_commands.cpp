@@ -314,6 +314,13 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
   if (!options_from_flags(options.near_points, options.penetration, session_options.options, err) ||
       !options_from_mode_flags(options.report, session_options.options, err))
     return kExitBadInput;
+  for (const std::string& spec : options.thresholds) {
+    std::string error;
+    if (!parse_threshold_argument(spec, session_options.thresholds.emplace_back(), error)) {
+      err << "nearpoint stream: " << error << "\n";
+      return kExitBadInput;
+    }
+  }
   auto client = connect(options.remote, err);
   if (!client) return kExitBadInput;
   std::string scene_id;
@@ -329,6 +336,7 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
   std::map<std::pair<std::string, std::string>, PairSummary> pairs;
   std::vector<std::pair<std::string, std::string>> pair_order;
   std::vector<double> latencies_us;
+  std::vector<client::ThresholdEvent> events;
   std::size_t reports = 0, errors = 0;
   Clock::time_point last_progress = Clock::now();
   const auto started = Clock::now();
@@ -355,6 +363,7 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
     }
     latencies_us.push_back(
         std::chrono::duration<double, std::micro>(report.received - report.sent).count());
+    events.insert(events.end(), report.events.begin(), report.events.end());
     for (const client::PairDistance& p : report.pairs) {
       auto key = std::pair(p.object_a, p.object_b);
       auto [it, inserted] = pairs.try_emplace(key);
@@ -410,6 +419,18 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
         out << "never\n";
       else
         out << s.intersecting_steps << " steps, first at t = " << number(s.first_hit) << "\n";
+    }
+    if (!session_options.thresholds.empty()) {
+      out << events.size() << " threshold events\n";
+      for (const client::ThresholdEvent& e : events) {
+        const double t = e.sequence >= 1 && e.sequence <= trajectory.steps.size()
+                             ? trajectory.steps[e.sequence - 1].time
+                             : 0;
+        out << "  t = " << std::left << std::setw(10) << number(t)
+            << (e.crossing == client::Crossing::enter ? "ENTER " : "EXIT  ")
+            << (e.threshold.empty() ? "#" + std::to_string(e.threshold_index) : e.threshold) << "  "
+            << e.object_a << " - " << e.object_b << " at " << number(e.distance) << " m\n";
+      }
     }
   }
   if (!first_error.empty())

@@ -63,6 +63,8 @@ struct StreamCommandOptions {
   bool near_points = false;
   std::string penetration;
   ReportModeFlags report;
+  /// --threshold SPECs (see parse_threshold_argument).
+  std::vector<std::string> thresholds;
   /// Seconds between progress lines on `err` (human mode); 0: none.
   double progress_every = 0.5;
 };

@@ -104,10 +104,87 @@ Json to_json(const client::Report& report) {
   }
   out["pairs"] = std::move(pairs);
   out["report_mode"] = client::to_string(report.mode);
+  if (!report.events.empty()) {
+    Json events = Json::array();
+    for (const client::ThresholdEvent& e : report.events)
+      events.push_back({{"threshold", e.threshold},
+                        {"threshold_index", e.threshold_index},
+                        {"object_a", e.object_a},
+                        {"object_b", e.object_b},
+                        {"crossing", client::to_string(e.crossing)},
+                        {"distance", e.distance},
+                        {"sequence", e.sequence}});
+    out["events"] = std::move(events);
+  }
   out["server_us"] = report.timing.server_us;
   out["geometry_us"] = report.timing.geometry_us;
   if (report.coalesced_updates > 0) out["coalesced_updates"] = report.coalesced_updates;
   return out;
+}
+
+bool parse_threshold_argument(const std::string& text, client::Threshold& out, std::string& error) {
+  out = client::Threshold{};
+  const std::string where = "--threshold " + text + ": ";
+  auto number = [&](const std::string& value, double& into) {
+    char* end = nullptr;
+    into = std::strtod(value.c_str(), &end);
+    if (value.empty() || end != value.c_str() + value.size()) {
+      error = where + "\"" + value + "\" is not a number";
+      return false;
+    }
+    return true;
+  };
+  bool has_distance = false;
+  std::istringstream input(text);
+  std::string item;
+  for (bool first = true; std::getline(input, item, ','); first = false) {
+    const auto equals = item.find('=');
+    if (equals == std::string::npos) {
+      if (!first) {
+        error = where + "\"" + item + "\" is not KEY=VALUE";
+        return false;
+      }
+      if (!number(item, out.distance)) return false;
+      has_distance = true;
+      continue;
+    }
+    const std::string key = item.substr(0, equals), value = item.substr(equals + 1);
+    if (key == "distance") {
+      if (!number(value, out.distance)) return false;
+      has_distance = true;
+    } else if (key == "hysteresis") {
+      if (!number(value, out.hysteresis)) return false;
+    } else if (key == "pair") {
+      const auto colon = value.find(':');
+      if (colon == std::string::npos) {
+        error = where + "pair=" + value + " is not A:B";
+        return false;
+      }
+      out.object_a = value.substr(0, colon);
+      out.object_b = value.substr(colon + 1);
+    } else if (key == "object") {
+      out.object_a = value;
+    } else if (key == "groups") {
+      char* end = nullptr;
+      const unsigned long groups = std::strtoul(value.c_str(), &end, 0);
+      if (value.empty() || end != value.c_str() + value.size() || groups > 0xFFFFFFFFul) {
+        error = where + "groups=" + value + " is not a 32-bit number";
+        return false;
+      }
+      out.groups = std::uint32_t(groups);
+    } else if (key == "name") {
+      out.name = value;
+    } else {
+      error =
+          where + "unknown key \"" + key + "\" (distance, hysteresis, pair, object, groups, name)";
+      return false;
+    }
+  }
+  if (!has_distance) {
+    error = where + "no distance (a number first, or distance=D)";
+    return false;
+  }
+  return true;
 }
 
 bool parse_pose_argument(const std::string& text, client::ObjectPose& out, std::string& error) {

@@ -48,4 +48,10 @@ Json to_json(const client::GeometryInfo& info);
 /// "arm=1,2,3" or "arm=1,2,3,w,x,y,z" (translation, then an optional quaternion).
 bool parse_pose_argument(const std::string& text, client::ObjectPose& out, std::string& error);
 
+/// `nearpoint stream --threshold SPEC`: comma-separated, a bare number or `distance=D` first,
+/// then any of `hysteresis=H`, `pair=A:B`, `object=A`, `groups=BITS`, `name=NAME`. Without
+/// pair/object every selected pair is watched. The server checks the values (and names the
+/// field); here only the syntax.
+bool parse_threshold_argument(const std::string& text, client::Threshold& out, std::string& error);
+
 }  // namespace nearpoint::cli

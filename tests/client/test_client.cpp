@@ -682,6 +682,72 @@ TEST_F(WithServer, SceneCreateQueryAndStreamAgreeWithGeometry) {
   EXPECT_GT(touching, 0u);
 }
 
+// `nearpoint stream --threshold` end to end (CLI → client library → server → JSON): the gripper
+// bobs over the table; the events must be exactly those of the rule applied to the reported
+// gripper–table distances (ENTER below 0.05, EXIT above 0.05 + 0.05), so the pass through the
+// hysteresis band (distances 0.06, 0.09) fires nothing. A bad spec is a bad command line.
+TEST_F(WithServer, StreamThresholdsReportEnterAndExitEvents) {
+  std::ostringstream out, err;
+  const std::filesystem::path scene = temp_file("bob.json");
+  std::ofstream(scene) << R"({"id": "bob-1", "geometries": {
+      "gripper": {"pieces": [
+        {"box": [0.1, 0.02, 0.08], "pose": {"translation": [0, -0.06, 0]}},
+        {"box": [0.1, 0.02, 0.08], "pose": {"translation": [0, 0.06, 0]}}]},
+      "table": {"box": [1.0, 0.6, 0.02]}},
+    "objects": [{"id": "gripper", "geometry": "gripper"}, {"id": "table", "geometry": "table"}]})";
+  const std::filesystem::path trajectory = temp_file("bob.csv");
+  {
+    std::ofstream csv(trajectory);
+    csv << "t,object,tx,ty,tz,qw,qx,qy,qz\n";
+    const double heights[] = {0.5, 0.15, 0.12, 0.16, 0.19, 0.25, 0.14, 0.5};
+    for (std::size_t i = 0; i < std::size(heights); ++i)
+      csv << 0.1 * double(i) << ",gripper,0,0," << heights[i] << ",1,0,0,0\n";
+  }
+  StreamCommandOptions stream;
+  stream.remote = remote();
+  stream.scene = scene.string();  // created on the first run, by id afterwards
+  stream.trajectory = trajectory.string();
+  stream.thresholds = {"0.05,hysteresis=0.05,pair=gripper:table,name=near-table"};
+  out.str("");
+  ASSERT_EQ(run_stream(stream, out, err), 0) << err.str();
+  std::istringstream lines(out.str());
+  std::string line;
+  bool inside = false;
+  std::vector<std::pair<std::uint64_t, std::string>> expected, got;
+  while (std::getline(lines, line)) {
+    const Json r = parse_json(line);
+    ASSERT_EQ(r["pairs"][0]["object_b"], "table");
+    const double d = r["pairs"][0]["distance"].get<double>();
+    if (!inside && d < 0.05) inside = true, expected.emplace_back(r["sequence"], "enter");
+    if (inside && d > 0.1) inside = false, expected.emplace_back(r["sequence"], "exit");
+    if (r.contains("events"))
+      for (const Json& e : r["events"]) {
+        EXPECT_EQ(e["threshold"], "near-table");
+        EXPECT_EQ(e["object_a"], "gripper");
+        EXPECT_EQ(e["object_b"], "table");
+        got.emplace_back(e["sequence"], e["crossing"]);
+      }
+  }
+  EXPECT_EQ(expected.size(), 4u);
+  EXPECT_EQ(got, expected);
+
+  // Without --json: the summary lists the events.
+  stream.remote.json = false;
+  stream.progress_every = 0;
+  stream.scene = "bob-1";
+  out.str("");
+  ASSERT_EQ(run_stream(stream, out, err), 0) << err.str();
+  EXPECT_NE(out.str().find("4 threshold events"), std::string::npos) << out.str();
+  EXPECT_NE(out.str().find("ENTER near-table  gripper - table"), std::string::npos) << out.str();
+
+  stream.thresholds = {"close,pair=gripper"};
+  err.str("");
+  EXPECT_EQ(run_stream(stream, out, err), kExitBadInput);
+  EXPECT_NE(err.str().find("--threshold"), std::string::npos) << err.str();
+  std::filesystem::remove(trajectory);
+  std::filesystem::remove(scene);
+}
+
 TEST_F(WithServer, LoadRunsBoundedAndReportsPercentiles) {
   LoadCommandOptions options;
   options.remote = remote();

@@ -101,6 +101,10 @@ using QueryOptions = model::QueryOptionsInput;
 using PenetrationMode = model::PenetrationMode;
 using ReportMode = model::ReportMode;
 using ReportCounts = model::ReportCounts;
+/// A watched distance of a session (see nearpoint.v1.Threshold): ENTER below `distance`, EXIT
+/// above `distance + hysteresis`, on a pair (object_a, object_b), an object's pairs (object_a),
+/// or every pair; `groups` filters by SceneObject.group.
+using Threshold = model::ThresholdInput;
 using SceneInfo = model::SceneInfo;
 
 /// Conversions between Eigen poses and the plain structs' (w, x, y, z) + translation.
@@ -154,6 +158,23 @@ struct PairDistance {
   std::string message;
 };
 
+enum class Crossing { enter, exit };
+/// "enter" or "exit".
+const char* to_string(Crossing crossing);
+
+/// A watched pair crossed a threshold (see nearpoint.v1.ThresholdEvent).
+struct ThresholdEvent {
+  /// Threshold::name and its index in SessionOptions::thresholds.
+  std::string threshold;
+  std::uint32_t threshold_index = 0;
+  std::string object_a, object_b;
+  Crossing crossing = Crossing::enter;
+  /// The distance that crossed, metres (0 when intersecting; beyond the cutoff, its lower bound).
+  double distance = 0;
+  /// The update whose poses crossed (an absorbed one's when the server coalesced updates).
+  std::uint64_t sequence = 0;
+};
+
 /// Server-side timing, microseconds (see nearpoint.v1.ReportTiming).
 struct ReportTiming {
   double server_us = 0, queue_us = 0, evaluation_us = 0, geometry_us = 0;
@@ -174,6 +195,8 @@ struct Report {
   ReportCounts counts;
   /// Which pairs `pairs` holds: all selected ones, or those within the cutoff.
   ReportMode mode = ReportMode::all_pairs;
+  /// Threshold crossings (sessions with SessionOptions::thresholds), oldest update first.
+  std::vector<ThresholdEvent> events;
   /// Client side: when the update was handed to the transport and when the report arrived.
   Clock::time_point sent, received;
 };
@@ -188,6 +211,10 @@ struct SessionOptions {
   QueryOptions options;
   /// Ask the server to merge updates that arrive while it is busy (FLOW_CONTROL_COALESCE).
   bool coalesce = false;
+  /// Watched thresholds: sent with the stream's first update (and again on the first update
+  /// after a reconnect: the new stream starts with every watch outside, so a pair already inside
+  /// gets a second ENTER).
+  std::vector<Threshold> thresholds;
   /// When set, every report is handed here, on the session's reader thread, in order; next() is
   /// then not used. When empty, reports queue for next().
   std::function<void(const Report&)> on_report;
