@@ -171,6 +171,24 @@ class PythonClientTest(unittest.TestCase):
         with self.assertRaises(ValueError):
             npc.query_options(report_mode="nearest-ish")
 
+    def test_thresholds_report_enter_and_exit_events(self):
+        """thresholds= reaches the server and events come back: box b (half-size 0.5, like a)
+        moves along x; the gap is x - 1. ENTER below 0.2, EXIT above 0.2 + 0.1: the pass through
+        the band (gaps 0.25, 0.28) fires nothing; each crossing fires once, named."""
+        ids = [self.register_box((0.5, 0.5, 0.5)) for _ in range(2)]
+        scene = self.client.create_scene({"a": (ids[0], (0, 0, 0)), "b": (ids[1], (3, 0, 0))})
+        xs = [3.0, 1.15, 1.1, 1.25, 1.28, 1.4, 1.05, 3.0]
+        watch = npc.threshold(0.2, 0.1, pair=("a", "b"), name="close")
+        reports = list(self.client.stream(scene, ({"b": (x, 0, 0)} for x in xs),
+                                          thresholds=[watch]))
+        events = [(e.sequence, e.crossing) for r in reports for e in r.events]
+        self.assertEqual(events, [(2, "enter"), (6, "exit"), (7, "enter"), (8, "exit")])
+        first = reports[1].events[0]
+        self.assertEqual((first.threshold, first.object_a, first.object_b), ("close", "a", "b"))
+        self.assertAlmostEqual(first.distance, 0.15, places=12)
+        with self.assertRaises(ValueError):
+            npc.threshold(0.1, pair=("a", "b"), object_id="a")
+
     def test_stream_reports_in_order_with_sequences_and_warm_starts(self):
         fixed, moving = self.register_box((0.5, 0.5, 0.5)), self.register_box((0.3, 0.2, 0.1))
         scene = self.client.create_scene({"fixed": fixed, "moving": (moving, (3, 0, 0))})

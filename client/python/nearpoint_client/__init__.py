@@ -20,6 +20,7 @@ from .client import (
     NearpointError,
     PairDistance,
     Report,
+    ThresholdEvent,
     Update,
     UpdateError,
     box,
@@ -33,10 +34,12 @@ from .client import (
     query_options,
     rotation_about_z,
     sphere,
+    threshold,
 )
 
 __all__ = [
-    "DEFAULT_MAX_MESSAGE_BYTES", "DEFAULT_TIMEOUT", "Client", "NearpointError", "PairDistance", "Report", "Update",
+    "DEFAULT_MAX_MESSAGE_BYTES", "DEFAULT_TIMEOUT", "Client", "NearpointError", "PairDistance", "Report", "ThresholdEvent",
+    "Update",
     "UpdateError", "box", "capsule", "cone", "connect", "cylinder", "ellipsoid", "polytope",
-    "pose", "query_options", "rotation_about_z", "sphere",
+    "pose", "query_options", "rotation_about_z", "sphere", "threshold",
 ]

@@ -191,6 +191,48 @@ class UpdateError:
 
 
 @dataclass(frozen=True)
+class ThresholdEvent:
+    """A watched pair crossed a threshold: `crossing` is "enter" (closer than the threshold's
+    distance) or "exit" (farther than distance + hysteresis); `distance` the distance that
+    crossed (metres; 0 when intersecting, the proven lower bound when beyond the cutoff);
+    `sequence` the update whose poses crossed (an absorbed one's when the server coalesced)."""
+
+    threshold: str
+    threshold_index: int
+    object_a: str
+    object_b: str
+    crossing: str
+    distance: float
+    sequence: int
+
+    @staticmethod
+    def from_proto(e: distance_pb.ThresholdEvent) -> "ThresholdEvent":
+        return ThresholdEvent(threshold=e.threshold, threshold_index=e.threshold_index,
+                              object_a=e.object_a, object_b=e.object_b,
+                              crossing="exit" if e.crossing == distance_pb.THRESHOLD_CROSSING_EXIT
+                              else "enter",
+                              distance=e.distance, sequence=e.sequence)
+
+
+def threshold(distance: float, hysteresis: float = 0.0, *, pair: Optional[Tuple[str, str]] = None,
+              object_id: Optional[str] = None, groups: int = 0,
+              name: str = "") -> scene_pb.Threshold:
+    """A watched distance for `Client.stream(thresholds=...)`: reports carry an "enter" event
+    when a watched pair comes closer than `distance` (metres) and an "exit" event when it gets
+    farther than `distance + hysteresis`. Watches `pair` (two object ids), or `object_id`'s
+    pairs, or every selected pair; `groups` (SceneObject.group bits) narrows them further."""
+    if pair is not None and object_id is not None:
+        raise ValueError("give pair or object_id, not both")
+    message = scene_pb.Threshold(name=name, distance=distance, hysteresis=hysteresis,
+                                 groups=groups)
+    if pair is not None:
+        message.object_a, message.object_b = pair
+    elif object_id is not None:
+        message.object_a = object_id
+    return message
+
+
+@dataclass(frozen=True)
 class Report:
     """The answer to one query or stream update: its `sequence` number and one `PairDistance`
     per selected pair of the scene, in the scene's pair order — or, for a rejected update, an
@@ -205,6 +247,8 @@ class Report:
     raw: distance_pb.DistanceReport
     # The mode that chose `pairs`: "all", "within-cutoff", "nearest", "global" or "changed".
     report_mode: str = "all"
+    # Threshold crossings (streams with thresholds), oldest update first.
+    events: Tuple[ThresholdEvent, ...] = ()
 
     @staticmethod
     def from_proto(r: distance_pb.DistanceReport) -> "Report":
@@ -217,7 +261,8 @@ class Report:
                       pairs=tuple(PairDistance.from_proto(p) for p in r.pairs),
                       error=error, server_us=r.timing.server_us,
                       coalesced_updates=r.coalesced_updates, raw=r,
-                      report_mode=_REPORT_MODE_NAMES.get(r.report_mode, "all"))
+                      report_mode=_REPORT_MODE_NAMES.get(r.report_mode, "all"),
+                      events=tuple(ThresholdEvent.from_proto(e) for e in r.events))
 
     def pair(self, object_a: str, object_b: str) -> PairDistance:
         """The entry for the pair (object_a, object_b), in either order; KeyError if absent."""
@@ -420,7 +465,8 @@ class Client:
     def stream(self, scene_id: str, updates: Iterable[Union[Update, Mapping[str, PoseArg]]],
                options: OptionsArg = None, flow_control: str = "block",
                timeout: Optional[float] = None,
-               report_mode: Optional[str] = None) -> Iterator[Report]:
+               report_mode: Optional[str] = None,
+               thresholds: Sequence[scene_pb.Threshold] = ()) -> Iterator[Report]:
         """Streams pose updates to the scene and yields one `Report` per update, in order.
 
         `updates` is any iterable (it may be a generator that runs as long as the robot moves) of
@@ -431,6 +477,9 @@ class Client:
         `flow_control`: "block" (every update answered) or "coalesce" (the server merges updates
         that arrive while it is busy; only the first update's choice counts).
         `report_mode` (see `query_options`) applies to every bare update, overriding `options`'.
+        `thresholds` (see `threshold`) are sent with the first update; each report's `events`
+        then carries the crossings (the options' distance_cutoff must be at least each
+        threshold's distance + hysteresis).
         """
         if flow_control not in _FLOW_CONTROL:
             raise ValueError(f"flow_control must be one of {sorted(_FLOW_CONTROL)}")
@@ -447,6 +496,7 @@ class Client:
                                                  poses=_object_poses(poses))
                 if index == 0:
                     message.flow_control = _FLOW_CONTROL[flow_control]
+                    message.thresholds.extend(thresholds)
                 chosen = _options(update_options) if update_options is not None \
                     else default_options
                 if chosen is not None:
