@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <deque>
 #include <map>
@@ -99,6 +100,21 @@ Json report_json(const DistanceReportSample& report) {
   out["coalesced_updates"] = report.coalesced_updates;
   if (report.coalesced_updates > 0) out["coalesced_from_sequence"] = report.coalesced_from_sequence;
   out["server_us"] = report.timing.server_us;
+  out["report_mode"] = report.report_mode;
+  if (report.events._length > 0) {
+    Json events = Json::array();
+    for (std::uint32_t i = 0; i < report.events._length; ++i) {
+      const nearpoint_msg_dds__ThresholdEvent_& e = report.events._buffer[i];
+      events.push_back({{"threshold", e.threshold ? e.threshold : ""},
+                        {"threshold_index", e.threshold_index},
+                        {"object_a", e.object_a ? e.object_a : ""},
+                        {"object_b", e.object_b ? e.object_b : ""},
+                        {"crossing", e.crossing == 2 ? "exit" : "enter"},
+                        {"distance", e.distance},
+                        {"sequence", e.sequence_number}});
+    }
+    out["events"] = std::move(events);
+  }
   return out;
 }
 
@@ -261,6 +277,11 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
 
   // The sample borrows these; rebuilt per update.
   std::vector<nearpoint_msg_dds__ObjectPose_> poses;
+  std::vector<nearpoint_msg_dds__Threshold_> thresholds;
+  for (const model::ThresholdInput& t : options.thresholds)
+    thresholds.push_back({const_cast<char*>(t.name.c_str()), t.distance, t.hysteresis,
+                          const_cast<char*>(t.object_a.c_str()),
+                          const_cast<char*>(t.object_b.c_str()), t.groups});
   auto publish_step = [&](std::uint64_t index) {
     const TrajectoryStep& step = trajectory.steps[index];
     poses.assign(step.poses.size(), {});
@@ -283,6 +304,20 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
       update.options.has_near_points = true;
       update.options.near_points = true;
     }
+    update.options.report_mode = options.report_mode;
+    if (!std::isnan(options.cutoff)) {
+      update.options.has_distance_cutoff = true;
+      update.options.distance_cutoff = options.cutoff;
+    }
+    if (!std::isnan(options.change_tolerance)) {
+      update.options.has_change_tolerance = true;
+      update.options.change_tolerance = options.change_tolerance;
+    }
+    if (index == 0) {
+      update.thresholds._buffer = thresholds.data();
+      update.thresholds._length = update.thresholds._maximum = std::uint32_t(thresholds.size());
+    }
+    update.thresholds._release = false;
     update.flow_control = options.flow_control;
     outstanding.emplace(update.sequence_number, Clock::now());
     return client->publish(update, error);

@@ -12,9 +12,12 @@
 #include <cstdint>
 #include <functional>
 #include <iosfwd>
+#include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
+#include "nearpoint/model/scene_types.hpp"
 #include "nearpoint_dds.hpp"
 #include "trajectory.hpp"
 
@@ -75,6 +78,13 @@ struct DdsStreamOptions {
   /// PoseUpdate_.flow_control: 0 block, 2 coalesce.
   std::uint8_t flow_control = 0;
   bool near_points = false;
+  /// QueryOptions_.report_mode (0 inherit … 5 changed), distance_cutoff and change_tolerance
+  /// (NaN: not sent, inherit).
+  std::uint8_t report_mode = 0;
+  double cutoff = std::numeric_limits<double>::quiet_NaN();
+  double change_tolerance = std::numeric_limits<double>::quiet_NaN();
+  /// Sent with the first update (PoseUpdate_.thresholds).
+  std::vector<model::ThresholdInput> thresholds;
   std::chrono::milliseconds match_timeout{10000};
   /// How long to wait for the next report before giving up on the missing ones.
   std::chrono::milliseconds report_timeout{10000};
@@ -90,7 +100,9 @@ inline constexpr int kStreamCannotRun = 2;   ///< no configuration, no server ma
 ///   {"sequence": n, "status": "ok", "pairs": [{"object_a", "object_b", "status", "distance",
 ///    "distance_lower_bound", "error_bound", "iterations", "warm_started", ["point_a", "point_b",
 ///    "normal"], ["penetration_bound"]}...], "coalesced_updates": k, "coalesced_from_sequence": s,
-///    "server_us": t, "round_trip_us": t}
+///    "server_us": t, "round_trip_us": t, "report_mode": m, ["events": [{"threshold",
+///    "threshold_index", "object_a", "object_b", "crossing": "enter"|"exit", "distance",
+///    "sequence"}...]]}
 ///   {"sequence": n, "status": "error", "code": "not_found", "field": "scene_id", "message": "…"}
 /// Checks that every update is answered exactly once — by its report, an error report, or as
 /// merged into a later report (coalesced_from_sequence) — and that reports come in sequence

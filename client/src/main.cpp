@@ -415,13 +415,26 @@ Examples:
   );
 #if NEARPOINT_HAVE_DDS
   command->callback([command, options, dds, use_dds, &exit_code] {
-    if (*use_dds && !options->thresholds.empty()) {
-      std::cerr << "nearpoint stream: --threshold is not available with --dds yet (the DDS "
-                   "types carry no thresholds); use gRPC\n";
-      exit_code = 2;
-      return;
-    }
     if (*use_dds) {
+      // The same --mode, --cutoff, --change-tolerance and --threshold as over gRPC.
+      const std::string& mode = options->report.mode;
+      dds->options.report_mode = mode == "all"             ? 1
+                                 : mode == "within-cutoff" ? 2
+                                 : mode == "nearest"       ? 3
+                                 : mode == "global"        ? 4
+                                 : mode == "changed"       ? 5
+                                                           : 0;
+      dds->options.cutoff = options->report.cutoff;
+      dds->options.change_tolerance = options->report.change_tolerance;
+      for (const std::string& spec : options->thresholds) {
+        std::string error;
+        if (!nearpoint::cli::parse_threshold_argument(spec, dds->options.thresholds.emplace_back(),
+                                                      error)) {
+          std::cerr << "nearpoint stream: " << error << "\n";
+          exit_code = 2;
+          return;
+        }
+      }
       // DDS has no back-pressure: updates published beyond the server's in-flight limit are
       // merged (and reported so). Without an explicit --window, step in lock with the reports.
       const std::size_t window = command->count("--window") > 0 ? options->window : 1;

@@ -78,7 +78,15 @@ PoseUpdateInput to_input(const UpdateSample& sample) {
   if (options.has_distance_cutoff) out.options.distance_cutoff = options.distance_cutoff;
   if (options.has_warm_start) out.options.warm_start = options.warm_start;
   if (options.has_max_iterations) out.options.max_iterations = options.max_iterations;
+  out.options.report_mode = wire::report_mode(options.report_mode);
+  if (options.has_change_tolerance) out.options.change_tolerance = options.change_tolerance;
   out.flow_control = wire::flow_control(sample.flow_control);
+  out.thresholds.reserve(sample.thresholds._length);
+  for (std::uint32_t i = 0; i < sample.thresholds._length; ++i) {
+    const nearpoint_msg_dds__Threshold_& in = sample.thresholds._buffer[i];
+    out.thresholds.push_back(ThresholdInput{own(in.name), in.distance, in.hysteresis,
+                                            own(in.object_a), own(in.object_b), in.groups});
+  }
   return out;
 }
 
@@ -501,6 +509,23 @@ struct DdsBridge::Impl {
     sample.coalesced_from_sequence = report.coalesced_from_sequence;
     sample.counts = {report.counts.pairs_evaluated, report.counts.pairs_pruned,
                      report.counts.pairs_unmoved};
+    sample.report_mode = wire::report_mode_number(report.mode);
+    std::vector<nearpoint_msg_dds__ThresholdEvent_> events(report.events.size());
+    for (std::size_t i = 0; i < report.events.size(); ++i) {
+      const ThresholdEvent& in = report.events[i];
+      nearpoint_msg_dds__ThresholdEvent_& out = events[i];
+      out.threshold = borrow(
+          report.threshold_names ? (*report.threshold_names)[in.threshold].c_str() : nullptr);
+      out.threshold_index = in.threshold;
+      out.object_a = borrow(report.scene->objects[in.object_a].id);
+      out.object_b = borrow(report.scene->objects[in.object_b].id);
+      out.crossing = in.crossing == Crossing::enter ? 1 : 2;
+      out.distance = in.distance;
+      out.sequence_number = in.sequence;
+    }
+    sample.events._buffer = events.data();
+    sample.events._length = sample.events._maximum = std::uint32_t(events.size());
+    sample.events._release = false;
     const dds_return_t written = dds_write(writer, &sample);
 
     std::lock_guard lock(mutex);
@@ -531,6 +556,7 @@ struct DdsBridge::Impl {
     sample.error_field = borrow(pending.error.field);
     sample.message = borrow(pending.error.message);
     sample.pairs._release = false;
+    sample.events._release = false;
     count_write(dds_write(writer, &sample), pending.sequence, nullptr);
   }
 

@@ -101,4 +101,23 @@ constexpr ReportMode report_mode(std::int64_t value) {
   }
 }
 
+/// ReportMode → nearpoint.v1.ReportMode's number (for transports without the generated enum).
+constexpr std::uint8_t report_mode_number(ReportMode mode) {
+  switch (mode) {
+    case ReportMode::within_cutoff:
+      return 2;
+    case ReportMode::nearest_per_object:
+      return 3;
+    case ReportMode::global_minimum:
+      return 4;
+    case ReportMode::changed:
+      return 5;
+    default:
+      return 1;
+  }
+}
+static_assert(report_mode(report_mode_number(ReportMode::changed)) == ReportMode::changed);
+static_assert(report_mode(report_mode_number(ReportMode::within_cutoff)) ==
+              ReportMode::within_cutoff);
+
 }  // namespace nearpoint::server::wire

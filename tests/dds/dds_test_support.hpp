@@ -26,6 +26,7 @@ inline constexpr std::uint32_t kDomainBadSamples = 102;
 inline constexpr std::uint32_t kDomainOverload = 103;
 inline constexpr std::uint32_t kDomainSharedScene = 104;
 inline constexpr std::uint32_t kDomainNoConfiguration = 105;
+inline constexpr std::uint32_t kDomainEvents = 106;
 inline constexpr std::uint32_t kDomainEndToEnd = 111;
 inline constexpr std::uint32_t kDomainPreloaded = 112;
 
@@ -46,6 +47,12 @@ struct UpdateMessage {
   std::vector<Pose> poses;
   nearpoint_msg_dds__QueryOptions_ options{};
   std::uint8_t flow_control = 0;
+  struct Threshold {
+    std::string name, object_a, object_b;
+    double distance = 0, hysteresis = 0;
+    std::uint32_t groups = 0;
+  };
+  std::vector<Threshold> thresholds;
 
   /// The sample; valid while this object is alive and unchanged.
   const cli::PoseUpdateSample& sample() {
@@ -66,11 +73,21 @@ struct UpdateMessage {
     sample_.poses._release = false;
     sample_.options = options;
     sample_.flow_control = flow_control;
+    threshold_buffer_.resize(thresholds.size());
+    for (std::size_t i = 0; i < thresholds.size(); ++i)
+      threshold_buffer_[i] = {thresholds[i].name.data(),     thresholds[i].distance,
+                              thresholds[i].hysteresis,      thresholds[i].object_a.data(),
+                              thresholds[i].object_b.data(), thresholds[i].groups};
+    sample_.thresholds._buffer = threshold_buffer_.data();
+    sample_.thresholds._length = sample_.thresholds._maximum =
+        std::uint32_t(threshold_buffer_.size());
+    sample_.thresholds._release = false;
     return sample_;
   }
 
  private:
   std::vector<nearpoint_msg_dds__ObjectPose_> buffer_;
+  std::vector<nearpoint_msg_dds__Threshold_> threshold_buffer_;
   cli::PoseUpdateSample sample_{};
 };
 
@@ -89,6 +106,15 @@ struct ReceivedReport {
   std::uint32_t coalesced_updates = 0;
   std::uint64_t coalesced_from_sequence = 0;
   std::uint32_t pairs_evaluated = 0, pairs_pruned = 0, pairs_unmoved = 0;
+  std::uint8_t report_mode = 0;
+  struct Event {
+    std::string threshold, object_a, object_b;
+    std::uint32_t threshold_index = 0;
+    std::uint8_t crossing = 0;
+    double distance = 0;
+    std::uint64_t sequence = 0;
+  };
+  std::vector<Event> events;
 };
 
 inline ReceivedReport copy_report(const cli::DistanceReportSample& sample) {
@@ -103,6 +129,12 @@ inline ReceivedReport copy_report(const cli::DistanceReportSample& sample) {
   out.pairs_evaluated = sample.counts.pairs_evaluated;
   out.pairs_pruned = sample.counts.pairs_pruned;
   out.pairs_unmoved = sample.counts.pairs_unmoved;
+  out.report_mode = sample.report_mode;
+  for (std::uint32_t i = 0; i < sample.events._length; ++i) {
+    const auto& e = sample.events._buffer[i];
+    out.events.push_back({e.threshold, e.object_a, e.object_b, e.threshold_index, e.crossing,
+                          e.distance, e.sequence_number});
+  }
   for (std::uint32_t i = 0; i < sample.pairs._length; ++i) {
     const auto& p = sample.pairs._buffer[i];
     out.pairs.push_back({p.object_a, p.object_b, p.status, p.distance, p.error_bound,

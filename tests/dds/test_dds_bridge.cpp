@@ -339,6 +339,71 @@ TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
   EXPECT_EQ(server.bridge->stats().reports_written, 3u);
 }
 
+// Modes and threshold events over DDS, through merged updates: the same as gRPC. While the only
+// worker is held, a client publishes twelve updates that put object-1 on object-0 and take it
+// away again, naming a threshold on that pair in the first and asking for the global minimum;
+// every ENTER and EXIT arrives once, in order, with its own sequence number, even though most
+// updates were merged, and the reports say which mode chose their pairs.
+TEST(DdsBridge, ModesAndThresholdEventsSurviveMergedUpdates) {
+  ServiceLimits limits;
+  limits.max_in_flight_per_stream = 2;
+  Server server = start(kDomainEvents, "events", limits, /*workers=*/1);
+  ASSERT_TRUE(server.bridge);
+  const TestScene scene = create_scene(*server.scenes, {arm(), arm(), arm()});
+  ASSERT_FALSE(scene.scene_id.empty());
+  auto client = connect(kDomainEvents, server.prefix);
+  ASSERT_TRUE(client);
+  testkit::HeldWorkers held(*server.scenes, scene.scene_id);
+  ASSERT_TRUE(held.held());
+
+  constexpr std::uint64_t kUpdates = 12;
+  std::string error;
+  for (std::uint64_t s = 1; s <= kUpdates; ++s) {
+    UpdateMessage update;
+    update.scene_id = scene.scene_id;
+    update.sequence = s;
+    update.options.report_mode = 4;  // global minimum
+    // Even updates: object-1 on object-0 (intersecting); odd ones: 20 m away.
+    update.poses = {{scene.ids[1], {1, 0, 0, 0}, {s % 2 ? 20.0 : 0.0, 0, 0}}};
+    if (s == 1) update.thresholds = {{"touch", scene.ids[0], scene.ids[1], 0.05, 0.01, 0}};
+    ASSERT_TRUE(client->publish(update.sample(), error)) << error;
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (server.bridge->stats().updates_taken < kUpdates &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  held.release();
+  ASSERT_EQ(server.bridge->stats().updates_taken, kUpdates);
+
+  std::vector<std::pair<std::uint64_t, std::uint8_t>> events;
+  std::uint64_t accounted = 0;
+  std::size_t reports = 0;
+  while (accounted < kUpdates) {
+    std::vector<ReceivedReport> got = collect_reports(*client, 1, std::chrono::seconds(20));
+    ASSERT_FALSE(got.empty()) << "missing reports after sequence " << accounted;
+    for (const ReceivedReport& report : got) {
+      ASSERT_EQ(report.status, 0u) << report.error_field << ": " << report.message;
+      EXPECT_EQ(report.report_mode, 4u);
+      EXPECT_LE(report.pairs.size(), 1u);  // the global minimum only
+      for (const ReceivedReport::Event& e : report.events) {
+        EXPECT_EQ(e.threshold, "touch");
+        EXPECT_EQ(e.object_a, scene.ids[0]);
+        EXPECT_EQ(e.object_b, scene.ids[1]);
+        events.emplace_back(e.sequence, e.crossing);
+      }
+      accounted = report.sequence;
+      ++reports;
+    }
+  }
+  EXPECT_LT(reports, std::size_t(kUpdates));  // updates were merged
+  ASSERT_EQ(events.size(), std::size_t(kUpdates - 1));
+  for (std::size_t e = 0; e < events.size(); ++e) {
+    EXPECT_EQ(events[e].first, e + 2);
+    EXPECT_EQ(events[e].second, e % 2 ? 2 : 1);  // enter, exit, enter, …
+  }
+  server.bridge->shutdown();
+}
+
 // Two clients on one scene are two streams: each gets exactly its own reports, with its own
 // sequence numbers and caches.
 TEST(DdsBridge, ClientsSharingASceneGetTheirOwnReports) {

@@ -5,6 +5,7 @@
 // here from the same geometry and poses. Then bad samples (an unknown scene, an unknown object)
 // are answered with error reports, the server keeps serving, and SIGTERM ends
 // it cleanly.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -300,6 +301,49 @@ TEST(DdsEndToEnd, PureDdsClientStreamsToAPreloadedScene) {
     }
   }
   EXPECT_GT(touching, 0) << "the shipped path reaches the post or the drum";
+
+  // The same path with --mode global and a threshold on the mover's pairs, over DDS: each
+  // report holds one pair and names mode 4, and the events are exactly the rule applied to the
+  // closed-form distances (ENTER below 0.3, EXIT above 0.3 + 0.1), each with its sequence.
+  ChildProcess watcher({NEARPOINT_CLI_PATH, "stream", "--dds", "--domain",
+                        std::to_string(kDomainPreloaded), "--prefix", prefix, "dds-demo",
+                        trajectory, "--mode", "global", "--threshold",
+                        "0.3,hysteresis=0.1,object=mover,name=near"});
+  ASSERT_TRUE(watcher.started());
+  ASSERT_EQ(watcher.wait_exit(std::chrono::seconds(90)), 0) << watcher.stderr_text();
+  const std::vector<std::string> watched = watcher.stdout_lines();
+  ASSERT_EQ(watched.size(), steps.size()) << watcher.stderr_text();
+  std::map<std::string, bool> inside;
+  std::vector<std::string> expected, got;
+  for (std::size_t k = 0; k < watched.size(); ++k) {
+    const Json report = Json::parse(watched[k]);
+    EXPECT_EQ(report.at("report_mode"), 4) << watched[k];
+    EXPECT_EQ(report.at("pairs").size(), 1u) << watched[k];
+    const Json& mover = steps[k].at("poses").at("mover");
+    const double w = mover.at("rotation")[0], qz = mover.at("rotation")[3];
+    const double theta = 2 * std::atan2(qz, w);
+    const double cx = mover.at("translation")[0], cy = mover.at("translation")[1];
+    const std::map<std::string, double> truth = {
+        {"mover/post", axis_to_cube(0, 0, cx, cy, theta, 0.2)},
+        {"mover/drum", axis_to_cube(3, 0, cx, cy, theta, 0.3)}};
+    for (const auto& [key, d] : truth) {
+      bool& in = inside[key];
+      if (!in && d < 0.3) in = true, expected.push_back(std::to_string(k + 1) + " enter " + key);
+      if (in && d > 0.4) in = false, expected.push_back(std::to_string(k + 1) + " exit " + key);
+    }
+    if (report.contains("events"))
+      for (const Json& e : report.at("events")) {
+        EXPECT_EQ(e.at("threshold"), "near");
+        got.push_back(std::to_string(e.at("sequence").get<std::uint64_t>()) + " " +
+                      e.at("crossing").get<std::string>() + " " +
+                      e.at("object_a").get<std::string>() + "/" +
+                      e.at("object_b").get<std::string>());
+      }
+  }
+  EXPECT_GE(expected.size(), 2u);
+  std::sort(expected.begin(), expected.end());
+  std::sort(got.begin(), got.end());
+  EXPECT_EQ(got, expected);
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
 }
