@@ -330,9 +330,28 @@ std::string parse_query_options(const Json& value, const std::string& path,
     const std::string field = member(path, key);
     std::string error;
     bool flag = false;
-    if (key == "epsilon" || key == "distance_cutoff") {
+    if (key == "epsilon" || key == "distance_cutoff" || key == "change_tolerance") {
       if (!part.is_number()) return quoted(field) + " must be a number";
-      (key == "epsilon" ? options.epsilon : options.distance_cutoff) = part.get<double>();
+      (key == "epsilon"           ? options.epsilon
+       : key == "distance_cutoff" ? options.distance_cutoff
+                                  : options.change_tolerance) = part.get<double>();
+    } else if (key == "report_mode") {
+      // The CLI's names (--mode).
+      std::string mode;
+      if (error = read_string(part, field, mode); !error.empty()) return error;
+      if (mode == "all")
+        options.report_mode = server::ReportMode::all_pairs;
+      else if (mode == "within-cutoff")
+        options.report_mode = server::ReportMode::within_cutoff;
+      else if (mode == "nearest")
+        options.report_mode = server::ReportMode::nearest_per_object;
+      else if (mode == "global")
+        options.report_mode = server::ReportMode::global_minimum;
+      else if (mode == "changed")
+        options.report_mode = server::ReportMode::changed;
+      else
+        return quoted(field) +
+               " must be \"all\", \"within-cutoff\", \"nearest\", \"global\" or \"changed\"";
     } else if (key == "near_points" || key == "gradient" || key == "warm_start") {
       if (error = read_bool(part, field, flag); !error.empty()) return error;
       (key == "near_points" ? options.near_points
@@ -355,7 +374,7 @@ std::string parse_query_options(const Json& value, const std::string& path,
     } else {
       return unknown_key(path, key,
                          "epsilon, near_points, penetration, gradient, distance_cutoff, "
-                         "warm_start, max_iterations");
+                         "warm_start, max_iterations, report_mode, change_tolerance");
     }
   }
   out = options;

@@ -547,11 +547,36 @@ TEST(SceneFile, ErrorsNameTheField) {
        "objects[0].pose"},
       {R"({"geometries": {"g": {"mesh": "x.obj"}}, "objects": [{"id": "a", "geometry": "g"}]})",
        "mesh files are not read here"},
+      {R"({"geometries": {"g": {"box": [1,1,1]}}, "objects": [{"id": "a", "geometry": "g"}], "options": {"report_mode": "some"}})",
+       "options.report_mode\" must be \"all\""},
+      {R"({"geometries": {"g": {"box": [1,1,1]}}, "objects": [{"id": "a", "geometry": "g"}], "options": {"change_tolerance": "x"}})",
+       "options.change_tolerance\" must be a number"},
   };
   for (const Case& c : cases) {
     formats::SceneFile out;
     const std::string error = formats::parse_scene(Json::parse(c.text), ".", {}, out);
     EXPECT_NE(error.find(c.needle), std::string::npos) << "got: " << error << "\nfor: " << c.text;
+  }
+}
+
+// A scene file's options carry the report mode and change tolerance (issue 22 item 5), by the
+// CLI's names, so a preloaded scene (nearpointd --scene) can default to "what is near?".
+TEST(SceneFile, OptionsCarryTheReportMode) {
+  const char* modes[][2] = {{"all", "all"},
+                            {"within-cutoff", "within-cutoff"},
+                            {"nearest", "nearest"},
+                            {"global", "global"},
+                            {"changed", "changed"}};
+  for (const auto& [name, expected] : modes) {
+    formats::SceneFile out;
+    const std::string text =
+        std::string(
+            R"({"geometries": {"g": {"box": [1,1,1]}}, "objects": [{"id": "a", "geometry": "g"}], "options": {"report_mode": ")") +
+        name + R"(", "change_tolerance": 0.01, "distance_cutoff": 2}})";
+    ASSERT_EQ(formats::parse_scene(Json::parse(text), ".", {}, out), "") << text;
+    EXPECT_STREQ(client::to_string(out.scene.default_options.report_mode), expected);
+    EXPECT_EQ(out.scene.default_options.change_tolerance, 0.01);
+    EXPECT_EQ(out.scene.default_options.distance_cutoff, 2.0);
   }
 }
 

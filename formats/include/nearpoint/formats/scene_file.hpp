@@ -20,7 +20,9 @@
 //                 "group": 1, "mask": 4294967295}, ...],
 //    "pairs": "all" | {"listed": [["a","b"], ...]} | {"excluded": [["a","b"], ...]},
 //    "options": {"epsilon": e, "near_points": bool, "penetration": "none"|"bound"|"depth",
-//                "gradient": bool, "distance_cutoff": d, "warm_start": bool, "max_iterations": n}}
+//                "gradient": bool, "distance_cutoff": d, "warm_start": bool, "max_iterations": n,
+//                "report_mode": "all"|"within-cutoff"|"nearest"|"global"|"changed",
+//                "change_tolerance": t}}
 // Units: metres and radians. Unknown keys are errors (a misspelt key must not silently vanish).
 #pragma once
 
