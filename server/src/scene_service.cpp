@@ -30,12 +30,50 @@ std::size_t pair_cost(const GeometryInfo& a, const GeometryInfo& b) {
   return b.piece_count * effective(a) + a.piece_count * effective(b);
 }
 
-/// The most one report of `scene` with `options` can take on the wire (see report_size.hpp).
-std::size_t report_bytes_bound(const SceneDefinition& scene,
-                               const DistanceOptions<double>& options) {
-  return scene.report_bytes_base +
-         scene.pairs.size() * report_size::pair_options(
-                                  options.near_points, options.penetration_bound, options.gradient);
+/// The most one report of `scene` with `options` can take on the wire in report mode `mode`
+/// (see report_size.hpp): every pair (all pairs; changed, whose first report carries every
+/// pair; within the cutoff with no cutoff), one per object at most (nearest per object), one
+/// (global minimum). A within-cutoff report under a finite cutoff has no bound from the scene:
+/// it holds what is near (counted as the envelope here; the transport checks it when sending).
+std::size_t report_bytes_bound(const SceneDefinition& scene, const DistanceOptions<double>& options,
+                               ReportMode mode) {
+  const std::size_t extra =
+      report_size::pair_options(options.near_points, options.penetration_bound, options.gradient);
+  const std::size_t longest_entry =
+      report_size::kPairEntryOverhead + report_size::kPairFixed +
+      report_size::pair_ids(scene.longest_object_id, scene.longest_object_id) + extra;
+  switch (mode) {
+    case ReportMode::nearest_per_object:
+      return report_size::kReportEnvelope +
+             std::min(scene.pairs.size(), scene.objects.size()) * longest_entry;
+    case ReportMode::global_minimum:
+      return report_size::kReportEnvelope +
+             std::min<std::size_t>(scene.pairs.size(), 1) * longest_entry;
+    case ReportMode::within_cutoff:
+      if (std::isfinite(options.distance_cutoff)) return report_size::kReportEnvelope;
+      [[fallthrough]];
+    default:
+      return scene.report_bytes_base + scene.pairs.size() * extra;
+  }
+}
+std::size_t report_bytes_bound(const SceneDefinition& scene, const ResolvedOptions& options) {
+  return report_bytes_bound(scene, options.engine, options.report_mode);
+}
+
+/// The mode's name in messages: the proto's and the CLI's.
+const char* mode_name(ReportMode mode) {
+  switch (mode) {
+    case ReportMode::within_cutoff:
+      return "REPORT_MODE_WITHIN_CUTOFF (--mode within-cutoff)";
+    case ReportMode::nearest_per_object:
+      return "REPORT_MODE_NEAREST_PER_OBJECT (--mode nearest)";
+    case ReportMode::global_minimum:
+      return "REPORT_MODE_GLOBAL_MINIMUM (--mode global)";
+    case ReportMode::changed:
+      return "REPORT_MODE_CHANGED (--mode changed; its first report holds every pair)";
+    default:
+      return "REPORT_MODE_ALL_PAIRS (--mode all)";
+  }
 }
 
 /// "near points and gradients", or "" when the options ask for neither of the three extras.
@@ -52,12 +90,13 @@ std::string extras(const DistanceOptions<double>& options) {
   return out;
 }
 
-/// RESOURCE_EXHAUSTED when a report of `scene` with `options` could be larger than `limit`: such
-/// a report could never be sent, so the scene (at creation) or the request is refused instead.
-/// The message names the limit, the bound and what would fit. `field` is "" at creation.
-/// `event_bytes`: what a stream's threshold events may add (one update's crossings).
+/// RESOURCE_EXHAUSTED when a report of `scene` with `options` (its outputs and report mode) could
+/// be larger than `limit`: such a report could never be sent, so the scene (at creation) or the
+/// request is refused instead. The message names the limit, the mode, the bound, how many pairs
+/// fit, and which report modes would fit. `field` is "" at creation. `event_bytes`: what a
+/// stream's threshold events may add (one update's crossings).
 std::optional<Error> check_report_bytes(const SceneDefinition& scene,
-                                        const DistanceOptions<double>& options, std::size_t limit,
+                                        const ResolvedOptions& options, std::size_t limit,
                                         const std::string& field, std::size_t event_bytes = 0) {
   const std::size_t pairs_bound = report_bytes_bound(scene, options);
   const std::size_t bound = pairs_bound + event_bytes;
@@ -71,23 +110,39 @@ std::optional<Error> check_report_bytes(const SceneDefinition& scene,
              limit,
              " bytes the server sends in one message (--max-message-bytes): watch fewer "
              "pairs, or ask for fewer outputs"));
+  const DistanceOptions<double>& engine = options.engine;
+  const std::size_t all_bound = report_bytes_bound(scene, engine, ReportMode::all_pairs);
   const std::size_t pairs = std::max<std::size_t>(1, scene.pairs.size());
   const std::size_t per_pair =
-      std::max<std::size_t>(1, (bound - report_size::kReportEnvelope) / pairs);
+      std::max<std::size_t>(1, (all_bound - report_size::kReportEnvelope) / pairs);
   const std::size_t fitting =
       limit > report_size::kReportEnvelope ? (limit - report_size::kReportEnvelope) / per_pair : 0;
-  const std::string with = extras(options);
+  // The modes whose reports would fit, with these outputs.
+  std::string fit;
+  for (const ReportMode mode : {ReportMode::nearest_per_object, ReportMode::global_minimum}) {
+    const std::size_t mode_bound = report_bytes_bound(scene, engine, mode);
+    if (mode_bound <= limit && mode != options.report_mode)
+      fit += text(fit.empty() ? "" : ", ", mode_name(mode), " (up to ", mode_bound, " bytes)");
+  }
+  if (options.report_mode != ReportMode::within_cutoff || !std::isfinite(engine.distance_cutoff))
+    fit += text(fit.empty() ? "" : ", ", mode_name(ReportMode::within_cutoff),
+                " with a finite distance_cutoff (as large as the pairs within it)");
+  const std::string with = extras(engine);
   const std::string what =
       text("a report of ", field.empty() ? std::string("this scene") : "scene " + quoted(scene.id),
-           with.empty() ? std::string() : " with " + with, " could take up to ", bound, " bytes (",
-           scene.pairs.size(), " pairs, object ids up to ", scene.longest_object_id,
-           " bytes), more than the ", limit,
+           " in ", mode_name(options.report_mode), with.empty() ? std::string() : " with " + with,
+           " could take up to ", bound, " bytes (", scene.pairs.size(), " pairs, object ids up to ",
+           scene.longest_object_id, " bytes), more than the ", limit,
            " bytes the server sends in one message (--max-message-bytes); about ", fitting,
-           " pairs of this size fit: ");
+           " pairs of this size fit. Report modes that fit: ", fit, ". ");
   if (field.empty())
-    return resource_exhausted(field, what + "select fewer pairs or use shorter object ids");
-  return resource_exhausted(
-      field, what + "ask for fewer outputs, or create a scene with fewer pairs or shorter ids");
+    return resource_exhausted(field, what +
+                                         "Set default_options.report_mode to one of them, or "
+                                         "select fewer pairs or use shorter object ids");
+  return resource_exhausted(field, what +
+                                       "Ask for one of them (options.report_mode) or for "
+                                       "fewer outputs, or create a scene with fewer pairs or "
+                                       "shorter ids");
 }
 
 /// The crossings of the updates a merged one absorbed: from the stream's previous poses, each
@@ -486,8 +541,7 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
     scene->report_bytes_base +=
         report_size::kPairEntryOverhead + report_size::kPairFixed +
         report_size::pair_ids(objects[pair.object_a].id.size(), objects[pair.object_b].id.size());
-  if (auto error =
-          check_report_bytes(*scene, scene->default_options.engine, limits_.max_report_bytes, ""))
+  if (auto error = check_report_bytes(*scene, scene->default_options, limits_.max_report_bytes, ""))
     return *error;
 
   std::size_t visits = 0;
@@ -573,8 +627,7 @@ Outcome SceneService::query(const QueryInput& query, Clock::time_point received,
   Expected<ResolvedOptions> options =
       resolve_options(definition->default_options, query.options, "options");
   if (!options) return options.error();
-  if (auto error =
-          check_report_bytes(*definition, options->engine, limits_.max_report_bytes, "options"))
+  if (auto error = check_report_bytes(*definition, *options, limits_.max_report_bytes, "options"))
     return *error;
   std::vector<Pose<double>> initial;
   initial.reserve(definition->objects.size());
@@ -669,8 +722,8 @@ Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
   const std::size_t event_bytes = watches ? watches->event_bytes_per_update : 0;
   if (watches)
     if (auto error = check_cutoff(*watches, options->engine.distance_cutoff)) return *error;
-  if (auto error = check_report_bytes(definition, options->engine,
-                                      service_.limits_.max_report_bytes, "options", event_bytes))
+  if (auto error = check_report_bytes(definition, *options, service_.limits_.max_report_bytes,
+                                      "options", event_bytes))
     return *error;
   std::vector<Pose<double>> start;
   if (scene_) {
@@ -707,8 +760,8 @@ Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
     }
     // A merged report carries the crossings of every update it replays: as many as fit in one
     // message beside the pairs (checked above for one update's worth).
-    const std::size_t room = service_.limits_.max_report_bytes -
-                             report_bytes_bound(definition, options->engine) - event_bytes;
+    const std::size_t room =
+        service_.limits_.max_report_bytes - report_bytes_bound(definition, *options) - event_bytes;
     prepared.replay_limit =
         std::min(kMaxReplayedUpdates, room / std::max<std::size_t>(1, event_bytes));
   }

@@ -92,6 +92,64 @@ TEST(ReportLimits, SceneWhoseReportsCannotBeSentIsRefusedAtCreation) {
   EXPECT_EQ(report.pairs_size(), kPairs);
 }
 
+// Issue 22 item 6: reports bounded by the mode, not the scene. The scene whose all-pairs report
+// cannot be sent (120-byte ids, ~30 MB) is refused in that mode with a message that names the
+// limit and the modes that would fit; asked for with one of them as its default (the global
+// minimum, one pair), the same scene is accepted and answered, a request asking for all pairs
+// on it is refused naming the mode, and within-cutoff with a finite cutoff (what is near: here
+// nothing within 0.5 m) is answered too. The refusal used to name no mode: the client could only
+// shrink the scene.
+TEST(ReportLimits, ASceneTooLargeForAllPairsIsAcceptedInAModeThatFits) {
+  RunningServer running = start_server();
+  ASSERT_TRUE(running.server);
+  v1::DistanceService::Stub& stub = *running.stub;
+  const std::string sphere = register_sphere(stub);
+  v1::CreateSceneRequest request = sphere_grid(sphere, 120);
+  v1::CreateSceneResponse created;
+  const grpc::Status refused = stub.CreateScene(make_context().get(), request, &created);
+  ASSERT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  const std::string& message = refused.error_message();
+  EXPECT_TRUE(contains(message, "in REPORT_MODE_ALL_PAIRS")) << message;
+  EXPECT_TRUE(contains(message, "--max-message-bytes")) << message;
+  EXPECT_TRUE(contains(message, "Report modes that fit: REPORT_MODE_NEAREST_PER_OBJECT"))
+      << message;
+  EXPECT_TRUE(contains(message, "REPORT_MODE_GLOBAL_MINIMUM")) << message;
+  EXPECT_TRUE(contains(
+      message, "REPORT_MODE_WITHIN_CUTOFF (--mode within-cutoff) with a finite distance_cutoff"))
+      << message;
+  // CHANGED's first report holds every pair: refused the same way.
+  request.mutable_default_options()->set_report_mode(v1::REPORT_MODE_CHANGED);
+  EXPECT_EQ(stub.CreateScene(make_context().get(), request, &created).error_code(),
+            grpc::StatusCode::RESOURCE_EXHAUSTED);
+
+  request.mutable_default_options()->set_report_mode(v1::REPORT_MODE_GLOBAL_MINIMUM);
+  const grpc::Status accepted = stub.CreateScene(make_context().get(), request, &created);
+  ASSERT_TRUE(accepted.ok()) << accepted.error_message();
+  v1::QueryRequest query;
+  query.set_scene_id(created.scene_id());
+  v1::DistanceReport report;
+  ASSERT_TRUE(stub.Query(make_context().get(), query, &report).ok());
+  EXPECT_EQ(report.report_mode(), v1::REPORT_MODE_GLOBAL_MINIMUM);
+  EXPECT_EQ(report.pairs_size(), 1);
+  EXPECT_DOUBLE_EQ(report.pairs(0).distance(), 1.0);  // neighbours 3 m apart, radius 1
+
+  query.mutable_options()->set_report_mode(v1::REPORT_MODE_ALL_PAIRS);
+  const grpc::Status all = stub.Query(make_context().get(), query, &report);
+  EXPECT_EQ(all.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_TRUE(contains(all.error_message(), "options: ")) << all.error_message();
+  EXPECT_TRUE(contains(all.error_message(), "in REPORT_MODE_ALL_PAIRS")) << all.error_message();
+  EXPECT_TRUE(contains(all.error_message(), "REPORT_MODE_NEAREST_PER_OBJECT"))
+      << all.error_message();
+
+  query.mutable_options()->set_report_mode(v1::REPORT_MODE_WITHIN_CUTOFF);
+  query.mutable_options()->set_distance_cutoff(0.5);
+  const grpc::Status near = stub.Query(make_context().get(), query, &report);
+  ASSERT_TRUE(near.ok()) << near.error_message();
+  EXPECT_EQ(report.pairs_size(), 0);
+  EXPECT_EQ(report.counts().pairs_pruned() + report.counts().pairs_evaluated(),
+            std::uint32_t(kPairs));
+}
+
 // Guards the per-request check (SceneService::query, PoseStream::prepare): a scene that fits
 // with its default options would not with near points on (40-byte ids: ~14 MB without, ~21 MB
 // with). A Query asking for them is refused naming the options and the limit (it used to fail
