@@ -150,6 +150,9 @@ void to_proto(const Scene& scene, v1::CreateSceneRequest& out) {
     to_proto(object.pose, *o.mutable_pose());
     if (object.group) o.set_group(*object.group);
     if (object.mask) o.set_mask(*object.mask);
+    o.set_padding(object.padding);
+    o.set_self_padding(object.self_padding);
+    o.set_body(object.body);
   }
   v1::PairSelection& selection = *out.mutable_pair_selection();
   v1::PairList* list = nullptr;

@@ -198,8 +198,19 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
         std::uint32_t bits = 0;
         error = read_uint32(part, field, bits);
         (key == "group" ? input.group : input.mask) = bits;
+      } else if (key == "padding" || key == "self_padding") {
+        // The server checks the value (finite, >= 0) and names the field.
+        if (!part.is_number()) {
+          error = quoted(field) + " must be a number";
+        } else {
+          (key == "padding" ? input.padding : input.self_padding) = part.get<double>();
+        }
+      } else if (key == "body") {
+        error = read_string(part, field, input.body);
       } else {
-        error = unknown_key(path, key, "id, geometry, geometry_id, pose, group, mask");
+        error = unknown_key(path, key,
+                            "id, geometry, geometry_id, pose, group, mask, padding, self_padding, "
+                            "body");
       }
       if (!error.empty()) return error;
     }

@@ -6,7 +6,7 @@
 
 namespace nearpoint::server {
 
-Aabb world_box(const StoredGeometry& geometry, const Pose<double>& pose) {
+Aabb world_box(const StoredGeometry& geometry, const Pose<double>& pose, double padding) {
   const Compound<double>& compound = geometry.compound;
   Aabb box;
   box.lo.setConstant(std::numeric_limits<double>::infinity());
@@ -22,7 +22,7 @@ Aabb world_box(const StoredGeometry& geometry, const Pose<double>& pose) {
   }
   // R·c + t and c ± r round by a few ulps of the largest magnitude involved, and the gaps between
   // two boxes by one more; 1e-12 relative covers both with room to spare (an ulp is 2.2e-16).
-  const double margin = 1e-12 * magnitude;
+  const double margin = 1e-12 * (magnitude + padding) + padding;
   box.lo.array() -= margin;
   box.hi.array() += margin;
   return box;

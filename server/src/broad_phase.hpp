@@ -25,7 +25,8 @@ struct Aabb {
 /// widened by a margin that covers the rounding of the world-frame arithmetic (here and in
 /// `box_gap`), relative to the magnitudes involved; so the box provably holds the object even
 /// 10⁶ m from the origin.
-Aabb world_box(const StoredGeometry& geometry, const Pose<double>& pose);
+/// `padding`: metres added on every side (the object's larger padding).
+Aabb world_box(const StoredGeometry& geometry, const Pose<double>& pose, double padding = 0);
 
 /// A proven lower bound on the distance between anything inside `a` and anything inside `b`
 /// (boxes from `world_box`): the Euclidean length of the per-axis gaps; 0 when they overlap.

@@ -104,7 +104,11 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
     // Boxes follow the poses even when the options alone changed nothing, so that they are
     // always those of `poses`.
     const bool moved = first || !same_pose(poses[i], state.poses[i]);
-    if (moved) state.broad_phase.set(i, world_box(*scene.objects[i].geometry, poses[i]));
+    if (moved) {
+      const SceneObject& object = scene.objects[i];
+      state.broad_phase.set(
+          i, world_box(*object.geometry, poses[i], std::max(object.padding, object.self_padding)));
+    }
     state.moved[i] = moved || everything;
     moved_count += state.moved[i];
   }

@@ -154,6 +154,9 @@ SceneInput to_input(const v1::CreateSceneRequest& request) {
     in.pose = to_input(object.pose());
     if (object.has_group()) in.group = object.group();
     if (object.has_mask()) in.mask = object.mask();
+    in.padding = object.padding();
+    in.self_padding = object.self_padding();
+    in.body = object.body();
   }
   const v1::PairSelection& selection = request.pair_selection();
   const v1::PairList* list = nullptr;

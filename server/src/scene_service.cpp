@@ -431,6 +431,7 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
                                    limits_.max_objects_per_scene, " (--max-objects-per-scene)"));
   auto scene = std::make_shared<SceneDefinition>();
   scene->name = input.name;
+  std::unordered_map<std::string, std::size_t> bodies;  // body id → index
   scene->objects.reserve(input.objects.size());
   for (std::size_t i = 0; i < input.objects.size(); ++i) {
     const ObjectInput& object = input.objects[i];
@@ -452,9 +453,19 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
       return not_found(field + ".geometry_id", text("no geometry ", quoted(object.geometry_id)));
     Expected<Pose<double>> pose = check_pose(object.pose, field + ".pose");
     if (!pose) return pose.error();
-    scene->objects.push_back(SceneObject{object.id, std::move(geometry), pose.value(),
-                                         object.group.value_or(1u),
-                                         object.mask.value_or(0xFFFFFFFFu)});
+    for (const auto& [value, name] :
+         {std::pair{object.padding, ".padding"}, std::pair{object.self_padding, ".self_padding"}})
+      if (!(std::isfinite(value) && value >= 0))
+        return invalid_argument(field + name,
+                                text("must be a finite distance >= 0 (metres), got ", value));
+    std::int64_t body = -1;
+    if (!object.body.empty()) {
+      if (auto error = check_id(object.body, field + ".body")) return *error;
+      body = std::int64_t(bodies.emplace(object.body, bodies.size()).first->second);
+    }
+    scene->objects.push_back(
+        SceneObject{object.id, std::move(geometry), pose.value(), object.group.value_or(1u),
+                    object.mask.value_or(0xFFFFFFFFu), object.padding, object.self_padding, body});
   }
   Expected<ResolvedOptions> defaults =
       resolve_options(ResolvedOptions{}, input.default_options, "default_options");
@@ -474,7 +485,12 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
       return resource_exhausted(
           field, text("the scene's pairs hold more than ", limits_.max_piece_pairs_per_scene,
                       " piece pairs (--max-piece-pairs-per-scene)"));
-    scene->pairs.push_back(ScenePair{a, b, scene->piece_pair_count, count});
+    const SceneObject& object_a = objects[a];
+    const SceneObject& object_b = objects[b];
+    const bool self = object_a.body >= 0 && object_a.body == object_b.body;
+    const double padding =
+        self ? object_a.self_padding + object_b.self_padding : object_a.padding + object_b.padding;
+    scene->pairs.push_back(ScenePair{a, b, scene->piece_pair_count, count, padding});
     scene->piece_pair_count += count;
     return {};
   };

@@ -578,6 +578,16 @@ TEST(SceneFile, OptionsCarryTheReportMode) {
     EXPECT_EQ(out.scene.default_options.change_tolerance, 0.01);
     EXPECT_EQ(out.scene.default_options.distance_cutoff, 2.0);
   }
+  // Objects carry their padding (issue 22 item 3).
+  formats::SceneFile out;
+  ASSERT_EQ(formats::parse_scene(Json::parse(R"({"geometries": {"g": {"box": [1,1,1]}},
+      "objects": [{"id": "a", "geometry": "g", "padding": 0.02, "self_padding": 0.01,
+                   "body": "arm"}]})"),
+                                 ".", {}, out),
+            "");
+  EXPECT_EQ(out.scene.objects[0].padding, 0.02);
+  EXPECT_EQ(out.scene.objects[0].self_padding, 0.01);
+  EXPECT_EQ(out.scene.objects[0].body, "arm");
 }
 
 TEST(SceneFile, YamlReadsLikeJson) {

@@ -1065,5 +1065,127 @@ TEST(Thresholds, EventsThatCouldNotFitInAReportAreRefused) {
   }
 }
 
+// ---- padding (issue 22 item 3) ----
+
+// Padding against a brute-force reference: the same objects in an unpadded scene, every pair
+// through the engine without a cutoff (cold), and the rule "the padded distance is d − p, the pair
+// intersects when d <= p", with p the sum of the two objects' paddings, or of their self
+// paddings when they share a body. A padded stream with a cutoff must agree pair by pair, never
+// prune a pair whose padded distance is within the cutoff (the boxes widen by the padding), and
+// put its near points on the padded surfaces. Without the widened boxes, pairs the padding
+// brings within the cutoff were pruned; without the pair padding, every distance is off by p.
+TEST(Padding, PaddedReportsMatchTheUnpaddedEngineLessThePadding) {
+  std::size_t separated = 0, padded_only = 0, beyond = 0, self_pairs = 0;
+  for (std::uint64_t seed = 0; seed < 4; ++seed) {
+    Rng rng(3300 + seed);
+    SceneService service(ServiceLimits{}, 2);
+    const Vec3d center = Vec3d::Constant(seed % 2 ? 1e6 : 0);
+    const std::size_t n = 16;
+    const double cutoff = 0.6;
+    RandomScene plain = make_scene(service, rng, n, center, 7);
+    SceneInput padded = plain.input;
+    for (std::size_t i = 0; i < n; ++i) {
+      padded.objects[i].padding = uniform(rng, 0, 0.3);
+      padded.objects[i].self_padding = i % 3 == 0 ? 0.0 : uniform(rng, 0, 0.1);
+      padded.objects[i].body = i < 6 ? "robot" : "";  // o0..o5 are one body
+    }
+    padded.requested_id = "padded";
+    Expected<SceneInfo> padded_info = service.create_scene(padded);
+    ASSERT_TRUE(padded_info.ok()) << padded_info.error().describe();
+    Expected<SceneInfo> plain_info = service.create_scene(plain.input);
+    ASSERT_TRUE(plain_info.ok());
+    std::unique_ptr<PoseStream> stream = std::move(service.open_stream().value());
+    std::vector<PoseInput> poses = plain.poses;
+    for (int update = 0; update < 12; ++update) {
+      const std::string where =
+          "seed " + std::to_string(seed) + " update " + std::to_string(update);
+      PoseUpdateInput input;
+      input.scene_id = "padded";
+      input.sequence = std::uint64_t(update) + 1;
+      input.options.distance_cutoff = cutoff;
+      input.options.near_points = true;
+      input.options.penetration = PenetrationMode::bound;
+      for (int m = 0; m < 3; ++m) {
+        const std::size_t i = rng() % n;
+        poses[i] = random_pose(rng, center, 3.5);
+        bool listed = false;
+        for (ObjectPoseInput& pose : input.poses)
+          if (pose.object_id == plain.input.objects[i].id) pose.pose = poses[i], listed = true;
+        if (!listed) input.poses.push_back({plain.input.objects[i].id, poses[i]});
+      }
+      Expected<PreparedUpdate> prepared = stream->prepare(input, Clock::now());
+      ASSERT_TRUE(prepared.ok()) << where;
+      const Report got = run_prepared(*stream, std::move(prepared.value()));
+      const Report ref = recompute_all(service, plain_info->scene_id, poses, plain.input,
+                                       std::numeric_limits<double>::infinity());
+      ASSERT_EQ(got.pairs.size(), ref.pairs.size()) << where;
+      for (std::size_t p = 0; p < ref.pairs.size(); ++p) {
+        const PairReport& want = ref.pairs[p];
+        const PairReport& pair = got.pairs[p];
+        const ObjectInput& a = padded.objects[want.object_a];
+        const ObjectInput& b = padded.objects[want.object_b];
+        const bool self = !a.body.empty() && a.body == b.body;
+        self_pairs += self;
+        const double pad = self ? a.self_padding + b.self_padding : a.padding + b.padding;
+        const double d = want.status == PairStatus::intersecting ? 0.0 : want.distance;
+        const std::string at = where + " pair " + std::to_string(p);
+        if (std::abs(d - pad) < 1e-9 || std::abs(d - pad - cutoff) < 1e-9) continue;  // ties
+        if (d - pad > cutoff) {
+          ++beyond;
+          if (pair.status == PairStatus::beyond_cutoff) {
+            // Proven beyond the cutoff, and a true lower bound (compounds: the cutoff itself).
+            EXPECT_GE(pair.distance_lower_bound, cutoff - 1e-12) << at;
+            EXPECT_LE(pair.distance_lower_bound, d - pad + 1e-9) << at;
+          } else {
+            EXPECT_EQ(pair.status, PairStatus::separated) << at;
+            EXPECT_NEAR(pair.distance, d - pad, want.error_bound + 1e-9) << at;
+          }
+        } else if (d <= pad) {
+          EXPECT_EQ(pair.status, PairStatus::intersecting) << at << " d " << d << " pad " << pad;
+          EXPECT_EQ(pair.distance, 0.0) << at;
+          if (d > 0) {
+            ++padded_only;
+            ASSERT_TRUE(pair.has_penetration_bound) << at;
+            EXPECT_NEAR(pair.penetration_bound, pad - d, want.error_bound + 1e-9) << at;
+          }
+        } else {
+          ++separated;
+          ASSERT_EQ(pair.status, PairStatus::separated) << at << " d " << d << " pad " << pad;
+          EXPECT_NEAR(pair.distance, d - pad, want.error_bound + 1e-9) << at;
+          ASSERT_TRUE(pair.has_near_points) << at;
+          EXPECT_NEAR((pair.point_b - pair.point_a).norm(), pair.distance, 1e-9) << at;
+        }
+      }
+    }
+  }
+  // The sample holds every case, self-pairs included.
+  EXPECT_GT(separated, 20u);
+  EXPECT_GT(padded_only, 10u);
+  EXPECT_GT(beyond, 100u);
+  EXPECT_GT(self_pairs, 100u);
+}
+
+// Bad paddings and body ids are refused at creation, naming the field.
+TEST(Padding, BadPaddingsAreRefusedNamingTheField) {
+  Rng rng(91);
+  SceneService service(ServiceLimits{}, 1);
+  RandomScene scene = make_scene(service, rng, 2, Vec3d::Zero(), 3);
+  SceneInput bad = scene.input;
+  bad.objects[1].padding = -0.1;
+  Expected<SceneInfo> refused = service.create_scene(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().field, "objects[1].padding");
+  bad = scene.input;
+  bad.objects[0].self_padding = std::numeric_limits<double>::infinity();
+  refused = service.create_scene(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().field, "objects[0].self_padding");
+  bad = scene.input;
+  bad.objects[0].body = "has space";
+  refused = service.create_scene(bad);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().field, "objects[0].body");
+}
+
 }  // namespace
 }  // namespace nearpoint::server

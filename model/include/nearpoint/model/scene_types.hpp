@@ -105,6 +105,12 @@ struct ObjectInput {
   PoseInput pose;
   std::optional<std::uint32_t> group;
   std::optional<std::uint32_t> mask;
+  /// MoveIt's padding (see nearpoint.v1.SceneObject): metres, finite, >= 0. `padding` inflates
+  /// the object in its pairs with objects of other bodies, `self_padding` in its pairs with
+  /// objects of the same non-empty `body` (an id, like the object's).
+  double padding = 0;
+  double self_padding = 0;
+  std::string body;
 };
 
 struct PairSelectionInput {

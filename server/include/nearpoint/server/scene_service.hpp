@@ -49,6 +49,10 @@ struct SceneObject {
   Pose<double> initial_pose;
   std::uint32_t group = 1;
   std::uint32_t mask = 0xFFFFFFFFu;
+  /// Metres (see nearpoint.v1.SceneObject); and the body's index (-1: a body of its own).
+  double padding = 0;
+  double self_padding = 0;
+  std::int64_t body = -1;
 };
 
 struct ScenePair {
@@ -58,6 +62,9 @@ struct ScenePair {
   /// `cache_offset` in a per-stream (or per-scene query) cache array.
   std::size_t cache_offset = 0;
   std::size_t cache_count = 0;
+  /// The pair's padding, metres: the sum of its objects' paddings (self paddings for a pair of
+  /// one body). Reports are those of the padded objects.
+  double padding = 0;
 };
 
 /// A scene's immutable part: objects, selected pairs, default options.
