@@ -171,6 +171,22 @@ class PythonClientTest(unittest.TestCase):
         with self.assertRaises(ValueError):
             npc.query_options(report_mode="nearest-ish")
 
+    def test_padding_is_subtracted_per_body(self):
+        """padding=, self_padding= and bodies= reach the server: two unit cubes 3 m apart (gap
+        2 m) report 2 - 0.3 - 0.2 against each other as separate bodies, 2 - 0.1 - 0.1 as one
+        body (self padding), and intersect when the padding covers the gap."""
+        ids = [self.register_box((0.5, 0.5, 0.5)) for _ in range(2)]
+        objects = {"a": (ids[0], (0, 0, 0)), "b": (ids[1], (3, 0, 0))}
+        pads = {"a": 0.3, "b": 0.2}
+        apart = self.client.create_scene(objects, padding=pads,
+                                         self_padding={"a": 0.1, "b": 0.1})
+        self.assertAlmostEqual(self.client.query(apart).pairs[0].distance, 1.5, places=12)
+        one = self.client.create_scene(objects, padding=pads, self_padding={"a": 0.1, "b": 0.1},
+                                       bodies={"a": "arm", "b": "arm"})
+        self.assertAlmostEqual(self.client.query(one).pairs[0].distance, 1.8, places=12)
+        wide = self.client.create_scene(objects, padding={"a": 1.5, "b": 0.5})
+        self.assertEqual(self.client.query(wide).pairs[0].status, "intersecting")
+
     def test_thresholds_report_enter_and_exit_events(self):
         """thresholds= reaches the server and events come back: box b (half-size 0.5, like a)
         moves along x; the gap is x - 1. ENTER below 0.2, EXIT above 0.2 + 0.1: the pass through

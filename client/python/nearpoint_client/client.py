@@ -421,7 +421,10 @@ class Client:
 
     def create_scene(self, objects: Mapping[str, Union[str, Tuple[str, PoseArg]]],
                      pairs: Optional[Sequence[Tuple[str, str]]] = None,
-                     options: OptionsArg = None, name: str = "") -> str:
+                     options: OptionsArg = None, name: str = "", *,
+                     padding: Optional[Mapping[str, float]] = None,
+                     self_padding: Optional[Mapping[str, float]] = None,
+                     bodies: Optional[Mapping[str, str]] = None) -> str:
         """Creates a scene and returns its id (e.g. "scene-1").
 
         `objects` maps each object id to a geometry id, or to (geometry id, initial pose); a pose
@@ -429,6 +432,10 @@ class Client:
         report order (default: all pairs, i < j in the order of `objects`). `options` are the
         scene's default query options: a `query_options(...)` or a dict of its arguments,
         e.g. {"near_points": True}.
+
+        Padding as MoveIt's link padding: `padding` maps object ids to metres by which they are
+        inflated against objects of other bodies, `self_padding` within their own body, and
+        `bodies` maps object ids to a body (robot) id; reports then hold the padded distances.
         """
         request = scene_pb.CreateSceneRequest(name=name)
         for object_id, spec in objects.items():
@@ -436,6 +443,9 @@ class Client:
             entry = request.objects.add(id=object_id, geometry_id=geometry_id)
             if initial is not None:
                 entry.pose.CopyFrom(_pose(initial))
+            entry.padding = (padding or {}).get(object_id, 0.0)
+            entry.self_padding = (self_padding or {}).get(object_id, 0.0)
+            entry.body = (bodies or {}).get(object_id, "")
         if pairs is not None:
             for a, b in pairs:
                 request.pair_selection.listed_pairs.pairs.add(object_a=a, object_b=b)
