@@ -174,6 +174,7 @@ void to_proto(const Scene& scene, v1::CreateSceneRequest& out) {
       pair.set_object_b(b);
     }
   to_proto(scene.default_options, *out.mutable_default_options());
+  for (const Threshold& threshold : scene.thresholds) to_proto(threshold, *out.add_thresholds());
 }
 
 GeometryInfo from_proto(const v1::GeometryInfo& info) {

@@ -154,8 +154,9 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
     } else if (key == "name") {
       if (std::string error = read_string(part, "name", file.scene.name); !error.empty())
         return error;
-    } else if (key != "geometries" && key != "objects" && key != "pairs" && key != "options") {
-      return unknown_key("", key, "id, name, geometries, objects, pairs, options");
+    } else if (key != "geometries" && key != "objects" && key != "pairs" && key != "options" &&
+               key != "thresholds") {
+      return unknown_key("", key, "id, name, geometries, objects, pairs, options, thresholds");
     }
   }
   if (value.contains("geometries")) {
@@ -252,6 +253,35 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
             parse_query_options(value["options"], "options", file.scene.default_options);
         !error.empty())
       return error;
+  }
+  if (value.contains("thresholds")) {
+    // [{"name", "distance", "hysteresis", "object_a", "object_b", "groups"}, ...] as in
+    // nearpoint.v1.Threshold; the server checks the values and names the field.
+    const Json& thresholds = value["thresholds"];
+    if (!thresholds.is_array()) return "\"thresholds\" must be an array of objects";
+    for (std::size_t t = 0; t < thresholds.size(); ++t) {
+      const std::string path = "thresholds[" + std::to_string(t) + "]";
+      if (!thresholds[t].is_object()) return quoted(path) + " must be an object";
+      model::ThresholdInput& threshold = file.scene.thresholds.emplace_back();
+      for (const auto& [key, part] : thresholds[t].items()) {
+        const std::string field = member(path, key);
+        std::string error;
+        if (key == "distance" || key == "hysteresis") {
+          if (!part.is_number()) return quoted(field) + " must be a number";
+          (key == "distance" ? threshold.distance : threshold.hysteresis) = part.get<double>();
+        } else if (key == "name" || key == "object_a" || key == "object_b") {
+          error = read_string(part, field,
+                              key == "name"       ? threshold.name
+                              : key == "object_a" ? threshold.object_a
+                                                  : threshold.object_b);
+        } else if (key == "groups") {
+          error = read_uint32(part, field, threshold.groups);
+        } else {
+          error = unknown_key(path, key, "name, distance, hysteresis, object_a, object_b, groups");
+        }
+        if (!error.empty()) return error;
+      }
+    }
   }
   out = std::move(file);
   return {};

@@ -178,6 +178,11 @@ SceneInput to_input(const v1::CreateSceneRequest& request) {
     for (const v1::ObjectPair& pair : list->pairs())
       out.pair_selection.pairs.emplace_back(pair.object_a(), pair.object_b());
   out.default_options = to_input(request.default_options());
+  out.thresholds.reserve(std::size_t(request.thresholds_size()));
+  for (const v1::Threshold& threshold : request.thresholds())
+    out.thresholds.push_back(ThresholdInput{threshold.name(), threshold.distance(),
+                                            threshold.hysteresis(), threshold.object_a(),
+                                            threshold.object_b(), threshold.groups()});
   return out;
 }
 

@@ -567,6 +567,17 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
   scene->tasks_per_evaluation =
       std::clamp<std::size_t>(visits / kVisitsPerTask, 1, std::max<std::size_t>(1, pool_.size()));
   index_object_pairs(*scene);
+  if (!input.thresholds.empty()) {
+    Expected<std::shared_ptr<const WatchSet>> watches =
+        resolve_thresholds(*scene, input.thresholds, limits_.max_pairs_per_scene);
+    if (!watches) return watches.error();
+    if (auto error = check_cutoff(**watches, scene->default_options.engine.distance_cutoff))
+      return Error{error->code, "default_options.distance_cutoff", error->message};
+    if (auto error = check_report_bytes(*scene, scene->default_options, limits_.max_report_bytes,
+                                        "", (*watches)->event_bytes_per_update))
+      return *error;
+    scene->default_watches = std::move(watches.value());
+  }
 
   std::unique_lock lock(scenes_mutex_);
   if (scenes_.size() >= limits_.max_scenes)
@@ -723,8 +734,8 @@ Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
   Expected<ResolvedOptions> options =
       resolve_options(definition.default_options, update.options, "options");
   if (!options) return options.error();
-  // Thresholds come with the first update; later ones keep them.
-  std::shared_ptr<const WatchSet> watches = watches_;
+  // Thresholds come with the first update (else the scene's); later ones keep them.
+  std::shared_ptr<const WatchSet> watches = scene_ ? watches_ : definition.default_watches;
   if (!update.thresholds.empty()) {
     if (scene_)
       return invalid_argument("thresholds",

@@ -588,6 +588,24 @@ TEST(SceneFile, OptionsCarryTheReportMode) {
   EXPECT_EQ(out.scene.objects[0].padding, 0.02);
   EXPECT_EQ(out.scene.objects[0].self_padding, 0.01);
   EXPECT_EQ(out.scene.objects[0].body, "arm");
+  // And the scene's thresholds (issue 22 item 5: events for streams that cannot name them).
+  ASSERT_EQ(formats::parse_scene(Json::parse(R"({"geometries": {"g": {"box": [1,1,1]}},
+      "objects": [{"id": "a", "geometry": "g"}, {"id": "b", "geometry": "g"}],
+      "thresholds": [{"name": "near", "distance": 0.05, "hysteresis": 0.01,
+                      "object_a": "a", "object_b": "b", "groups": 2}]})"),
+                                 ".", {}, out),
+            "");
+  ASSERT_EQ(out.scene.thresholds.size(), 1u);
+  EXPECT_EQ(out.scene.thresholds[0].name, "near");
+  EXPECT_EQ(out.scene.thresholds[0].distance, 0.05);
+  EXPECT_EQ(out.scene.thresholds[0].hysteresis, 0.01);
+  EXPECT_EQ(out.scene.thresholds[0].object_b, "b");
+  EXPECT_EQ(out.scene.thresholds[0].groups, 2u);
+  EXPECT_NE(formats::parse_scene(Json::parse(R"({"objects": [{"id": "a", "geometry_id": "g"}],
+      "thresholds": [{"distanse": 1}]})"),
+                                 ".", {}, out)
+                .find("thresholds[0]"),
+            std::string::npos);
 }
 
 TEST(SceneFile, YamlReadsLikeJson) {

@@ -1065,6 +1065,63 @@ TEST(Thresholds, EventsThatCouldNotFitInAReportAreRefused) {
   }
 }
 
+// A scene's default thresholds (CreateSceneRequest.thresholds) are watched by every stream whose
+// first update names none (how DDS and ROS 2 clients of a preloaded scene get events); a stream
+// naming its own watches only those. Checked at creation like a stream's, with the scene's
+// default cutoff and fields named from the request.
+TEST(Thresholds, ASceneDefaultIsWatchedByStreamsThatNameNone) {
+  SceneService service(ServiceLimits{}, 1);
+  GeometryInput ball;
+  ball.pieces.emplace_back().shape = Point{};
+  ball.pieces.back().radius = 0.5;
+  const std::string geometry = service.register_geometry(ball)->geometry_id;
+  SceneInput scene;
+  for (const char* id : {"a", "b"}) {
+    ObjectInput& object = scene.objects.emplace_back();
+    object.id = id;
+    object.geometry_id = geometry;
+    object.pose.translation = Vec3d(id[0] == 'a' ? 0 : 5, 0, 0);
+  }
+  scene.thresholds = {{"near", 0.5, 0.1, "a", "b", 0}};
+  scene.default_options.distance_cutoff = 0.2;  // below the exit distance 0.6
+  Expected<SceneInfo> refused = service.create_scene(scene);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().field, "default_options.distance_cutoff");
+  scene.default_options.distance_cutoff.reset();
+  scene.thresholds[0].object_b = "c";
+  refused = service.create_scene(scene);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().field, "thresholds[0].object_b");
+  scene.thresholds[0].object_b = "b";
+  Expected<SceneInfo> info = service.create_scene(scene);
+  ASSERT_TRUE(info.ok()) << info.error().describe();
+
+  // b at x = 5 (gap 4), 1.3 (gap 0.3: enter), 1.65 (gap 0.65: exit).
+  auto run = [&](std::vector<ThresholdInput> own) {
+    std::unique_ptr<PoseStream> stream = std::move(service.open_stream().value());
+    std::vector<std::pair<std::uint64_t, Crossing>> events;
+    std::uint64_t sequence = 0;
+    for (const double x : {5.0, 1.3, 1.65}) {
+      PoseUpdateInput update;
+      update.scene_id = info->scene_id;
+      update.sequence = ++sequence;
+      if (sequence == 1) update.thresholds = own;
+      PoseInput pose;
+      pose.translation = Vec3d(x, 0, 0);
+      update.poses.push_back({"b", pose});
+      Expected<PreparedUpdate> prepared = stream->prepare(update, Clock::now());
+      EXPECT_TRUE(prepared.ok()) << prepared.error().describe();
+      const Report report = run_prepared(*stream, std::move(prepared.value()));
+      for (const ThresholdEvent& e : report.events) events.emplace_back(e.sequence, e.crossing);
+    }
+    return events;
+  };
+  using Events = std::vector<std::pair<std::uint64_t, Crossing>>;
+  EXPECT_EQ(run({}), (Events{{2, Crossing::enter}, {3, Crossing::exit}}));
+  // Its own, tighter threshold: 0.3 is not below 0.2, so nothing fires.
+  EXPECT_EQ(run({{"tight", 0.2, 0, "a", "", 0}}), Events{});
+}
+
 // ---- padding (issue 22 item 3) ----
 
 // Padding against a brute-force reference: the same objects in an unpadded scene, every pair

@@ -23,7 +23,9 @@
 //    "options": {"epsilon": e, "near_points": bool, "penetration": "none"|"bound"|"depth",
 //                "gradient": bool, "distance_cutoff": d, "warm_start": bool, "max_iterations": n,
 //                "report_mode": "all"|"within-cutoff"|"nearest"|"global"|"changed",
-//                "change_tolerance": t}}
+//                "change_tolerance": t},
+//    "thresholds": [{"name": "near", "distance": d, "hysteresis": h, "object_a": "arm",
+//                    "object_b": "table", "groups": 2}, ...]}   watched by every stream
 // Units: metres and radians. Unknown keys are errors (a misspelt key must not silently vanish).
 #pragma once
 

@@ -120,26 +120,6 @@ struct PairSelectionInput {
   std::vector<std::pair<std::string, std::string>> pairs;
 };
 
-struct SceneInput {
-  std::string name;
-  /// The id the client asks for ("" = the server assigns "scene-N"). Taken: ALREADY_EXISTS.
-  std::string requested_id;
-  std::vector<ObjectInput> objects;
-  PairSelectionInput pair_selection;
-  QueryOptionsInput default_options;
-};
-
-struct SceneInfo {
-  std::string scene_id;
-  std::size_t pair_count = 0;
-};
-
-struct ObjectPoseInput {
-  std::string object_id;
-  /// Geometry frame → world frame.
-  PoseInput pose;
-};
-
 /// A watched distance (see nearpoint.v1.Threshold): a stream's reports carry an ENTER event when
 /// a watched pair comes closer than `distance`, an EXIT event when it gets farther than
 /// `distance + hysteresis`. Which pairs: both ids, that pair; `object_a` alone, its pairs; no id,
@@ -155,6 +135,28 @@ struct ThresholdInput {
   std::string object_a;
   std::string object_b;
   std::uint32_t groups = 0;
+};
+
+struct SceneInput {
+  std::string name;
+  /// The id the client asks for ("" = the server assigns "scene-N"). Taken: ALREADY_EXISTS.
+  std::string requested_id;
+  std::vector<ObjectInput> objects;
+  PairSelectionInput pair_selection;
+  QueryOptionsInput default_options;
+  /// Thresholds every stream on the scene watches unless its first update names its own.
+  std::vector<ThresholdInput> thresholds;
+};
+
+struct SceneInfo {
+  std::string scene_id;
+  std::size_t pair_count = 0;
+};
+
+struct ObjectPoseInput {
+  std::string object_id;
+  /// Geometry frame → world frame.
+  PoseInput pose;
 };
 
 /// See nearpoint.v1.FlowControl. `unknown`: a value this server does not know; rejected.

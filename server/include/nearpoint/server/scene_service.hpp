@@ -25,6 +25,8 @@
 
 namespace nearpoint::server {
 
+struct WatchSet;
+
 /// A validated, immutable geometry: the engine's compound plus what the broad phase needs.
 /// Shared (shared_ptr<const>) by the store and every scene object that uses it.
 struct StoredGeometry {
@@ -82,6 +84,9 @@ class SceneDefinition {
   /// object id; see report_size.hpp.
   std::size_t report_bytes_base = 0;
   std::size_t longest_object_id = 0;
+  /// The scene's default thresholds (CreateSceneRequest.thresholds; null: none): what a stream
+  /// watches when its first update names none.
+  std::shared_ptr<const WatchSet> default_watches;
   /// How many pool tasks one evaluation is split into (1 … workers), from the scene's estimated
   /// GJK cost: splitting only pays when each task outweighs the cost of waking a worker.
   std::size_t tasks_per_evaluation = 1;
@@ -118,8 +123,6 @@ class Scene {
   std::vector<SimplexCache> query_cache_;
   std::atomic<bool> deleted_{false};
 };
-
-struct WatchSet;
 
 /// The poses one update set on watched objects (object index, world pose), and its sequence:
 /// what a merged update replays for the crossings of the updates it absorbed.
