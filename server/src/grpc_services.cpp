@@ -19,6 +19,16 @@ constexpr const char* kShuttingDown = "server is shutting down";
 /// How a call that was open when the drain began ends (clients look for "draining").
 constexpr const char* kDraining = "server is draining (shutting down)";
 
+/// The routing header a sharding proxy hashes (nearpoint.v1.DistanceService, "Routing key"),
+/// first 128 bytes (an id is at most that); "" when the call carries none. Logged, so that an
+/// operator can see which scenes a replica was sent.
+std::string routing_key(const grpc::ServerContextBase* context) {
+  const auto& metadata = context->client_metadata();
+  const auto found = metadata.find("x-nearpoint-scene");
+  if (found == metadata.end()) return {};
+  return std::string(found->second.data(), std::min<std::size_t>(found->second.size(), 128));
+}
+
 /// One unary call whose request we parsed (see RawDistanceService). Its typed handler fills
 /// `response` and ends the call exactly once, with finish() or reject(), possibly later and on
 /// another thread (Query ends from the pool); the call object lives until then.
@@ -152,7 +162,10 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
       Finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, kShuttingDown));
       return;
     }
-    log_info("stream_open").kv("stream", number_).kv("peer", peer_);
+    log_info("stream_open")
+        .kv("stream", number_)
+        .kv("peer", peer_)
+        .kv("routing_key", routing_key(context));
     std::lock_guard lock(mutex_);
     Pump();
   }
@@ -543,12 +556,23 @@ void list_geometries(SceneService& scenes, ListGeometriesCall& call) {
 using CreateSceneCall = UnaryCall<v1::CreateSceneRequest, v1::CreateSceneResponse>;
 void create_scene(SceneService& scenes, CreateSceneCall& call) {
   const v1::CreateSceneRequest& request = call.request;
+  // A routing key that names another scene would place this one where no later call for it
+  // is routed: refuse it rather than create a scene nobody can reach through the proxy.
+  if (const std::string key = routing_key(call.context);
+      !key.empty() && !request.scene_id().empty() && key != request.scene_id())
+    return call.reject(invalid_argument(
+        "scene_id", text("differs from the routing header x-nearpoint-scene ", quoted(key),
+                         ": a sharding proxy would route later calls for ",
+                         quoted(request.scene_id()), " elsewhere")));
   Expected<SceneInfo> info = scenes.create_scene(to_input(request));
   if (!info) return call.reject(info.error());
   call.response.set_scene_id(info->scene_id);
   call.response.set_pair_count(std::uint32_t(info->pair_count));
+  for (const auto& [key, id] : info->geometry_ids)
+    (*call.response.mutable_geometry_ids())[key] = id;
   log_info("scene_created")
       .kv("scene", info->scene_id)
+      .kv("routing_key", routing_key(call.context))
       .kv("name", request.name())
       .kv("objects", request.objects_size())
       .kv("pairs", info->pair_count);

@@ -1,5 +1,9 @@
 #include "proto_convert.hpp"
 
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
+
+#include "content_hash.hpp"
 #include "nearpoint/server/scene_service.hpp"
 #include "wire_numbers.hpp"
 
@@ -183,6 +187,20 @@ SceneInput to_input(const v1::CreateSceneRequest& request) {
     out.thresholds.push_back(ThresholdInput{threshold.name(), threshold.distance(),
                                             threshold.hysteresis(), threshold.object_a(),
                                             threshold.object_b(), threshold.groups()});
+  for (const auto& [key, geometry] : request.geometries())
+    out.geometries.emplace(key, to_input(geometry));
+  // The whole request, bit for bit, in a canonical order (maps sorted): the same request again
+  // has the same fingerprint, and any difference, in fields this server knows or not, another.
+  std::string bytes;
+  {
+    google::protobuf::io::StringOutputStream stream(&bytes);
+    google::protobuf::io::CodedOutputStream coded(&stream);
+    coded.SetSerializationDeterministic(true);
+    request.SerializeToCodedStream(&coded);
+  }
+  Sha256 hash;
+  hash.update(bytes);
+  out.fingerprint = hex_prefix(hash.finish(), 32);
   return out;
 }
 

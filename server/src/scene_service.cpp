@@ -4,6 +4,7 @@
 #include <cmath>
 #include <unordered_set>
 
+#include "content_hash.hpp"
 #include "evaluation.hpp"
 #include "incremental.hpp"
 #include "metrics.hpp"
@@ -381,18 +382,28 @@ SceneService::SceneService(const ServiceLimits& limits, std::size_t workers)
 
 SceneService::~SceneService() = default;
 
+Expected<std::shared_ptr<const StoredGeometry>> SceneService::store_geometry(
+    std::shared_ptr<StoredGeometry> geometry, const std::string& field) {
+  std::unique_lock lock(geometries_mutex_);
+  const auto found = geometries_.find(geometry->info.geometry_id);
+  if (found != geometries_.end()) return found->second;  // the same content: idempotent
+  if (geometries_.size() >= limits_.max_geometries)
+    return resource_exhausted(
+        field, text("the server holds ", geometries_.size(), " geometries; the limit is ",
+                    limits_.max_geometries, " (--max-geometries)"));
+  geometry->registration = next_geometry_number_++;
+  geometries_.emplace(geometry->info.geometry_id, geometry);
+  return std::shared_ptr<const StoredGeometry>(std::move(geometry));
+}
+
 Expected<GeometryInfo> SceneService::register_geometry(const GeometryInput& geometry) {
   Expected<std::shared_ptr<StoredGeometry>> built = build_geometry(geometry, limits_);
   if (!built) return built.error();
-  std::unique_lock lock(geometries_mutex_);
-  if (geometries_.size() >= limits_.max_geometries)
-    return resource_exhausted(
-        "", text("the server holds ", geometries_.size(), " geometries; the limit is ",
-                 limits_.max_geometries, " (--max-geometries)"));
-  std::shared_ptr<StoredGeometry>& stored = built.value();
-  stored->info.geometry_id = text("geom-", next_geometry_number_++);
-  geometries_.emplace(stored->info.geometry_id, stored);
-  return stored->info;
+  built.value()->info.geometry_id = geometry_content_id(geometry);
+  Expected<std::shared_ptr<const StoredGeometry>> stored =
+      store_geometry(std::move(built.value()), "");
+  if (!stored) return stored.error();
+  return stored.value()->info;
 }
 
 Outcome SceneService::remove_geometry(const std::string& geometry_id) {
@@ -408,13 +419,15 @@ std::vector<GeometryInfo> SceneService::list_geometries() const {
   {
     std::shared_lock lock(geometries_mutex_);
     out.reserve(geometries_.size());
-    for (const auto& [id, geometry] : geometries_) out.push_back(geometry->info);
+    std::vector<const StoredGeometry*> stored;
+    stored.reserve(geometries_.size());
+    for (const auto& [id, geometry] : geometries_) stored.push_back(geometry.get());
+    // Registration order (ids are content hashes and say nothing of it).
+    std::sort(stored.begin(), stored.end(), [](const StoredGeometry* a, const StoredGeometry* b) {
+      return a->registration < b->registration;
+    });
+    for (const StoredGeometry* geometry : stored) out.push_back(geometry->info);
   }
-  // Registration order: ids are "geom-N", and a shorter N is a smaller one.
-  std::sort(out.begin(), out.end(), [](const GeometryInfo& a, const GeometryInfo& b) {
-    return std::pair(a.geometry_id.size(), a.geometry_id) <
-           std::pair(b.geometry_id.size(), b.geometry_id);
-  });
   return out;
 }
 
@@ -429,9 +442,31 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
     return resource_exhausted("objects",
                               text("has ", input.objects.size(), " objects; the limit is ",
                                    limits_.max_objects_per_scene, " (--max-objects-per-scene)"));
+  // Inline geometries: validated and given their content ids now, stored once the scene is
+  // known to be valid (so a refused scene leaves nothing behind but what it names).
+  if (input.geometries.size() > limits_.max_objects_per_scene)
+    return resource_exhausted(
+        "geometries",
+        text("has ", input.geometries.size(), " geometries; the limit is ",
+             limits_.max_objects_per_scene, " (--max-objects-per-scene, one per object at most)"));
+  std::unordered_map<std::string, std::shared_ptr<StoredGeometry>> inline_geometries;
+  for (const auto& [key, geometry] : input.geometries) {
+    const std::string field = text("geometries[", quoted(key), ']');
+    if (auto error = check_id(key, field)) return *error;
+    Expected<std::shared_ptr<StoredGeometry>> built = build_geometry(geometry, limits_);
+    if (!built) {
+      Error error = built.error();
+      // build_geometry's paths start with "geometry" (RegisterGeometry's request field).
+      if (error.field.rfind("geometry", 0) == 0) error.field.replace(0, 8, field);
+      return error;
+    }
+    built.value()->info.geometry_id = geometry_content_id(geometry);
+    inline_geometries.emplace(key, std::move(built.value()));
+  }
   auto scene = std::make_shared<SceneDefinition>();
   scene->name = input.name;
   std::unordered_map<std::string, std::size_t> bodies;  // body id → index
+  scene->fingerprint = input.fingerprint;
   scene->objects.reserve(input.objects.size());
   for (std::size_t i = 0; i < input.objects.size(); ++i) {
     const ObjectInput& object = input.objects[i];
@@ -444,7 +479,10 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
           text(quoted(object.id), " is already the id of objects[", it->second, "]"));
     if (auto error = check_id(object.geometry_id, field + ".geometry_id")) return *error;
     std::shared_ptr<const StoredGeometry> geometry;
-    {
+    if (const auto sent = inline_geometries.find(object.geometry_id);
+        sent != inline_geometries.end()) {
+      geometry = sent->second;
+    } else {
       std::shared_lock lock(geometries_mutex_);
       const auto found = geometries_.find(object.geometry_id);
       if (found != geometries_.end()) geometry = found->second;
@@ -579,22 +617,38 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
     scene->default_watches = std::move(watches.value());
   }
 
+  SceneInfo info{"", scene->pairs.size(), {}};
+  for (auto& [key, geometry] : inline_geometries) {
+    info.geometry_ids.emplace(key, geometry->info.geometry_id);
+    Expected<std::shared_ptr<const StoredGeometry>> stored =
+        store_geometry(geometry, text("geometries[", quoted(key), ']'));
+    if (!stored) return stored.error();
+  }
+
   std::unique_lock lock(scenes_mutex_);
   if (scenes_.size() >= limits_.max_scenes)
     return resource_exhausted(
         "", text("the server holds ", scenes_.size(), " scenes; the limit is ", limits_.max_scenes,
                  " (--max-scenes)"));
   if (!input.requested_id.empty()) {
-    if (scenes_.count(input.requested_id))
+    if (const auto found = scenes_.find(input.requested_id); found != scenes_.end()) {
+      // The same request again (a client re-creating its scene after a lost connection or a
+      // failover, not knowing whether the first call arrived): the first answer.
+      const SceneDefinition& existing = *found->second->definition();
+      if (!input.fingerprint.empty() && existing.fingerprint == input.fingerprint)
+        return existing.info;
       return Error{ErrorCode::already_exists, "scene_id",
-                   text("a scene ", quoted(input.requested_id), " already exists")};
+                   text("a scene ", quoted(input.requested_id), " already exists",
+                        input.fingerprint.empty() ? "" : " with another definition")};
+    }
     scene->id = input.requested_id;
   } else {
     // Skip numbers a client took by asking for "scene-N" itself.
     do scene->id = text("scene-", next_scene_number_++);
     while (scenes_.count(scene->id));
   }
-  SceneInfo info{scene->id, scene->pairs.size()};
+  info.scene_id = scene->id;
+  scene->info = info;
   scenes_.emplace(info.scene_id, std::make_shared<Scene>(std::move(scene)));
   return info;
 }

@@ -4,8 +4,10 @@
 // that many bytes of a serialized request:
 //   0 RegisterGeometryRequest  1 CreateSceneRequest  2 QueryRequest  3 PoseUpdate (one stream per
 //   input)  4 RemoveGeometryRequest  5 DeleteSceneRequest
-// on one fresh SceneService (small limits, one worker). Geometry ids are "geom-1", "geom-2", …
-// and scene ids "scene-1", … in order of creation, so a seed can refer to what it made.
+// on one fresh SceneService (small limits, one worker). A seed refers to what it made as
+// "geom-1", "geom-2", … (the geometries it registered, in order; the server's ids are content
+// hashes, which a seed cannot know, so the harness maps these names to them) and "scene-1", …
+// (scene ids, server-assigned in order of creation).
 // Bytes that do not parse are what gRPC itself refuses before any handler runs: skipped.
 // Invariants: every rejection is a known, non-internal error with a message and a gRPC status a
 // client can act on; every accepted query and update yields one well-formed report per request
@@ -13,6 +15,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "server_support.hpp"
 
@@ -22,12 +25,24 @@ using namespace nearpoint;
 
 constexpr int kMaxRecords = 12;
 
+// "geom-K" → the K-th geometry this input registered (see the header); other ids unchanged.
+std::string stored_id(const std::string& id, const std::vector<std::string>& registered) {
+  if (id.rfind("geom-", 0) != 0 || id.size() > 8) return id;
+  std::size_t k = 0;
+  for (std::size_t i = 5; i < id.size(); ++i) {
+    if (id[i] < '0' || id[i] > '9') return id;
+    k = 10 * k + std::size_t(id[i] - '0');
+  }
+  return k >= 1 && k <= registered.size() ? registered[k - 1] : id;
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   fuzz::ByteReader in(data, size);
   server::SceneService service(fuzz::small_limits(), 1);
   std::unique_ptr<server::PoseStream> stream;
+  std::vector<std::string> registered;
   for (int record = 0; record < kMaxRecords && in.remaining() > 0; ++record) {
     const int op = in.byte() % 6;
     const std::string bytes = in.bytes(in.u16() % 4096);
@@ -41,6 +56,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           fuzz::check_error(info.error(), "RegisterGeometry");
           break;
         }
+        registered.push_back(info->geometry_id);
         NEARPOINT_FUZZ_CHECK(info->bounding_center.allFinite() &&
                                  std::isfinite(info->bounding_radius) && info->bounding_radius >= 0,
                              "RegisterGeometry: a non-finite bounding sphere");
@@ -51,6 +67,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       case 1: {
         v1::CreateSceneRequest request;
         if (!request.ParseFromString(bytes)) break;
+        for (v1::SceneObject& object : *request.mutable_objects())
+          object.set_geometry_id(stored_id(object.geometry_id(), registered));
         server::Expected<server::SceneInfo> info = service.create_scene(server::to_input(request));
         if (!info) fuzz::check_error(info.error(), "CreateScene");
         break;
@@ -99,7 +117,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       case 4: {
         v1::RemoveGeometryRequest request;
         if (!request.ParseFromString(bytes)) break;
-        if (server::Outcome removed = service.remove_geometry(request.geometry_id()); !removed)
+        if (server::Outcome removed =
+                service.remove_geometry(stored_id(request.geometry_id(), registered));
+            !removed)
           fuzz::check_error(removed.error(), "RemoveGeometry");
         break;
       }

@@ -701,6 +701,41 @@ TEST_F(GrpcServerTest, InvalidGeometriesAreRejectedNamingTheField) {
   EXPECT_EQ(listed.geometries_size(), 0);
 }
 
+// The routing key (issue 24): a CreateScene whose x-nearpoint-scene header names another scene
+// would be placed where no later call for it is routed; refused. The same request sent twice
+// (a client unsure whether the first arrived) is answered as the first, inline geometries and
+// all.
+TEST_F(GrpcServerTest, CreateSceneChecksTheRoutingHeaderAndIsIdempotent) {
+  v1::CreateSceneRequest request;
+  request.set_scene_id("routed");
+  *(*request.mutable_geometries())["crate"].mutable_pieces() =
+      polytope_geometry("box", box_vertices({1, 1, 1})).message.pieces();
+  for (const char* id : {"a", "b"}) {
+    v1::SceneObject& object = *request.add_objects();
+    object.set_id(id);
+    object.set_geometry_id("crate");
+  }
+  auto routed = [](const std::string& key) {
+    auto context = make_context();
+    context->AddMetadata("x-nearpoint-scene", key);
+    return context;
+  };
+  v1::CreateSceneResponse response;
+  expect_error(stub().CreateScene(routed("elsewhere").get(), request, &response),
+               grpc::StatusCode::INVALID_ARGUMENT, "scene_id");
+  ASSERT_TRUE(stub().CreateScene(routed("routed").get(), request, &response).ok());
+  EXPECT_EQ(response.scene_id(), "routed");
+  EXPECT_EQ(response.pair_count(), 1u);
+  ASSERT_EQ(response.geometry_ids().count("crate"), 1u);
+  v1::CreateSceneResponse again;
+  ASSERT_TRUE(stub().CreateScene(routed("routed").get(), request, &again).ok());
+  EXPECT_EQ(again.scene_id(), "routed");
+  EXPECT_EQ(again.geometry_ids().at("crate"), response.geometry_ids().at("crate"));
+  request.mutable_objects(1)->mutable_pose()->mutable_translation()->set_x(5);
+  expect_error(stub().CreateScene(make_context().get(), request, &again),
+               grpc::StatusCode::ALREADY_EXISTS, "scene_id");
+}
+
 TEST_F(GrpcServerTest, InvalidScenesAreRejectedNamingTheField) {
   const std::string box =
       register_geometry(stub(), polytope_geometry("box", box_vertices({1, 1, 1})));

@@ -3,7 +3,9 @@
 
 #include <future>
 #include <random>
+#include <set>
 
+#include "content_hash.hpp"
 #include "nearpoint/distance.hpp"
 #include "nearpoint/server/scene_service.hpp"
 #include "validation.hpp"
@@ -93,6 +95,99 @@ TEST(SceneService, PairSelectionFollowsGroupsMasksAndLists) {
   const SceneInfo excluded_scene = service.create_scene(excluded).value();
   EXPECT_EQ(pair_ids(run_query(service, {excluded_scene.scene_id, {}, {}, 0})),
             (Pairs{{"a", "b"}, {"b", "c"}}));
+}
+
+// Content ids (issue 24): a client re-registering its geometries after a failover, on another
+// replica or the same one, must get the ids it already holds; any difference must give another.
+TEST(SceneService, GeometryIdsAreContentHashesAndRegisteringTwiceIsIdempotent) {
+  Sha256 hash;
+  hash.update("abc");  // FIPS 180-2, appendix B.1
+  EXPECT_EQ(hex_prefix(hash.finish(), 32),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  Sha256 long_message;  // more than one block, fed in pieces
+  for (int i = 0; i < 1000; ++i) long_message.update("aaaaaaaaaa");  // 10,000 × 'a'
+  EXPECT_EQ(hex_prefix(long_message.finish(), 8), "27dd1f61b867b6a0");
+
+  SceneService service(ServiceLimits{}, 1);
+  const GeometryInfo first = service.register_geometry(box_input()).value();
+  EXPECT_EQ(first.geometry_id.rfind("geom-", 0), 0u);
+  EXPECT_EQ(first.geometry_id.size(), 5u + 32u);
+  const GeometryInfo again = service.register_geometry(box_input()).value();
+  EXPECT_EQ(again.geometry_id, first.geometry_id);
+  EXPECT_EQ(again.name, first.name);
+  EXPECT_EQ(service.geometry_count(), 1u);
+  // Another service (a replica) gives the same id to the same geometry.
+  SceneService other(ServiceLimits{}, 1);
+  EXPECT_EQ(other.register_geometry(box_input()).value().geometry_id, first.geometry_id);
+  // Any difference: another id.
+  GeometryInput renamed = box_input();
+  renamed.name = "crate";
+  GeometryInput moved = box_input();
+  moved.pieces[0].offset.translation.x() = 1e-12;
+  GeometryInput rounded = box_input();
+  rounded.pieces[0].radius = 0.01;
+  std::set<std::string> ids = {first.geometry_id};
+  for (const GeometryInput& changed : {renamed, moved, rounded, box_input(0.25)})
+    ids.insert(service.register_geometry(changed).value().geometry_id);
+  EXPECT_EQ(ids.size(), 5u);
+  // Listed in order of first registration.
+  const std::vector<GeometryInfo> listed = service.list_geometries();
+  ASSERT_EQ(listed.size(), 5u);
+  EXPECT_EQ(listed[0].geometry_id, first.geometry_id);
+  EXPECT_EQ(listed[1].name, "crate");
+  // Removed, then registered again: the same id.
+  ASSERT_TRUE(service.remove_geometry(first.geometry_id).ok());
+  EXPECT_EQ(service.register_geometry(box_input()).value().geometry_id, first.geometry_id);
+}
+
+// Inline geometries (issue 24): one call makes a scene whole, on whichever replica receives it.
+TEST(SceneService, AScenesGeometriesMayComeWithItAndErrorsNameTheEntry) {
+  SceneService service(ServiceLimits{}, 1);
+  SceneInput scene;
+  scene.requested_id = "cell";
+  scene.geometries["crate"] = box_input();
+  scene.geometries["small"] = box_input(0.25);
+  scene.objects = {object("a", "crate"), object("b", "small")};
+  scene.objects[1].pose.translation = Vec3d(3, 0, 0);
+  const SceneInfo info = service.create_scene(scene).value();
+  ASSERT_EQ(info.geometry_ids.size(), 2u);
+  const std::string crate_id = service.register_geometry(box_input()).value().geometry_id;
+  EXPECT_EQ(info.geometry_ids.at("crate"), crate_id);  // stored, under its content id
+  EXPECT_EQ(service.geometry_count(), 2u);
+  const Report report = run_query(service, {"cell", {}, {}, 0});
+  ASSERT_EQ(report.pairs.size(), 1u);
+  EXPECT_NEAR(report.pairs[0].distance, 3 - 0.5 - 0.25, 1e-12);
+
+  SceneInput bad;
+  bad.geometries["bent"] = box_input();
+  bad.geometries["bent"].pieces[0].radius = -1;
+  bad.objects = {object("a", "bent"), object("b", crate_id)};  // a stored id still works
+  const Error error = service.create_scene(bad).error();
+  EXPECT_EQ(error.code, ErrorCode::invalid_argument);
+  EXPECT_EQ(error.field, "geometries['bent'].pieces[0].radius") << error.describe();
+}
+
+// Idempotent re-creation (issue 24): a client that does not know whether its CreateScene
+// arrived (a lost connection, a failover) sends it again and gets the first answer; a different
+// request for a taken id is still refused.
+TEST(SceneService, TheSameCreationTwiceIsAnsweredAsTheFirst) {
+  SceneService service(ServiceLimits{}, 1);
+  const std::string box = service.register_geometry(box_input()).value().geometry_id;
+  SceneInput scene;
+  scene.requested_id = "cell";
+  scene.fingerprint = "request-1";
+  scene.objects = {object("a", box), object("b", box)};
+  const SceneInfo first = service.create_scene(scene).value();
+  const SceneInfo again = service.create_scene(scene).value();
+  EXPECT_EQ(again.scene_id, first.scene_id);
+  EXPECT_EQ(again.pair_count, first.pair_count);
+  EXPECT_EQ(service.scene_count(), 1u);
+  SceneInput other = scene;
+  other.fingerprint = "request-2";
+  EXPECT_EQ(service.create_scene(other).error().code, ErrorCode::already_exists);
+  SceneInput unfingerprinted = scene;  // a scene file's: never taken for the same request
+  unfingerprinted.fingerprint.clear();
+  EXPECT_EQ(service.create_scene(unfingerprinted).error().code, ErrorCode::already_exists);
 }
 
 // Options inherit field by field: update overrides → scene defaults → engine defaults.

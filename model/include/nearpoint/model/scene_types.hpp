@@ -11,6 +11,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -146,11 +147,22 @@ struct SceneInput {
   QueryOptionsInput default_options;
   /// Thresholds every stream on the scene watches unless its first update names its own.
   std::vector<ThresholdInput> thresholds;
+  /// Geometries sent with the scene (nearpoint.v1.CreateSceneRequest.geometries), by a key that
+  /// objects may name as their geometry_id; stored as by RegisterGeometry before the objects are
+  /// resolved.
+  std::map<std::string, GeometryInput> geometries;
+  /// Opaque digest of the whole request as received (the gRPC adapter: SHA-256 of its
+  /// deterministic serialization); empty when there is none. A creation under a taken
+  /// requested_id whose fingerprint equals the existing scene's is the same request again: it is
+  /// answered as the first was instead of ALREADY_EXISTS (idempotent re-creation).
+  std::string fingerprint;
 };
 
 struct SceneInfo {
   std::string scene_id;
   std::size_t pair_count = 0;
+  /// The stored id of each inline geometry (SceneInput::geometries), by its key.
+  std::map<std::string, std::string> geometry_ids;
 };
 
 struct ObjectPoseInput {

@@ -32,6 +32,8 @@ struct WatchSet;
 struct StoredGeometry {
   GeometryInfo info;
   Compound<double> compound;
+  /// Order of first registration (ListGeometries lists by it; ids are content hashes).
+  std::uint64_t registration = 0;
 };
 
 /// Options after inheritance and validation: what the engine is run with.
@@ -77,6 +79,10 @@ class SceneDefinition {
   std::vector<SceneObject> objects;
   std::vector<ScenePair> pairs;
   ResolvedOptions default_options;
+  /// SceneInput::fingerprint of the request that created it ("" for none): an identical request
+  /// for the same id is answered as the first was. `info` is that first answer.
+  std::string fingerprint;
+  SceneInfo info;
   /// Sum of cache_count over the pairs: the size of one warm-start cache array.
   std::size_t piece_pair_count = 0;
   /// An upper bound on the bytes of this scene's reports without near points, penetration
@@ -213,12 +219,15 @@ class SceneService {
   SceneService(const SceneService&) = delete;
   SceneService& operator=(const SceneService&) = delete;
 
-  /// Validates (finite, non-empty, within limits, radii >= 0, unit quaternions) and stores.
-  /// Error fields start with "geometry.".
+  /// Validates (finite, non-empty, within limits, radii >= 0, unit quaternions) and stores under
+  /// its content id (content_hash.hpp): the same geometry again is stored once and answered the
+  /// same. Error fields start with "geometry.".
   Expected<GeometryInfo> register_geometry(const GeometryInput& geometry);
   Outcome remove_geometry(const std::string& geometry_id);
   std::vector<GeometryInfo> list_geometries() const;
 
+  /// Stores the scene's inline geometries (as register_geometry would) and creates it. A taken
+  /// requested_id is ALREADY_EXISTS unless the request's fingerprint matches the scene's.
   Expected<SceneInfo> create_scene(const SceneInput& scene);
   Outcome delete_scene(const std::string& scene_id);
   /// The live scene, or nullptr.
@@ -253,6 +262,10 @@ class SceneService {
   mutable std::shared_mutex geometries_mutex_;
   std::unordered_map<std::string, std::shared_ptr<const StoredGeometry>> geometries_;
   std::uint64_t next_geometry_number_ = 1;
+  /// Stores `geometry` under its id unless that id is stored already; the stored one either way,
+  /// or RESOURCE_EXHAUSTED at --max-geometries. `field` names it in that error.
+  Expected<std::shared_ptr<const StoredGeometry>> store_geometry(
+      std::shared_ptr<StoredGeometry> geometry, const std::string& field);
 
   mutable std::shared_mutex scenes_mutex_;
   std::unordered_map<std::string, std::shared_ptr<Scene>> scenes_;
