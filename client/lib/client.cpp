@@ -11,6 +11,7 @@
 #include <future>
 #include <map>
 #include <mutex>
+#include <random>
 #include <thread>
 
 #include "convert.hpp"
@@ -117,10 +118,48 @@ Status from_grpc(const grpc::Status& status) {
   return Status{int(status.error_code()), status.error_message()};
 }
 
-// A dropped connection, as opposed to an answer: worth reconnecting for.
+// A dropped connection, as opposed to an answer: worth reconnecting for. Behind a proxy two more
+// codes mean it: CANCELLED when this client did not cancel (its own cancellations are handled
+// before this is asked), and UNKNOWN ("No status received"): HAProxy ends the streams of a
+// backend that died with a reset or without any gRPC status, and nearpointd itself never ends
+// a call with UNKNOWN.
 bool is_connection_loss(const grpc::Status& status) {
   return status.error_code() == grpc::StatusCode::UNAVAILABLE ||
-         status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED;
+         status.error_code() == grpc::StatusCode::DEADLINE_EXCEEDED ||
+         status.error_code() == grpc::StatusCode::CANCELLED ||
+         status.error_code() == grpc::StatusCode::UNKNOWN;
+}
+
+// Whether `id` may travel as a metadata value (the id rule: printable ASCII without spaces). An
+// id that may not is sent without the routing header; the server then refuses it by name.
+bool routable(const std::string& id) {
+  if (id.empty() || id.size() > 128) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) { return c >= 0x21 && c <= 0x7E; });
+}
+
+// "s-" and 16 random hex digits: a scene id the client can route by before the scene exists.
+std::string random_scene_id() {
+  static std::mutex mutex;
+  static std::mt19937_64 engine = [] {
+    std::random_device device;
+    std::seed_seq seed{device(), device(), device(), device(),
+                       unsigned(Clock::now().time_since_epoch().count())};
+    return std::mt19937_64(seed);
+  }();
+  std::uint64_t value;
+  {
+    std::lock_guard lock(mutex);
+    value = engine();
+  }
+  constexpr char kHex[] = "0123456789abcdef";
+  std::string id = "s-";
+  for (int shift = 60; shift >= 0; shift -= 4) id.push_back(kHex[(value >> shift) & 15]);
+  return id;
+}
+
+// NOT_FOUND for the scene itself (its field is "scene_id"), not for an object or geometry.
+bool is_scene_not_found(const Status& status) {
+  return status.code == kNotFound && status.message.rfind("scene_id:", 0) == 0;
 }
 
 class ClientImpl;
@@ -182,12 +221,12 @@ class SessionImpl final : public Session {
   };
   enum class State { connected, reconnecting, closing, closed, failed };
 
-  std::shared_ptr<Call> open_call();
+  std::shared_ptr<Call> open_call(const std::string& server_scene_id);
   void read_loop();
   void deliver(Report report);
   // Gives every update in flight an UNAVAILABLE error report (they will never be answered).
   void fail_in_flight(const std::string& why);
-  bool reconnect();
+  bool reconnect(const Status& cause);
 
   ClientImpl& client_;
   const std::string scene_id_;
@@ -208,6 +247,7 @@ class SessionImpl final : public Session {
   std::map<std::string, ObjectPose> latest_poses_;  // for the resync after a reconnect
   bool resync_ = false;
   bool send_thresholds_ = true;  // on the first update of each stream
+  std::uint64_t resumed_sequence_ = 0;  // the first update on a replacing stream (0: none)
   Status failure_;
   std::atomic<std::uint64_t> reconnects_{0};
   std::thread reader_;
@@ -240,9 +280,11 @@ class ClientImpl final : public Client {
     stub_ = v1::DistanceService::NewStub(channel_);
   }
 
-  std::unique_ptr<grpc::ClientContext> context() const {
+  /// A unary call's context; with the routing header when the call concerns `routing_scene`.
+  std::unique_ptr<grpc::ClientContext> context(const std::string& routing_scene = {}) const {
     auto context = std::make_unique<grpc::ClientContext>();
     context->set_deadline(std::chrono::system_clock::now() + options_.call_timeout);
+    if (routable(routing_scene)) context->AddMetadata(kSceneRoutingHeader, routing_scene);
     return context;
   }
 
@@ -279,20 +321,45 @@ class ClientImpl final : public Client {
     return out;
   }
 
+  /// CreateScene with the routing header, carrying inline every geometry of this client's that
+  /// the scene uses (keyed by the id the objects name), so that the scene is whole on whichever
+  /// replica the header leads to. Other geometry ids go as they are.
   Expected<SceneInfo> create_raw(Scene scene) {
-    for (SceneObject& object : scene.objects)
-      object.geometry_id = current_geometry_id(object.geometry_id);
+    std::map<std::string, Geometry> sent;
+    {
+      std::lock_guard lock(registry_mutex_);
+      for (SceneObject& object : scene.objects) {
+        const auto ours = geometries_.originals.find(object.geometry_id);
+        if (ours != geometries_.originals.end()) {
+          sent.emplace(object.geometry_id, ours->second);
+          continue;
+        }
+        const auto current = geometries_.current.find(object.geometry_id);
+        if (current != geometries_.current.end()) object.geometry_id = current->second;
+      }
+    }
     v1::CreateSceneRequest request;
     detail::to_proto(scene, request);
+    for (const auto& [key, geometry] : sent)
+      detail::to_proto(geometry, (*request.mutable_geometries())[key]);
     v1::CreateSceneResponse response;
-    const grpc::Status status = stub_->CreateScene(context().get(), request, &response);
+    const grpc::Status status =
+        stub_->CreateScene(context(scene.requested_id).get(), request, &response);
     if (!status.ok()) return from_grpc(status);
-    return SceneInfo{response.scene_id(), response.pair_count()};
+    SceneInfo info{response.scene_id(), response.pair_count(), {}};
+    std::lock_guard lock(registry_mutex_);
+    for (const auto& [key, id] : response.geometry_ids()) {
+      info.geometry_ids.emplace(key, id);
+      if (sent.count(key)) geometries_.current[key] = id;
+    }
+    return info;
   }
 
   Expected<SceneInfo> create_scene(const Scene& scene) override {
-    Expected<SceneInfo> info = create_raw(scene);
-    if (info) remember(scenes_, info->scene_id, scene);
+    Scene chosen = scene;
+    if (chosen.requested_id.empty()) chosen.requested_id = random_scene_id();
+    Expected<SceneInfo> info = create_raw(chosen);
+    if (info) remember(scenes_, info->scene_id, chosen);
     return info;
   }
 
@@ -300,7 +367,8 @@ class ClientImpl final : public Client {
     v1::DeleteSceneRequest request;
     request.set_scene_id(current_scene_id(scene_id));
     v1::DeleteSceneResponse response;
-    const grpc::Status status = stub_->DeleteScene(context().get(), request, &response);
+    const grpc::Status status =
+        stub_->DeleteScene(context(request.scene_id()).get(), request, &response);
     if (status.ok()) {
       std::lock_guard lock(registry_mutex_);
       scenes_.originals.erase(scene_id);
@@ -315,8 +383,18 @@ class ClientImpl final : public Client {
     for (const ObjectPose& pose : poses) detail::to_proto(pose, *request.add_poses());
     detail::to_proto(options, *request.mutable_options());
     v1::DistanceReport response;
-    const Clock::time_point sent = Clock::now();
-    const grpc::Status status = stub_->Query(context().get(), request, &response);
+    Clock::time_point sent = Clock::now();
+    grpc::Status status = stub_->Query(context(request.scene_id()).get(), request, &response);
+    if (!status.ok() && is_scene_not_found(from_grpc(status)) && owns_scene(scene_id)) {
+      // Our scene is not where the call went (a restarted server; behind a sharding proxy, a
+      // replica that came back and took its share of the ring again): re-create it, ask again.
+      Expected<std::string> replayed = replay_scene(scene_id, request.scene_id());
+      if (!replayed) return replayed.status();
+      request.set_scene_id(*replayed);
+      response.Clear();
+      sent = Clock::now();
+      status = stub_->Query(context(request.scene_id()).get(), request, &response);
+    }
     if (!status.ok()) return from_grpc(status);
     Report report = detail::from_proto(response);
     report.sent = sent;
@@ -398,6 +476,12 @@ class ClientImpl final : public Client {
     return current_id(geometries_, geometry_id);
   }
 
+  /// Whether this client created `scene_id` (and has not deleted it): it can re-create it.
+  bool owns_scene(const std::string& scene_id) const {
+    std::lock_guard lock(registry_mutex_);
+    return scenes_.originals.count(scene_id) != 0;
+  }
+
   /// Re-creates `scene_id` (as created by this client) and the geometries it uses, after its
   /// server id `stale_server_id` stopped working. Another session on the same scene may have done
   /// it already: then its result is used. Returns the scene's server id now.
@@ -413,27 +497,11 @@ class ClientImpl final : public Client {
       if (scenes_.current[scene_id] != stale_server_id) return scenes_.current[scene_id];
       scene = found->second;
     }
-    // The server may have restarted (ids forgotten) or merely dropped the connection; either
-    // way, registering again is correct (geometries are immutable values). In the second case
-    // the old copies remain on the server until it restarts.
-    std::map<std::string, std::string> renamed;
-    for (const SceneObject& object : scene.objects) {
-      if (renamed.count(object.geometry_id)) continue;
-      Geometry geometry;
-      {
-        std::lock_guard lock(registry_mutex_);
-        const auto found = geometries_.originals.find(object.geometry_id);
-        if (found == geometries_.originals.end()) continue;  // not ours: hope it is still there
-        geometry = found->second;
-      }
-      Expected<GeometryInfo> info = register_raw(geometry);
-      if (!info) return info.status();
-      renamed[object.geometry_id] = info->geometry_id;
-    }
-    {
-      std::lock_guard lock(registry_mutex_);
-      for (const auto& [original, now] : renamed) geometries_.current[original] = now;
-    }
+    // The server may have restarted (ids forgotten) or merely dropped the connection, or a
+    // sharding proxy may now route the scene to another replica; either way creating it again is
+    // correct: create_raw sends this client's geometries inline (content ids: the same ids
+    // again), and a server still holding the scene answers an identical request as it did the
+    // first time.
     Expected<SceneInfo> created = create_raw(scene);
     std::string server_id;
     if (created) {
@@ -492,8 +560,9 @@ SessionImpl::SessionImpl(ClientImpl& client, std::string scene_id, std::string s
       options_(std::move(options)),
       server_scene_id_(std::move(server_scene_id)) {}
 
-std::shared_ptr<SessionImpl::Call> SessionImpl::open_call() {
+std::shared_ptr<SessionImpl::Call> SessionImpl::open_call(const std::string& server_scene_id) {
   auto call = std::make_shared<Call>();
+  if (routable(server_scene_id)) call->context.AddMetadata(kSceneRoutingHeader, server_scene_id);
   call->stream = client_.stub().StreamPoses(&call->context);
   return call;
 }
@@ -501,7 +570,7 @@ std::shared_ptr<SessionImpl::Call> SessionImpl::open_call() {
 bool SessionImpl::start(Status& /*error*/) {
   // A stream to an unreachable server fails on its first read, which the reader thread handles
   // like any dropped connection (reconnect or fail), so starting cannot fail here.
-  call_ = open_call();
+  call_ = open_call(server_scene_id_);
   reader_ = std::thread([this] { read_loop(); });
   return true;
 }
@@ -520,6 +589,10 @@ void SessionImpl::deliver(Report report) {
   report.received = Clock::now();
   {
     std::lock_guard lock(mutex_);
+    if (resumed_sequence_ != 0 && report.sequence >= resumed_sequence_) {
+      report.resumed = true;  // the first report of the stream that replaced a lost one
+      resumed_sequence_ = 0;
+    }
     // In order: every update up to this report's sequence number is answered now (coalesced
     // ones by this report; they will get none of their own and leave the window here).
     while (!in_flight_.empty() && in_flight_.front().sequence <= report.sequence) {
@@ -561,7 +634,7 @@ void SessionImpl::fail_in_flight(const std::string& why) {
   }
 }
 
-bool SessionImpl::reconnect() {
+bool SessionImpl::reconnect(const Status& cause) {
   const Clock::time_point give_up = Clock::now() + options_.reconnect_timeout;
   auto backoff = options_.initial_backoff;
   std::string stale;
@@ -579,7 +652,10 @@ bool SessionImpl::reconnect() {
     if (client_.wait_connected(attempt_end)) {
       Expected<std::string> server_id = client_.replay_scene(scene_id_, stale);
       if (server_id) {
-        auto call = open_call();
+        auto call = open_call(*server_id);
+        const ResumeEvent event{reconnects_.load() + 1, cause, *server_id};
+        // Before the new stream is published: no update goes out on it before the caller knows.
+        if (options_.on_resumed) options_.on_resumed(event);
         std::lock_guard lock(mutex_);
         call_ = std::move(call);
         server_scene_id_ = *server_id;
@@ -619,13 +695,28 @@ void SessionImpl::read_loop() {
       call = call_;
     }
     v1::DistanceReport message;
-    while (call->stream->Read(&message)) deliver(detail::from_proto(message));
+    bool scene_missing = false;
+    while (call->stream->Read(&message)) {
+      Report report = detail::from_proto(message);
+      // The server does not hold our scene (restarted; or a sharding proxy routed the stream to
+      // a replica that does not have it): the stream can never work, so replace it.
+      const bool missing = report.error.code == kNotFound && report.error_field == "scene_id";
+      deliver(std::move(report));
+      if (missing && !scene_missing && options_.reconnect && client_.owns_scene(scene_id_)) {
+        scene_missing = true;
+        call->context.TryCancel();
+      }
+    }
     grpc::Status status;
     {
       std::lock_guard write(write_mutex_);
       call->finished = true;
       status = call->stream->Finish();
     }
+    if (scene_missing)
+      status = grpc::Status(grpc::StatusCode::NOT_FOUND,
+                            "the server that answered does not hold the scene (a restarted "
+                            "server, or a proxy routing it to another replica); re-creating it");
     bool closing = false;
     {
       std::lock_guard lock(mutex_);
@@ -644,7 +735,7 @@ void SessionImpl::read_loop() {
       fail_in_flight("the stream ended before this update was answered");
       return;
     }
-    const bool lost = is_connection_loss(status);
+    const bool lost = scene_missing || is_connection_loss(status);
     // A drain answers every update the server read, so the ones still in flight were never
     // evaluated; after a crash nobody knows. The caller needs to tell the two apart.
     if (is_server_drain(from_grpc(status)))
@@ -656,7 +747,7 @@ void SessionImpl::read_loop() {
           lost ? "connection to " + client_.target() +
                      " lost before this update was answered; it may or may not have been "
                      "evaluated (" +
-                     status.error_message() + ")"
+                     from_grpc(status).describe() + ")"
                : "the stream failed before this update was answered: " + status.error_message());
     if (closing || !lost || !options_.reconnect) {
       std::lock_guard lock(mutex_);
@@ -670,7 +761,7 @@ void SessionImpl::read_loop() {
       std::lock_guard lock(mutex_);
       state_ = State::reconnecting;
     }
-    if (!reconnect()) return;
+    if (!reconnect(from_grpc(status))) return;
   }
 }
 
@@ -715,6 +806,7 @@ Expected<std::uint64_t> SessionImpl::push(const std::vector<ObjectPose>& poses,
       if (!listed) detail::to_proto(pose, *update.add_poses());
     }
     resync_ = false;
+    resumed_sequence_ = sequence;
   }
   std::shared_ptr<Call> call = call_;
   in_flight_.push_back({sequence, Clock::now()});

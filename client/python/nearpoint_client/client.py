@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import secrets
 from dataclasses import dataclass
 from typing import Iterable, Iterator, Mapping, Optional, Sequence, Tuple, Union
 
@@ -377,6 +378,15 @@ _FLOW_CONTROL = {
 }
 
 
+#: The routing header of every call about one scene (create, delete, query, stream): a proxy
+#: that hashes it (deploy/haproxy/) sends them all to the replica holding the scene.
+SCENE_ROUTING_HEADER = "x-nearpoint-scene"
+
+
+def _routing(scene_id: str):
+    return ((SCENE_ROUTING_HEADER, scene_id),) if scene_id else None
+
+
 class Client:
     """A connection to nearpointd. Use `connect()` to make one; close it (or use `with`)."""
 
@@ -384,6 +394,9 @@ class Client:
         self._channel = channel
         self._stub = distance_grpc.DistanceServiceStub(channel)
         self.timeout = timeout
+        # Geometries registered through this client, by id: sent inline with the scenes that use
+        # them, so that a scene is whole on whichever replica its routing header leads to.
+        self._geometries = {}
 
     def close(self) -> None:
         """Closes the channel; open streams end with CANCELLED."""
@@ -395,19 +408,22 @@ class Client:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def _call(self, method, request):
+    def _call(self, method, request, scene_id: str = ""):
         try:
-            return method(request, timeout=self.timeout)
+            return method(request, timeout=self.timeout, metadata=_routing(scene_id))
         except grpc.RpcError as error:
             raise _raise_from(error) from None
 
     def register_geometry(self, pieces: Sequence[geometry_pb.Piece], name: str = "") -> str:
         """Stores a geometry, the union of `pieces` (made with `box`, `polytope`, `sphere`, ...),
-        and returns its id (e.g. "geom-1"). Invalid pieces raise INVALID_ARGUMENT naming the field
-        ("geometry.pieces[0].radius: ...")."""
-        request = distance_pb.RegisterGeometryRequest(
-            geometry=geometry_pb.Geometry(name=name, pieces=list(pieces)))
-        return self._call(self._stub.RegisterGeometry, request).geometry.geometry_id
+        and returns its id ("geom-" and 32 hex digits, derived from the content: the same
+        geometry registered again gets the same id). Invalid pieces raise INVALID_ARGUMENT naming
+        the field ("geometry.pieces[0].radius: ...")."""
+        geometry = geometry_pb.Geometry(name=name, pieces=list(pieces))
+        request = distance_pb.RegisterGeometryRequest(geometry=geometry)
+        geometry_id = self._call(self._stub.RegisterGeometry, request).geometry.geometry_id
+        self._geometries[geometry_id] = geometry
+        return geometry_id
 
     def list_geometries(self) -> list:
         """Every stored geometry as a `GeometryInfo` message (id, name, counts, bounding sphere)."""
@@ -421,11 +437,16 @@ class Client:
 
     def create_scene(self, objects: Mapping[str, Union[str, Tuple[str, PoseArg]]],
                      pairs: Optional[Sequence[Tuple[str, str]]] = None,
-                     options: OptionsArg = None, name: str = "", *,
+                     options: OptionsArg = None, name: str = "",
+                     scene_id: Optional[str] = None, *,
                      padding: Optional[Mapping[str, float]] = None,
                      self_padding: Optional[Mapping[str, float]] = None,
                      bodies: Optional[Mapping[str, str]] = None) -> str:
-        """Creates a scene and returns its id (e.g. "scene-1").
+        """Creates a scene and returns its id: `scene_id`, or when it is None one chosen here
+        ("s-" and 16 random hex digits), so that the call carries the routing header
+        x-nearpoint-scene like every later call about the scene. Geometries registered through
+        this client are sent along (CreateSceneRequest.geometries), so that the scene is whole on
+        the replica that holds it behind a sharding proxy.
 
         `objects` maps each object id to a geometry id, or to (geometry id, initial pose); a pose
         is a `pose(...)` or a bare (x, y, z) translation. `pairs` lists the pairs to evaluate, in
@@ -437,10 +458,14 @@ class Client:
         inflated against objects of other bodies, `self_padding` within their own body, and
         `bodies` maps object ids to a body (robot) id; reports then hold the padded distances.
         """
-        request = scene_pb.CreateSceneRequest(name=name)
+        if scene_id is None:
+            scene_id = "s-" + secrets.token_hex(8)
+        request = scene_pb.CreateSceneRequest(name=name, scene_id=scene_id)
         for object_id, spec in objects.items():
             geometry_id, initial = (spec, None) if isinstance(spec, str) else spec
             entry = request.objects.add(id=object_id, geometry_id=geometry_id)
+            if geometry_id in self._geometries:
+                request.geometries[geometry_id].CopyFrom(self._geometries[geometry_id])
             if initial is not None:
                 entry.pose.CopyFrom(_pose(initial))
             entry.padding = (padding or {}).get(object_id, 0.0)
@@ -452,11 +477,12 @@ class Client:
         scene_options = _options(options)
         if scene_options is not None:
             request.default_options.CopyFrom(scene_options)
-        return self._call(self._stub.CreateScene, request).scene_id
+        return self._call(self._stub.CreateScene, request, scene_id).scene_id
 
     def delete_scene(self, scene_id: str) -> None:
         """Deletes a scene; its open streams get NOT_FOUND error reports afterwards."""
-        self._call(self._stub.DeleteScene, scene_pb.DeleteSceneRequest(scene_id=scene_id))
+        self._call(self._stub.DeleteScene, scene_pb.DeleteSceneRequest(scene_id=scene_id),
+                   scene_id)
 
     def query(self, scene_id: str, poses: Mapping[str, PoseArg] = None,
               options: OptionsArg = None, sequence: int = 0,
@@ -470,7 +496,7 @@ class Client:
         query_opts = _options(options, report_mode)
         if query_opts is not None:
             request.options.CopyFrom(query_opts)
-        return Report.from_proto(self._call(self._stub.Query, request))
+        return Report.from_proto(self._call(self._stub.Query, request, scene_id))
 
     def stream(self, scene_id: str, updates: Iterable[Union[Update, Mapping[str, PoseArg]]],
                options: OptionsArg = None, flow_control: str = "block",
@@ -513,7 +539,8 @@ class Client:
                     message.options.CopyFrom(chosen)
                 yield message
 
-        responses = self._stub.StreamPoses(requests(), timeout=timeout)
+        responses = self._stub.StreamPoses(requests(), timeout=timeout,
+                                           metadata=_routing(scene_id))
         try:
             for response in responses:
                 yield Report.from_proto(response)

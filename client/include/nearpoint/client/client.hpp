@@ -199,6 +199,29 @@ struct Report {
   std::vector<ThresholdEvent> events;
   /// Client side: when the update was handed to the transport and when the report arrived.
   Clock::time_point sent, received;
+  /// The first report of a stream that replaced a lost one (see ResumeEvent): the scene was
+  /// re-created from this client's copy (perhaps on another replica), the server's warm-start
+  /// caches restarted cold and REPORT_MODE_CHANGED's baseline restarted (this report carries
+  /// every pair).
+  bool resumed = false;
+};
+
+/// The routing header of every call about one scene (nearpoint.v1.DistanceService, "Routing
+/// key"): a proxy that hashes it sends all of them to the replica that holds the scene.
+inline constexpr const char* kSceneRoutingHeader = "x-nearpoint-scene";
+
+/// A session replaced its lost stream: the connection dropped, or through a sharding proxy the
+/// scene's replica died (its streams end UNAVAILABLE or CANCELLED) or the proxy routed the scene
+/// to a replica that does not hold it (NOT_FOUND). Every update in flight then got an
+/// UNAVAILABLE error report; the session re-registered the scene's geometries and re-created the
+/// scene (idempotently), opened a new stream and re-sends the latest poses with the next push.
+struct ResumeEvent {
+  /// Session::reconnects() after this one.
+  std::uint64_t reconnects = 0;
+  /// How the old stream ended.
+  Status cause;
+  /// The scene's id on the server now.
+  std::string server_scene_id;
 };
 
 // ---- streaming ----
@@ -222,6 +245,9 @@ struct SessionOptions {
   /// and creation, and go on. Updates in flight at the drop get an UNAVAILABLE error report; when
   /// the server drained (is_server_drain), that report says the update was never evaluated.
   bool reconnect = true;
+  /// Called on the session's reader thread each time a lost stream was replaced, before any
+  /// update goes out on the new one. The first report after it has Report::resumed set.
+  std::function<void(const ResumeEvent&)> on_resumed;
   /// Give up (the session fails with UNAVAILABLE) after this long without a working connection.
   std::chrono::milliseconds reconnect_timeout{30000};
   std::chrono::milliseconds initial_backoff{50};
@@ -298,18 +324,27 @@ class Client {
   static std::unique_ptr<Client> connect(const std::string& target, ClientOptions options = {});
   virtual ~Client() = default;
 
-  /// Registers an immutable geometry. The client remembers it, so that sessions can replay it
-  /// on a restarted server.
+  /// Registers an immutable geometry. The client remembers it, so that create_scene can send it
+  /// with the scene (to the scene's replica behind a sharding proxy) and sessions can replay it
+  /// on a restarted server. The server's id is derived from the content: registering the same
+  /// geometry again gives the same id.
   virtual Expected<GeometryInfo> register_geometry(const Geometry& geometry) = 0;
   virtual Status remove_geometry(const std::string& geometry_id) = 0;
   virtual Expected<std::vector<GeometryInfo>> list_geometries() = 0;
 
   /// Creates a scene whose objects name geometries by the ids register_geometry returned (or ids
-  /// of geometries registered by others). Remembered for replay, like geometries.
+  /// of geometries registered by others). Remembered for replay, like geometries. The scene's id
+  /// is `scene.requested_id`, or, when that is empty, one the client picks ("s-" and 16 random
+  /// hex digits), so that this call already carries the routing header (kSceneRoutingHeader)
+  /// like every later call about the scene. The geometries this client registered and the scene
+  /// uses are sent inline with it (nearpoint.v1.CreateSceneRequest.geometries), so that the scene
+  /// is whole on whichever replica holds it.
   virtual Expected<SceneInfo> create_scene(const Scene& scene) = 0;
   virtual Status delete_scene(const std::string& scene_id) = 0;
 
-  /// One-shot distances at the given poses (objects not listed are at their initial pose).
+  /// One-shot distances at the given poses (objects not listed are at their initial pose). For a
+  /// scene this client created, NOT_FOUND for the scene (a restarted server, or a sharding proxy
+  /// that now routes it to another replica) re-creates the scene and asks once more.
   virtual Expected<Report> query(const std::string& scene_id, const std::vector<ObjectPose>& poses,
                                  const QueryOptions& options = {}) = 0;
 
