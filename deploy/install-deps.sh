@@ -42,6 +42,9 @@ test_packages=(
   # (buildah's engine inside; runc as the runtime, no daemon), debootstrap makes its local base
   # image, uidmap/slirp4netns/fuse-overlayfs are what podman needs beside them on Debian 12
   podman buildah runc debootstrap uidmap slirp4netns fuse-overlayfs
+  # scenes spread over replicas behind a proxy (deploy/haproxy/, deploy/sharded.sh, the
+  # server.sharded test)
+  haproxy
 )
 image=false
 bench=false

@@ -17,6 +17,9 @@
 #   deploy/run.sh fuzz [SECONDS]
 #                        the fuzz stage alone, each target for SECONDS (default 60); the documented
 #                        longer run is `deploy/run.sh fuzz 3600` (tests/fuzz/README.md).
+#   deploy/run.sh sharded [smoke]
+#                        three nearpointd behind HAProxy (consistent hashing on the scene id) on
+#                        127.0.0.1 until Ctrl-C; `smoke` spreads 30 scenes and stops (sharded.sh)
 #   deploy/run.sh sanitize [address|thread]
 #                        the whole test suite (ctest -LE soak) under ASan+UBSan (default) or TSan,
 #                        built with g++ in its own build tree (build-asan or build-tsan).
@@ -136,6 +139,12 @@ case "${1:-}" in
     fi
     echo "== deploy/run.sh test: every stage passed"
     ;;
+  sharded)
+    # Three nearpointd behind HAProxy on 127.0.0.1 (deploy/sharded.sh; `sharded smoke` creates
+    # 30 scenes through the proxy, shows each replica's share and stops).
+    BUILD_TARGETS="nearpointd nearpoint" configure_and_build
+    BUILD_DIR="$build" exec deploy/sharded.sh "${@:2}"
+    ;;
   fuzz)
     NEARPOINT_FUZZ_SECONDS="${2:-${NEARPOINT_FUZZ_SECONDS:-60}}" fuzz_stage
     ;;
@@ -161,7 +170,7 @@ case "${1:-}" in
     ctest --test-dir "$build" --output-on-failure -j "$jobs" -LE soak ${CTEST_ARGS:-}
     ;;
   *)
-    echo "usage: deploy/run.sh demo|test|fuzz [SECONDS]|sanitize [address|thread]" >&2
+    echo "usage: deploy/run.sh demo|test|sharded [smoke]|fuzz [SECONDS]|sanitize [address|thread]" >&2
     exit 2
     ;;
 esac

@@ -10,7 +10,11 @@ yamllint, and the rendered objects agree with the binaries they run:
 - every file the flags name lies under a mounted volume, and the Secrets are referenced, not
   shipped;
 - the ConfigMap's scene files load: a real nearpointd on 127.0.0.1:0 preloads them and exits 0
-  on SIGTERM.
+  on SIGTERM;
+- overlays/sharded (issue 24): a headless Service of the nearpointd pods, HAProxy routing by
+  x-nearpoint-scene with consistent hashing to that Service's full DNS name and the gRPC health
+  check of deploy/haproxy/, the Service `nearpoint` leading to the routers; both HAProxy
+  configurations pass `haproxy -c` (when haproxy is installed).
 
     check_k8s.py --source-dir . --nearpointd build/server/nearpointd --nearpoint build/client/nearpoint
 
@@ -72,6 +76,125 @@ def parse_args(args):
 def cpu(quantity):
     q = str(quantity)
     return float(q[:-1]) / 1000 if q.endswith("m") else float(q)
+
+
+def haproxy_valid(config_text, tls_dir_in_config, work):
+    """`haproxy -c` on `config_text` with the TLS files it names made up (self-signed) in
+    `work`; (ok, output). None when haproxy or openssl is missing."""
+    if not shutil.which("haproxy") or not shutil.which("openssl"):
+        return None
+    subprocess.run(["openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "1",
+                    "-subj", "/CN=nearpoint", "-keyout", os.path.join(work, "tls.pem.key"),
+                    "-out", os.path.join(work, "tls.pem")],
+                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, timeout=60, check=True)
+    shutil.copy(os.path.join(work, "tls.pem"), os.path.join(work, "ca.crt"))
+    path = os.path.join(work, "haproxy.cfg")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(config_text.replace(tls_dir_in_config, work + "/"))
+    env = dict(os.environ, NEARPOINT_PROXY_LISTEN="127.0.0.1:50050",
+               NEARPOINT_REPLICA_1="127.0.0.1:50051", NEARPOINT_REPLICA_2="127.0.0.1:50052",
+               NEARPOINT_REPLICA_3="127.0.0.1:50053")
+    result = subprocess.run(["haproxy", "-c", "-f", path], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, timeout=60, env=env)
+    return result.returncode == 0, result.stdout.decode(errors="replace")
+
+
+def check_sharded(source_dir, k8s):
+    """overlays/sharded (issue 24): a headless Service of the nearpointd pods, HAProxy routing by
+    the scene header with consistent hashing to that Service's DNS name, the health check bytes
+    of deploy/haproxy/, and the Service `nearpoint` leading to the routers."""
+    rendered = subprocess.run(["kubectl", "kustomize", os.path.join(k8s, "overlays", "sharded")],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, timeout=60)
+    check(rendered.returncode == 0, "kubectl kustomize overlays/sharded " +
+          rendered.stderr.decode())
+    if rendered.returncode != 0:
+        return
+    by_name = {}
+    for doc in yaml.safe_load_all(rendered.stdout):
+        if doc:
+            by_name[(doc["kind"], doc["metadata"]["name"])] = doc
+    server = by_name.get(("Deployment", "nearpoint"))
+    router = by_name.get(("Deployment", "nearpoint-router"))
+    headless = by_name.get(("Service", "nearpoint-replicas"))
+    front = by_name.get(("Service", "nearpoint"))
+    check(None not in (server, router, headless, front),
+          "sharded: Deployments nearpoint and nearpoint-router, Services nearpoint and "
+          "nearpoint-replicas")
+    if None in (server, router, headless, front):
+        return
+    namespace = headless["metadata"].get("namespace", "default")
+    server_labels = server["spec"]["template"]["metadata"].get("labels", {})
+    router_labels = router["spec"]["template"]["metadata"].get("labels", {})
+
+    def selects(service, labels):
+        selector = service["spec"].get("selector") or {}
+        return bool(selector) and all(labels.get(k) == v for k, v in selector.items())
+
+    check(headless["spec"].get("clusterIP") == "None", "sharded: nearpoint-replicas is headless")
+    check(selects(headless, server_labels) and not selects(headless, router_labels),
+          "sharded: nearpoint-replicas selects the nearpointd pods only")
+    check(selects(front, router_labels) and not selects(front, server_labels),
+          "sharded: the Service nearpoint selects the routers only")
+    server_port = {p["name"]: p["containerPort"]
+                   for p in server["spec"]["template"]["spec"]["containers"][0]["ports"]}["grpc"]
+    check(any(p["targetPort"] in ("grpc", server_port) for p in headless["spec"]["ports"]),
+          "sharded: nearpoint-replicas targets the gRPC port")
+
+    pod = router["spec"]["template"]["spec"]
+    container = pod["containers"][0]
+    mounts = {m["name"]: m["mountPath"] for m in container["volumeMounts"]}
+    volumes = {v["name"]: v for v in pod["volumes"]}
+    config_map_name = volumes.get("config", {}).get("configMap", {}).get("name", "")
+    config_map = next((doc for (kind, name), doc in by_name.items()
+                       if kind == "ConfigMap" and name.startswith("nearpoint-router")
+                       and name == config_map_name), None)
+    check(config_map is not None and "haproxy.cfg" in config_map.get("data", {}),
+          f"sharded: the router mounts its ConfigMap ({config_map_name}) holding haproxy.cfg")
+    if config_map is None:
+        return
+    config = config_map["data"]["haproxy.cfg"]
+    check(f"{mounts.get('config', '?')}/haproxy.cfg" in container["command"],
+          "sharded: haproxy runs the mounted haproxy.cfg")
+    check(re.search(r"^\s*balance hdr\(x-nearpoint-scene\)\s*$", config, re.M) is not None,
+          "sharded: balance hdr(x-nearpoint-scene)")
+    check(re.search(r"^\s*hash-type consistent\s*$", config, re.M) is not None,
+          "sharded: hash-type consistent")
+    fqdn = f"{headless['metadata']['name']}.{namespace}.svc.cluster.local:{server_port}"
+    check(re.search(r"^\s*server-template \S+ \d+ " + re.escape(fqdn) + r"\s*$", config, re.M)
+          is not None, f"sharded: server-template resolves {fqdn}")
+    router_port = {p["name"]: p["containerPort"] for p in container["ports"]}
+    bind = re.search(r"^\s*bind :(\d+) ssl crt (\S+)", config, re.M)
+    check(bind is not None and int(bind.group(1)) == router_port.get("grpc"),
+          "sharded: the router's TLS frontend listens on its grpc containerPort")
+    check(any(p["targetPort"] in ("grpc", router_port.get("grpc")) for p in front["spec"]["ports"]),
+          "sharded: the Service nearpoint targets the router's port")
+    tls_mount = mounts.get("tls", "?")
+    if bind:
+        check(bind.group(2).startswith(tls_mount + "/"), "sharded: the certificate is mounted")
+    check(volumes.get("tls", {}).get("secret", {}).get("secretName") == "nearpoint-tls",
+          "sharded: the router's certificate is the base's Secret nearpoint-tls")
+
+    # One health check, the same bytes in both configurations, as the script makes them.
+    made = subprocess.run([sys.executable, os.path.join(source_dir, "deploy", "haproxy",
+                                                        "health_check_bytes.py")],
+                          stdout=subprocess.PIPE, timeout=60).stdout.decode()
+    expected = dict(line.rsplit(" ", 1) for line in made.splitlines())
+    with open(os.path.join(source_dir, "deploy", "haproxy", "nearpoint.cfg"),
+              encoding="utf-8") as f:
+        local = f.read()
+    for name, text in (("overlays/sharded/haproxy.cfg", config),
+                       ("deploy/haproxy/nearpoint.cfg", local)):
+        check(f"tcp-check send-binary {expected['send-binary']}" in text and
+              f"tcp-check expect binary {expected['expect binary']}" in text,
+              f"{name}: the gRPC health check bytes of health_check_bytes.py")
+    for name, text, tls_dir in (("overlays/sharded/haproxy.cfg", config, tls_mount + "/"),
+                                ("deploy/haproxy/nearpoint.cfg", local, "/nonexistent/")):
+        with tempfile.TemporaryDirectory(prefix="nearpoint_haproxy_") as work:
+            verdict = haproxy_valid(text, tls_dir, work)
+        if verdict is None:
+            print(f"skip {name}: haproxy -c (haproxy or openssl is not installed)")
+        else:
+            check(verdict[0], f"haproxy -c {name}\n{verdict[1][-600:]}")
 
 
 def main():
@@ -224,6 +347,8 @@ def main():
             text = log.read().decode(errors="replace")
         check(started and code == 0 and text.count("scene_loaded") == len(scene_args) // 2,
               f"the ConfigMap's scenes load in nearpointd (exit {code})\n{text[-600:]}")
+
+    check_sharded(args.source_dir, k8s)
 
     if FAILURES:
         print(f"{len(FAILURES)} check(s) failed", file=sys.stderr)
