@@ -701,11 +701,17 @@ void SessionImpl::read_loop() {
       // The server does not hold our scene (restarted; or a sharding proxy routed the stream to
       // a replica that does not have it): the stream can never work, so replace it.
       const bool missing = report.error.code == kNotFound && report.error_field == "scene_id";
-      deliver(std::move(report));
       if (missing && !scene_missing && options_.reconnect && client_.owns_scene(scene_id_)) {
         scene_missing = true;
+        {
+          // Before the caller sees the report: a push made after it waits for the new stream
+          // instead of going out on this one.
+          std::lock_guard lock(mutex_);
+          if (state_ == State::connected) state_ = State::reconnecting;
+        }
         call->context.TryCancel();
       }
+      deliver(std::move(report));
     }
     grpc::Status status;
     {
