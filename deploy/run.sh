@@ -93,7 +93,8 @@ tsan_stage() {
   ( tsan_env
     build=build-tsan
     BUILD_TARGETS="test_server_scene_service test_server_broad_phase test_server_grpc
-                   test_server_boundary test_server_process test_client test_dds_bridge
+                   test_server_boundary test_server_process test_server_sharded test_client
+                   test_dds_bridge
                    test_dds_end_to_end nearpointd nearpoint nearpoint_python" \
       configure_and_build -DNEARPOINT_SANITIZE=thread &&
     ctest --test-dir build-tsan --output-on-failure -j "$jobs" -L "^(server|client|dds)$" \
