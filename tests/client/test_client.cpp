@@ -701,13 +701,33 @@ TEST_F(WithServer, SceneCreateQueryAndStreamAgreeWithGeometry) {
   EXPECT_EQ(report["pairs"][0]["object_b"], "table");
   EXPECT_NEAR(report["pairs"][0]["distance"].get<double>(), 0.3 - 0.08 - 0.02, 1e-12);
 
-  // The file again: its id is taken.
+  // The file again: the same request, answered as the first (creating a scene is idempotent, so
+  // a client may re-create it after a failover without knowing whether it is there).
   SceneCreateOptions create;
   create.remote = remote();
   create.file = query.scene;
   err.str("");
+  EXPECT_EQ(run_scene_create(create, out, err), 0) << err.str();
+  // A different scene under the same id: taken.
+  std::string text;
+  {
+    std::ifstream in(query.scene);
+    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::string mesh = "\"../tests/data/cube.obj\"";
+  ASSERT_NE(text.find(mesh), std::string::npos);
+  text.replace(text.find(mesh), mesh.size(),
+               "\"" + (kSource / "tests/data/cube.obj").string() + "\"");
+  const std::string pose = "[0.6, 0.3, 0]";
+  ASSERT_NE(text.find(pose), std::string::npos);
+  text.replace(text.find(pose), pose.size(), "[0.7, 0.3, 0]");
+  const std::filesystem::path moved = temp_file("moved-post.json");
+  std::ofstream(moved) << text;
+  create.file = moved.string();
+  err.str("");
   EXPECT_EQ(run_scene_create(create, out, err), kExitServerError);
   EXPECT_NE(err.str().find("ALREADY_EXISTS"), std::string::npos) << err.str();
+  std::filesystem::remove(moved);
 
   StreamCommandOptions stream;
   stream.remote = remote();

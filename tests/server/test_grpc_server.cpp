@@ -900,9 +900,11 @@ TEST(GrpcServerLimits, LimitsAreResourceExhausted) {
 
   const TestGeometry box = polytope_geometry("box", box_vertices({1, 1, 1}));
   const std::string first = register_geometry(stub, box);
-  register_geometry(stub, box);
+  register_geometry(stub, polytope_geometry("box-2", box_vertices({1, 1, 1})));
+  // The same geometry again is the one already stored (content ids): not a third.
+  EXPECT_EQ(register_geometry(stub, box), first);
   v1::RegisterGeometryRequest request;
-  *request.mutable_geometry() = box.message;
+  *request.mutable_geometry() = polytope_geometry("box-3", box_vertices({1, 1, 1})).message;
   v1::RegisterGeometryResponse response;
   expect_error(stub.RegisterGeometry(make_context().get(), request, &response),
                grpc::StatusCode::RESOURCE_EXHAUSTED, "");
