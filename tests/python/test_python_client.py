@@ -149,6 +149,24 @@ class PythonClientTest(unittest.TestCase):
         self.assertGreater(verdicts["separated"], 30, verdicts)
         self.assertGreater(verdicts["intersecting"], 20, verdicts)
 
+    def test_scenes_are_routable_and_carry_their_geometries(self):
+        # Issue 24: behind a proxy that hashes x-nearpoint-scene, a scene's id must exist before
+        # the scene does (the client picks one), and its geometries travel with it.
+        crate = self.client.register_geometry([npc.box((0.5, 0.5, 0.5))], name="py crate")
+        self.assertEqual(self.client.register_geometry([npc.box((0.5, 0.5, 0.5))],
+                                                       name="py crate"), crate)  # content id
+        self.assertTrue(crate.startswith("geom-") and len(crate) == 5 + 32, crate)
+        chosen = self.client.create_scene({"a": crate, "b": (crate, (3, 0, 0))})
+        self.assertTrue(chosen.startswith("s-") and len(chosen) == 18, chosen)
+        # Removed from the store, the geometry still comes inline with the next scene.
+        self.client.remove_geometry(crate)
+        named = self.client.create_scene({"a": crate, "b": (crate, (0, 4, 0))},
+                                         scene_id="py-routed")
+        self.assertEqual(named, "py-routed")
+        self.assertAlmostEqual(self.client.query(named).pair("a", "b").distance, 3.0,
+                               delta=1e-12)
+        self.assertIn(crate, [g.geometry_id for g in self.client.list_geometries()])
+
     def test_report_mode_passes_through(self):
         """report_mode= reaches the server: "global" gives the all-pairs report's nearest pair and
         the report names its mode; a stream in "changed" mode sends every pair first, then only
