@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# Per-replica capacity for the sharded deployment (README, "Deploy"): how many pose updates per
+# second one core of nearpointd answers for a reference scene, measured as
+#   updates answered / CPU seconds nearpointd used
+# while `nearpoint load` keeps it busy from another process. nearpointd runs with --workers 1 as
+# a child on 127.0.0.1; its CPU time is read from /proc before and after, so the client's CPU
+# (same machine) is not counted, nor the other users of a shared machine. Reference scenes:
+#   demo   `nearpoint load`'s default: the paper's Fig. 5 (a two-piece mover, five obstacles,
+#          5 pairs) along its path, one object moving
+#   cell45 the shape of nearpoint_service_bench's scene: 10 random convex polytopes of 20-100
+#          vertices (about 550 in all), all 45 pairs, every object moving every update along a
+#          smooth path (period 1000 updates), no cutoff
+#   bench/service/capacity.sh [demo|cell45] [STREAMS] [SECONDS]     (defaults cell45, 4, 5)
+# Environment: BUILD_DIR (default build), WINDOW (updates in flight per stream, default 4).
+set -euo pipefail
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+build="${BUILD_DIR:-$root/build}"
+case "$build" in /*) ;; *) build="$root/$build" ;; esac
+reference="${1:-cell45}"
+streams="${2:-4}"
+seconds="${3:-5}"
+work="$(mktemp -d /tmp/nearpoint-capacity.XXXXXX)"
+scene_args=()
+case "$reference" in
+  demo) ;;
+  cell45)
+    # Fixed seed: the same scene and path on every run.
+    python3 - "$work" <<'PY'
+import json, math, random, sys
+work = sys.argv[1]
+rng = random.Random(24)
+objects, geometries = [], {}
+for i in range(10):
+    n = rng.randint(20, 100)
+    radii = [rng.uniform(0.3, 0.7) for _ in range(3)]
+    points = []
+    for _ in range(n):
+        v = [rng.gauss(0, 1) for _ in range(3)]
+        norm = math.sqrt(sum(c * c for c in v))
+        points.append([round(r * c / norm, 6) for r, c in zip(radii, v)])
+    geometries[f"p{i}"] = {"polytope": points}
+    objects.append({"id": f"o{i}", "geometry": f"p{i}"})
+json.dump({"id": "cell45", "geometries": geometries, "objects": objects},
+          open(f"{work}/cell45.json", "w"))
+with open(f"{work}/cell45.jsonl", "w") as out:
+    for t in range(1000):
+        poses = {}
+        for i in range(10):
+            a = 2 * math.pi * (i / 10 + t / 1000)
+            angle = 2 * math.pi * t / 1000 + i
+            poses[f"o{i}"] = {"rotation": [math.cos(angle / 2), 0, 0, math.sin(angle / 2)],
+                              "translation": [1.6 * math.cos(a) + 0.3 * math.sin(3 * a),
+                                              1.6 * math.sin(a), 0.2 * math.cos(2 * a)]}
+        out.write(json.dumps({"t": t, "poses": poses}) + "\n")
+PY
+    scene_args=("$work/cell45.json" "$work/cell45.jsonl") ;;
+  *) echo "usage: capacity.sh [demo|cell45] [STREAMS] [SECONDS]" >&2; exit 2 ;;
+esac
+"$build/server/nearpointd" --listen 127.0.0.1:0 --port-file "$work/port" --workers 1 \
+  2>"$work/nearpointd.log" &
+server=$!
+trap 'kill $server 2>/dev/null || true; wait $server 2>/dev/null || true; rm -rf "$work"' EXIT
+for _ in $(seq 200); do [ -s "$work/port" ] && break; sleep 0.05; done
+target="127.0.0.1:$(cat "$work/port")"
+ticks() { awk '{print $14 + $15}' "/proc/$server/stat"; }  # utime + stime, clock ticks
+hz="$(getconf CLK_TCK)"
+before="$(ticks)"
+"$build/client/nearpoint" load --target "$target" --streams "$streams" --duration "$seconds" \
+  --window "${WINDOW:-4}" --json "${scene_args[@]}" 2>"$work/load.log" >"$work/load.json" ||
+  { cat "$work/load.log" >&2; exit 1; }
+after="$(ticks)"
+python3 - "$work/load.json" "$before" "$after" "$hz" "$seconds" "$streams" "$reference" <<'PY'
+import json, sys
+result = json.load(open(sys.argv[1]))
+before, after, hz, seconds, streams = (float(v) for v in sys.argv[2:7])
+cpu = (after - before) / hz
+reports, errors = result["reports"], result["errors"]
+latency = result["latency_us"]
+print(f"{sys.argv[7]}: {streams:.0f} streams for {seconds:.0f} s: {reports} reports "
+      f"({errors} errors), {reports / result['duration_s']:.0f} updates/s, nearpointd CPU "
+      f"{cpu:.2f} s ({100 * cpu / result['duration_s']:.0f}% of one core)")
+print(f"capacity: {reports / cpu:.0f} updates per CPU-second of nearpointd (--workers 1); "
+      f"latency p50 {latency['p50']:.0f} us, p99 {latency['p99']:.0f} us")
+PY
