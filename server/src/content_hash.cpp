@@ -1,5 +1,6 @@
 #include "content_hash.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cstring>
 #include <type_traits>
