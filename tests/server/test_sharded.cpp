@@ -534,3 +534,89 @@ TEST_F(Sharded, AReplicaDiesOnlyItsScenesResumeAndItComesBack) {
 }
 
 }  // namespace
+
+namespace {
+
+// A rolling update (Kubernetes replaces pods one by one with SIGTERM): the draining replica ends
+// its streams at once ("draining"), refuses new calls and answers health NOT_SERVING until it
+// exits, so HAProxy drops it from the ring. Its sessions must resume on another replica without
+// losing an update: every pushed update answered once, by a report or an UNAVAILABLE error report
+// (a drain's says the update was never evaluated); the other sessions see nothing.
+TEST_F(Sharded, ADrainingReplicaHandsItsScenesOnWithoutLoss) {
+  ASSERT_NO_FATAL_FAILURE(create_scenes());
+  const std::map<std::string, int> where = placement();
+  ASSERT_EQ(where.size(), std::size_t(kScenes));
+  const int victim = where.at(scene_name(0));
+  std::set<int> victims;
+  for (int k = 0; k < kScenes; ++k)
+    if (where.at(scene_name(k)) == victim) victims.insert(k);
+
+  std::vector<std::unique_ptr<Recorder>> records;
+  std::vector<std::unique_ptr<npc::Session>> sessions;
+  for (int k = 0; k < kScenes; ++k) {
+    records.push_back(std::make_unique<Recorder>());
+    Recorder* record = records.back().get();
+    npc::SessionOptions options;
+    options.max_in_flight = 4;
+    options.reconnect_timeout = 20000ms;
+    options.on_report = [record](const npc::Report& report) {
+      std::lock_guard lock(record->mutex);
+      record->reports.push_back(report);
+    };
+    options.on_resumed = [record](const npc::ResumeEvent& event) {
+      std::lock_guard lock(record->mutex);
+      record->resumes.push_back(event);
+    };
+    auto session = client_->open_session(scene_name(k), options);
+    ASSERT_TRUE(session.ok()) << session.status().describe();
+    sessions.push_back(std::move(*session));
+  }
+  std::uint64_t step = 0;
+  auto push_all = [&] {
+    ++step;
+    for (int k = 0; k < kScenes; ++k) {
+      const Eigen::Vector3d at = mover_at(k, step);
+      auto pushed = sessions[k]->push(
+          {npc::ObjectPose("mover", Eigen::Quaterniond::Identity(), at)}, Clock::now() + 30s);
+      ASSERT_TRUE(pushed.ok()) << scene_name(k) << ": " << pushed.status().describe();
+      std::lock_guard lock(records[k]->mutex);
+      records[k]->pushed.push_back(*pushed);
+      records[k]->sent_pose[*pushed] = at;
+    }
+  };
+  for (int i = 0; i < 3; ++i) ASSERT_NO_FATAL_FAILURE(push_all());
+  replicas_[victim].process().signal(SIGTERM);
+  for (int i = 0; i < 10; ++i) ASSERT_NO_FATAL_FAILURE(push_all());
+  EXPECT_EQ(replicas_[victim].process().wait_exit(30s), 0) << "the drain did not end cleanly";
+  for (int i = 0; i < 3; ++i) ASSERT_NO_FATAL_FAILURE(push_all());
+  for (auto& session : sessions) EXPECT_TRUE(session->close(Clock::now() + 20s).ok());
+
+  std::size_t unavailable = 0;
+  for (int k = 0; k < kScenes; ++k) {
+    const bool victim_scene = victims.count(k) != 0;
+    std::lock_guard lock(records[k]->mutex);
+    const Recorder& record = *records[k];
+    ASSERT_EQ(record.reports.size(), record.pushed.size()) << scene_name(k);
+    for (std::size_t i = 0; i < record.reports.size(); ++i) {
+      const npc::Report& report = record.reports[i];
+      EXPECT_EQ(report.sequence, record.pushed[i]) << scene_name(k);
+      if (!report.error.ok()) {
+        EXPECT_TRUE(victim_scene) << scene_name(k) << ": " << report.error.describe();
+        EXPECT_EQ(report.error.code, npc::kUnavailable) << report.error.describe();
+        ++unavailable;
+        continue;
+      }
+      ASSERT_EQ(report.pairs.size(), 1u);
+      EXPECT_NEAR(report.pairs[0].distance, engine_distance(record.sent_pose.at(report.sequence)),
+                  1e-12)
+          << scene_name(k) << " update " << report.sequence;
+    }
+    EXPECT_EQ(record.resumes.size(), victim_scene ? 1u : 0u) << scene_name(k);
+  }
+  std::printf(
+      "replica %d drained: %zu scenes resumed elsewhere, %zu updates answered "
+      "UNAVAILABLE\n",
+      victim + 1, victims.size(), unavailable);
+}
+
+}  // namespace
