@@ -667,7 +667,9 @@ bool SessionImpl::reconnect(const Status& cause) {
         return true;
       }
       last = server_id.status();
-      if (last.code != kUnavailable && last.code != kDeadlineExceeded) break;  // an answer: final
+      // An answer is final; a lost connection is not (through a proxy also CANCELLED or
+      // UNKNOWN: the replica went away during the call, e.g. while it drained).
+      if (!is_connection_loss(grpc::Status(grpc::StatusCode(last.code), last.message))) break;
     }
     if (Clock::now() >= give_up) break;
     std::unique_lock lock(mutex_);
