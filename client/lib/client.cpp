@@ -503,14 +503,16 @@ class ClientImpl final : public Client {
     // again), and a server still holding the scene answers an identical request as it did the
     // first time.
     Expected<SceneInfo> created = create_raw(scene);
-    std::string server_id;
-    if (created) {
-      server_id = created->scene_id;
-    } else if (created.status().code == kAlreadyExists && !scene.requested_id.empty()) {
-      server_id = scene.requested_id;  // the same server, still holding the scene
-    } else {
+    if (!created) {
+      // A server holding our scene answers the same request with OK (idempotent creation), so
+      // ALREADY_EXISTS means another scene holds the id there: never stream to it in our stead.
+      if (created.status().code == kAlreadyExists)
+        return Status::error(kAlreadyExists, "the server holds another scene under the id '" +
+                                                 scene.requested_id +
+                                                 "': " + created.status().message);
       return created.status();
     }
+    const std::string server_id = created->scene_id;
     std::lock_guard lock(registry_mutex_);
     scenes_.current[scene_id] = server_id;
     return server_id;

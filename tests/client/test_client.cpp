@@ -437,6 +437,62 @@ TEST(SessionReconnect, ReplaysTheSceneOnARestartedServer) {
   EXPECT_EQ(second.stop(), 0);
 }
 
+// Issue 24: a session re-creates its scene after a reconnect, and a server that holds the same
+// scene answers the same request with OK. ALREADY_EXISTS therefore means another scene holds the
+// id there (here: the restarted server preloads a different "twin"); the session must fail
+// saying so, never stream to that scene in its stead.
+TEST(SessionReconnect, NeverStreamsToAnotherSceneUnderItsId) {
+  LocalServer first;
+  ASSERT_EQ(first.start(NEARPOINTD_PATH, 0, {"--workers", "1"}), "");
+  const int port = first.port();
+  auto client = client::Client::connect(first.target());
+  auto geometry = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
+  ASSERT_TRUE(geometry.ok());
+  client::Scene scene;
+  scene.requested_id = "twin";
+  scene.objects = {{"a", geometry->geometry_id, {}, {}, {}},
+                   {"b", geometry->geometry_id, {}, {}, {}}};
+  ASSERT_TRUE(client->create_scene(scene).ok());
+  client::SessionOptions options;
+  options.initial_backoff = std::chrono::milliseconds(20);
+  options.reconnect_timeout = std::chrono::milliseconds(20000);
+  auto session = client->open_session("twin", options);
+  ASSERT_TRUE(session.ok());
+  const client::ObjectPose b("b", Eigen::Isometry3d(Eigen::Translation3d(0, 0, 5)));
+  ASSERT_TRUE((*session)->push({b}).ok());
+  auto report = (*session)->next(Clock::now() + seconds(10));
+  ASSERT_TRUE(report.ok() && report->error.ok());
+
+  first.kill_hard();
+  const std::filesystem::path file = temp_file("twin.json");
+  std::ofstream(file) << R"({"id": "twin", "geometries": {"ball": {"sphere": {}, "radius": 1}},
+    "objects": [{"id": "a", "geometry": "ball"},
+                {"id": "b", "geometry": "ball", "pose": {"translation": [5, 0, 0]}}]})";
+  LocalServer second;
+  ASSERT_EQ(second.start(NEARPOINTD_PATH, port, {"--workers", "1", "--scene", file.string()}), "")
+      << "port " << port;
+  // Pushes go on until the session gives up; none may be answered by the other "twin".
+  client::Status failure;
+  const auto give_up = Clock::now() + seconds(30);
+  while (failure.ok() && Clock::now() < give_up) {
+    auto pushed = (*session)->push({b}, Clock::now() + seconds(25));
+    if (!pushed.ok()) {
+      failure = pushed.status();
+      break;
+    }
+    auto answer = (*session)->next(Clock::now() + seconds(25));
+    if (!answer.ok()) {
+      failure = answer.status();
+      break;
+    }
+    EXPECT_FALSE(answer->error.ok()) << "an update was answered by another scene";
+  }
+  EXPECT_EQ(failure.code, client::kAlreadyExists) << failure.describe();
+  EXPECT_NE(failure.message.find("another scene"), std::string::npos) << failure.describe();
+  EXPECT_EQ(second.stop(), 0);
+  std::filesystem::remove(file);
+}
+
 // Issue 21 item 2, the client's side: a drain (SIGTERM) answers every update the server read and
 // ends the stream UNAVAILABLE "draining"; the updates still in flight were never read. The
 // session must say so (is_server_drain, "did not read this update") instead of "connection
