@@ -111,7 +111,7 @@ struct ObjectInput {
   /// objects of the same non-empty `body` (an id, like the object's).
   double padding = 0;
   double self_padding = 0;
-  std::string body;
+  std::string body{};
 };
 
 struct PairSelectionInput {
