@@ -246,7 +246,7 @@ class SessionImpl final : public Session {
   std::uint64_t next_sequence_ = 1;
   std::map<std::string, ObjectPose> latest_poses_;  // for the resync after a reconnect
   bool resync_ = false;
-  bool send_thresholds_ = true;  // on the first update of each stream
+  bool send_thresholds_ = true;         // on the first update of each stream
   std::uint64_t resumed_sequence_ = 0;  // the first update on a replacing stream (0: none)
   Status failure_;
   std::atomic<std::uint64_t> reconnects_{0};
@@ -705,7 +705,8 @@ void SessionImpl::read_loop() {
       // The server does not hold our scene (restarted; or a sharding proxy routed the stream to
       // a replica that does not have it): the stream can never work, so replace it.
       const bool missing = report.error.code == kNotFound && report.error_field == "scene_id";
-      if (missing && !scene_missing && options_.reconnect && client_.owns_scene(scene_id_)) {
+      const bool replaced = missing && options_.reconnect && client_.owns_scene(scene_id_);
+      if (replaced && !scene_missing) {
         scene_missing = true;
         {
           // Before the caller sees the report: a push made after it waits for the new stream
@@ -715,6 +716,15 @@ void SessionImpl::read_loop() {
         }
         call->context.TryCancel();
       }
+      if (replaced)
+        // Lost to routing like an update in flight when a replica dies, and answered the same
+        // way (UNAVAILABLE: never evaluated, push it again), whichever replica the proxy chose
+        // while its ring changed; the server's words stay in the message.
+        report.error =
+            Status::error(kUnavailable,
+                          "not evaluated: the replica that answered does not hold the scene; the "
+                          "session re-creates it and resumes the stream (" +
+                              report.error.describe() + ")");
       deliver(std::move(report));
     }
     grpc::Status status;
