@@ -8,6 +8,10 @@
 #                           bench/results/ and bench/RESULTS.md
 #   bench/run.sh --quick    smoke test: small samples, few rounds, into build-bench/quick-results/
 #                           (bench/results/ and bench/RESULTS.md are left alone)
+#   bench/run.sh --peers DIR  where the openGJK / coal snapshots are (../shared/peers/README.md);
+#                           also NEARPOINT_PEERS_DIR. Default: ../shared/peers beside the repository,
+#                           or beside the main worktree when this is a `git worktree`. They are
+#                           built once into the build tree; a missing one is named and left out.
 #
 # Environment: BUILD_DIR (default build-bench), JOBS (build parallelism, default 1: the machine is
 # shared), PYTHON (default /usr/bin/python3, which needs python3-matplotlib: deploy/install-deps.sh
@@ -18,12 +22,32 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 
 quick=0
-for arg in "$@"; do
-  case "$arg" in
+peers="${NEARPOINT_PEERS_DIR:-}"
+while [ $# -gt 0 ]; do
+  case "$1" in
     --quick) quick=1 ;;
-    -h|--help) sed -n '2,17p' "$0"; exit 0 ;;
-    *) echo "bench/run.sh: unknown option '$arg'" >&2; exit 2 ;;
+    --peers) [ $# -ge 2 ] || { echo "bench/run.sh: --peers needs a folder" >&2; exit 2; }
+             peers="$2"; shift ;;
+    --peers=*) peers="${1#--peers=}" ;;
+    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+    *) echo "bench/run.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
+  shift
+done
+if [ -z "$peers" ]; then
+  peers="$root/../shared/peers"
+  # In a linked worktree the snapshots sit beside the main one.
+  common="$(git rev-parse --path-format=absolute --git-common-dir 2>/dev/null || true)"
+  if [ ! -d "$peers" ] && [ -n "$common" ] && [ -d "$(dirname "$common")/../shared/peers" ]; then
+    peers="$(dirname "$common")/../shared/peers"
+  fi
+fi
+peers="$(cd "$peers" 2>/dev/null && pwd || echo "$peers")"
+for snapshot in openGJK coal jrl-cmakemodules; do
+  if ! compgen -G "$peers/$snapshot-*.tar.gz" >/dev/null; then
+    echo "bench/run.sh: no $snapshot snapshot in $peers: the bench runs without" \
+         "$([ "$snapshot" = openGJK ] && echo openGJK || echo coal) (see --peers)" >&2
+  fi
 done
 
 build="${BUILD_DIR:-build-bench}"
@@ -36,7 +60,8 @@ fi
 
 start=$(date +%s)
 options=(-G Ninja -DCMAKE_BUILD_TYPE=Release -DNEARPOINT_BUILD_BENCH=ON -DNEARPOINT_BENCH_PEERS=ON
-         -DNEARPOINT_BUILD_CLIENT=OFF -DNEARPOINT_WITH_GRPC=OFF -DNEARPOINT_ARCH="${NEARPOINT_ARCH:-}")
+         -DNEARPOINT_BUILD_CLIENT=OFF -DNEARPOINT_WITH_GRPC=OFF -DNEARPOINT_ARCH="${NEARPOINT_ARCH:-}"
+         -DNEARPOINT_PEERS_DIR="$peers")
 # The bench links the tests' kit (tests/CMakeLists.txt). Should the test tree not configure (it
 # needs GoogleTest, and is work in progress at times), the bench builds the kit from the same
 # sources instead.
@@ -86,10 +111,11 @@ mkdir -p "$out"
     2>/dev/null | grep -q . && echo modified || echo clean)"
   echo "load_before,\"$(cut -d' ' -f1-3 /proc/loadavg)\""
   echo "command,bench/run.sh${flags[*]:+ ${flags[*]}}"
+  echo "peers_dir,\"$peers\""
   echo "build_seconds,$((built - start))"
 } >"$out/machine.csv"
 
-for experiment in paper table1 error-time large stability; do
+for experiment in paper table1 error-time large stability primitives; do
   t0=$(date +%s)
   "$build/bench/nearpoint-bench" "$experiment" --out "$out" "${flags[@]}"
   echo "seconds_$experiment,$(($(date +%s) - t0))" >>"$out/machine.csv"

@@ -42,9 +42,9 @@ std::vector<Impl> make_impls(std::span<const PairInput> inputs) {
     }
     impls.push_back({name, yes_no, make_nearpoint_runner(inputs, options, false), ""});
   };
-  auto peer = [&](Peer p, bool yes_no) {
-    Impl impl{to_string(p), yes_no, nullptr, ""};
-    impl.runner = make_peer_runner(p, inputs, PeerSettings{}, &impl.declined);
+  auto peer = [&](Peer p, bool yes_no, std::string name = "", double tolerance = kNaN) {
+    Impl impl{name.empty() ? to_string(p) : name, yes_no, nullptr, ""};
+    impl.runner = make_peer_runner(p, inputs, PeerSettings{tolerance}, &impl.declined);
     impls.push_back(std::move(impl));
   };
   nearpoint("nearpoint_johnson", Subalgorithm::johnson, false);
@@ -52,6 +52,11 @@ std::vector<Impl> make_impls(std::span<const PairInput> inputs) {
   peer(Peer::fcl_libccd, false);
   peer(Peer::fcl_indep, false);
   peer(Peer::bullet, false);
+  // The fastest open peers (issue 25): openGJK, and coal at 1e-12 (an answer as exact as the
+  // others') and at its default 1e-6 (its own speed).
+  peer(Peer::opengjk, false);
+  peer(Peer::coal, false, "coal_1e-12", 1e-12);
+  peer(Peer::coal, false, "coal_1e-6", 1e-6);
   nearpoint("nearpoint_johnson_yesno", Subalgorithm::johnson, true);
   nearpoint("nearpoint_signed_volumes_yesno", Subalgorithm::signed_volumes, true);
   peer(Peer::ccd_intersect, true);

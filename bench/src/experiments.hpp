@@ -16,5 +16,7 @@ int run_error_time(const Args& args);
 int run_large(const Args& args);
 /// (5) The stability report over the stiff suite (issue 4).
 int run_stability(const Args& args);
+/// (6) Primitives against FCL's and coal's specialised routines (issue 25).
+int run_primitives(const Args& args);
 
 }  // namespace nearpoint::bench

@@ -13,7 +13,7 @@ namespace {
 
 int usage() {
   std::fprintf(stderr,
-               "usage: nearpoint-bench paper|table1|error-time|large|stability|all "
+               "usage: nearpoint-bench paper|table1|error-time|large|stability|primitives|all "
                "[--out DIR] [--quick] [--rounds N]\n");
   return 2;
 }
@@ -58,6 +58,7 @@ int main(int argc, char** argv) {
   maybe("error-time", run_error_time);
   maybe("large", run_large);
   maybe("stability", run_stability);
+  maybe("primitives", run_primitives);
   if (!ran) return usage();
   return status;
 }

@@ -72,6 +72,24 @@ const char* to_string(Peer peer) {
       return "bullet";
     case Peer::ccd_intersect:
       return "ccd_intersect";
+    case Peer::opengjk:
+      return "opengjk";
+    case Peer::coal:
+      return "coal";
+  }
+  return "?";
+}
+
+const char* to_string(PrimitivePeer peer) {
+  switch (peer) {
+    case PrimitivePeer::fcl_libccd:
+      return "fcl_libccd";
+    case PrimitivePeer::fcl_indep:
+      return "fcl_indep";
+    case PrimitivePeer::coal_1e12:
+      return "coal_1e-12";
+    case PrimitivePeer::coal_1e6:
+      return "coal_1e-6";
   }
   return "?";
 }

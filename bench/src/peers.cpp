@@ -8,15 +8,37 @@
 //               spherical extension), btGjkPairDetector + btVoronoiSimplexSolver, no penetration
 //               depth solver (we ask for distances; EPA would only add cost on intersecting pairs);
 //   libccd 2.1  ccdGJKIntersect with a support callback that rotates the direction into the
-//               shape's frame and scans its vertices (FCL's own libccd glue does the same).
+//               shape's frame and scans its vertices (FCL's own libccd glue does the same);
+//   openGJK     (snapshot, ../shared/peers) compute_minimum_distance on the vertex arrays, turned
+//               into the world frame inside the timed call (as FCL and nearpoint apply poses in
+//               theirs); scalar, double;
+//   coal        (snapshot, ../shared/peers) GJKSolver::shapeDistance on two
+//               coal::Convex<coal::Triangle> built once from the CGAL hull (so that large hulls
+//               climb their neighbours), GJK only (compute_penetration = false, no EPA), the
+//               tolerance 1e-12 or its default 1e-6.
+// openGJK and coal are compiled in when bench/cmake/source_peers.cmake found their snapshots
+// (NEARPOINT_BENCH_HAVE_OPENGJK / _COAL); otherwise their runners decline with the reason.
 #include <BulletCollision/CollisionShapes/btConvexHullShape.h>
 #include <BulletCollision/NarrowPhaseCollision/btGjkPairDetector.h>
 #include <BulletCollision/NarrowPhaseCollision/btPointCollector.h>
 #include <BulletCollision/NarrowPhaseCollision/btVoronoiSimplexSolver.h>
 #include <ccd/ccd.h>
 
+#include <fcl/geometry/shape/box.h>
+#include <fcl/geometry/shape/capsule.h>
 #include <fcl/geometry/shape/convex.h>
+#include <fcl/geometry/shape/sphere.h>
 #include <fcl/narrowphase/distance.h>
+
+#if NEARPOINT_BENCH_HAVE_OPENGJK
+#include <openGJK/openGJK.h>
+#endif
+#if NEARPOINT_BENCH_HAVE_COAL
+#include <coal/internal/shape_shape_func.h>
+#include <coal/narrowphase/narrowphase.h>
+#include <coal/shape/convex.h>
+#include <coal/shape/geometric_shapes.h>
+#endif
 
 #include <map>
 
@@ -246,7 +268,328 @@ class CcdRunner final : public Runner {
   std::vector<std::pair<CcdObject, CcdObject>> objects_;
 };
 
+// ---------------------------------------------------------------------------------------------
+// openGJK
+
+#if NEARPOINT_BENCH_HAVE_OPENGJK
+class OpenGjkRunner final : public Runner {
+ public:
+  explicit OpenGjkRunner(std::span<const PairInput> inputs) {
+    std::size_t most = 1;
+    for (const PairInput& in : inputs) most = std::max({most, in.a->size(), in.b->size()});
+    // World-frame copies of the vertices, written by each query; openGJK reads them through an
+    // array of row pointers (its gkPolytope::coord), set up once here.
+    for (int k = 0; k < 2; ++k) {
+      world_[k].resize(3 * most);
+      rows_[k].resize(most);
+      for (std::size_t i = 0; i < most; ++i) rows_[k][i] = &world_[k][3 * i];
+    }
+    queries_.reserve(inputs.size());
+    for (const PairInput& in : inputs)
+      queries_.push_back({in.a.get(), in.pose_a, in.b.get(), in.pose_b});
+  }
+
+  void run(std::size_t i, Outcome& out) override {
+    const Query& q = queries_[i];
+    gkPolytope bd[2];
+    const std::vector<Vec3<double>>* v[2] = {q.a, q.b};
+    const Pose<double>* pose[2] = {&q.pose_a, &q.pose_b};
+    for (int k = 0; k < 2; ++k) {
+      const Mat3<double>& r = pose[k]->rotation;
+      const Vec3<double>& t = pose[k]->translation;
+      double* w = world_[k].data();
+      for (const Vec3<double>& p : *v[k]) {
+        const Vec3<double> x = r * p + t;
+        w[0] = x.x();
+        w[1] = x.y();
+        w[2] = x.z();
+        w += 3;
+      }
+      bd[k].numpoints = int(v[k]->size());
+      bd[k].coord = rows_[k].data();
+    }
+    gkSimplex simplex;
+    simplex.nvrtx = 0;
+    const double d = compute_minimum_distance(bd[0], bd[1], &simplex);
+    // openGJK returns 0 for intersecting shapes (its witnesses are then not meaningful).
+    out.intersecting = !(d > 0) && !std::isnan(d);
+    out.distance = std::isnan(d) ? d : (d > 0 ? d : 0.0);
+    out.iterations = -1;
+    out.exit = Exit::unknown;
+  }
+
+ private:
+  struct Query {
+    const std::vector<Vec3<double>>* a;
+    Pose<double> pose_a;
+    const std::vector<Vec3<double>>* b;
+    Pose<double> pose_b;
+  };
+  std::vector<double> world_[2];
+  std::vector<double*> rows_[2];
+  std::vector<Query> queries_;
+};
+#endif
+
+// ---------------------------------------------------------------------------------------------
+// coal
+
+#if NEARPOINT_BENCH_HAVE_COAL
+coal::Transform3s coal_transform(const Pose<double>& pose) {
+  return coal::Transform3s(coal::Matrix3s(pose.rotation), coal::Vec3s(pose.translation));
+}
+
+class CoalRunner final : public Runner {
+ public:
+  CoalRunner(std::span<const PairInput> inputs, double tolerance) {
+    if (!std::isnan(tolerance)) solver_.gjk_tolerance = tolerance;
+    queries_.reserve(inputs.size());
+    for (const PairInput& in : inputs)
+      queries_.push_back(
+          {convex(in.a), coal_transform(in.pose_a), convex(in.b), coal_transform(in.pose_b)});
+  }
+
+  void run(std::size_t i, Outcome& out) override {
+    const Query& q = queries_[i];
+    coal::Vec3s p1, p2, normal;
+    const double d = solver_.shapeDistance(*q.a, q.ta, *q.b, q.tb, /*compute_penetration=*/false,
+                                           p1, p2, normal);
+    // Without EPA coal reports a collision as a distance ≤ 0 (or below its tolerance, with
+    // status Collision).
+    const bool hit = solver_.gjk.status == coal::details::GJK::Collision ||
+                     solver_.gjk.status == coal::details::GJK::CollisionWithPenetrationInformation;
+    out.intersecting = hit || (!(d > 0) && !std::isnan(d));
+    out.distance = std::isnan(d) ? d : (out.intersecting ? 0.0 : d);
+    out.iterations = int(solver_.gjk.getNumIterations());
+    out.exit = Exit::unknown;
+  }
+
+ private:
+  using Convex = coal::Convex<coal::Triangle>;
+  struct Query {
+    const Convex* a;
+    coal::Transform3s ta;
+    const Convex* b;
+    coal::Transform3s tb;
+  };
+
+  const Convex* convex(const VertexList& v) {
+    auto [it, inserted] = shapes_.try_emplace(v.get());
+    if (inserted) {
+      const Hull& hull = cached_hull(v);
+      auto points = std::make_shared<std::vector<coal::Vec3s>>();
+      for (const Vec3<double>& p : hull.vertices) points->push_back(p);
+      // Hull faces fanned into triangles: coal::Convex derives each vertex's neighbours from
+      // them, which its support function climbs on large hulls.
+      auto triangles = std::make_shared<std::vector<coal::Triangle>>();
+      for (const std::vector<int>& f : hull.faces)
+        for (std::size_t k = 1; k + 1 < f.size(); ++k)
+          triangles->emplace_back(std::size_t(f[0]), std::size_t(f[k]), std::size_t(f[k + 1]));
+      it->second = std::make_unique<Convex>(points, unsigned(points->size()), triangles,
+                                            unsigned(triangles->size()));
+    }
+    return it->second.get();
+  }
+
+  coal::GJKSolver solver_;
+  std::map<const void*, std::unique_ptr<Convex>> shapes_;
+  std::vector<Query> queries_;
+};
+#endif
+
+// ---------------------------------------------------------------------------------------------
+// Primitives (issue 25, item 3): the peers' own shape types and their best path.
+
+class FclPrimitiveRunner final : public Runner {
+ public:
+  FclPrimitiveRunner(std::span<const PrimitiveInput> inputs, fcl::GJKSolverType solver)
+      : request_(/*enable_nearest_points=*/true) {
+    request_.gjk_solver_type = solver;
+    queries_.reserve(inputs.size());
+    for (const PrimitiveInput& in : inputs)
+      queries_.push_back({shape(in.a), transform(in.pose_a), shape(in.b), transform(in.pose_b)});
+  }
+
+  void run(std::size_t i, Outcome& out) override {
+    const Query& q = queries_[i];
+    fcl::DistanceResultd result;
+    fcl::distance(q.a, q.ta, q.b, q.tb, request_, result);
+    const double d = result.min_distance;
+    out.intersecting = d <= 0;
+    out.distance = d <= 0 ? 0.0 : d;
+    out.exit = Exit::unknown;
+  }
+
+ private:
+  struct Query {
+    const fcl::CollisionGeometryd* a;
+    fcl::Transform3d ta;
+    const fcl::CollisionGeometryd* b;
+    fcl::Transform3d tb;
+  };
+  static fcl::Transform3d transform(const Pose<double>& pose) {
+    fcl::Transform3d t = fcl::Transform3d::Identity();
+    t.linear() = pose.rotation;
+    t.translation() = pose.translation;
+    return t;
+  }
+  const fcl::CollisionGeometryd* shape(const Primitive* p) {
+    auto [it, inserted] = shapes_.try_emplace(p);
+    if (inserted) {
+      switch (p->kind) {
+        case Primitive::Kind::sphere:
+          it->second = std::make_unique<fcl::Sphered>(p->radius);
+          break;
+        case Primitive::Kind::capsule:
+          it->second = std::make_unique<fcl::Capsuled>(p->radius, 2 * p->half_length);
+          break;
+        case Primitive::Kind::box:
+          it->second = std::make_unique<fcl::Boxd>(2 * p->half_extents);
+          break;
+        case Primitive::Kind::hull: {
+          const Hull& hull = cached_hull(p->hull);
+          auto vertices = std::make_shared<std::vector<fcl::Vector3d>>();
+          for (const Vec3<double>& v : hull.vertices) vertices->push_back(v);
+          auto faces = std::make_shared<std::vector<int>>();
+          for (const std::vector<int>& f : hull.faces) {
+            faces->push_back(int(f.size()));
+            faces->insert(faces->end(), f.begin(), f.end());
+          }
+          it->second = std::make_unique<fcl::Convexd>(vertices, int(hull.faces.size()), faces);
+          break;
+        }
+      }
+    }
+    return it->second.get();
+  }
+  fcl::DistanceRequestd request_;
+  std::map<const void*, std::unique_ptr<fcl::CollisionGeometryd>> shapes_;
+  std::vector<Query> queries_;
+};
+
+#if NEARPOINT_BENCH_HAVE_COAL
+class CoalPrimitiveRunner final : public Runner {
+ public:
+  CoalPrimitiveRunner(std::span<const PrimitiveInput> inputs, double tolerance) {
+    solver_.gjk_tolerance = tolerance;
+    queries_.reserve(inputs.size());
+    for (const PrimitiveInput& in : inputs)
+      queries_.push_back({shape(in.a), coal_transform(in.pose_a), shape(in.b),
+                          coal_transform(in.pose_b), dispatch(in.a->kind, in.b->kind)});
+  }
+
+  void run(std::size_t i, Outcome& out) override {
+    const Query& q = queries_[i];
+    coal::Vec3s p1, p2, normal;
+    const double d = q.call(q.a, q.ta, q.b, q.tb, &solver_, false, p1, p2, normal);
+    out.intersecting = !(d > 0) && !std::isnan(d);
+    out.distance = std::isnan(d) ? d : (d > 0 ? d : 0.0);
+    out.exit = Exit::unknown;
+  }
+
+ private:
+  using Call = coal::CoalScalar (*)(const coal::CollisionGeometry*, const coal::Transform3s&,
+                                    const coal::CollisionGeometry*, const coal::Transform3s&,
+                                    const coal::GJKSolver*, bool, coal::Vec3s&, coal::Vec3s&,
+                                    coal::Vec3s&);
+  using Convex = coal::Convex<coal::Triangle>;
+  struct Query {
+    const coal::CollisionGeometry* a;
+    coal::Transform3s ta;
+    const coal::CollisionGeometry* b;
+    coal::Transform3s tb;
+    Call call;
+  };
+
+  // coal's own dispatch (its distance function matrix) picks internal::ShapeShapeDistance<T1, T2>
+  // by the node types; here it is picked once per query when the inputs are prepared.
+  template <class T1>
+  static Call second(Primitive::Kind b) {
+    switch (b) {
+      case Primitive::Kind::sphere:
+        return &coal::internal::ShapeShapeDistance<T1, coal::Sphere>;
+      case Primitive::Kind::capsule:
+        return &coal::internal::ShapeShapeDistance<T1, coal::Capsule>;
+      case Primitive::Kind::box:
+        return &coal::internal::ShapeShapeDistance<T1, coal::Box>;
+      case Primitive::Kind::hull:
+        return &coal::internal::ShapeShapeDistance<T1, Convex>;
+    }
+    return nullptr;
+  }
+  static Call dispatch(Primitive::Kind a, Primitive::Kind b) {
+    switch (a) {
+      case Primitive::Kind::sphere:
+        return second<coal::Sphere>(b);
+      case Primitive::Kind::capsule:
+        return second<coal::Capsule>(b);
+      case Primitive::Kind::box:
+        return second<coal::Box>(b);
+      case Primitive::Kind::hull:
+        return second<Convex>(b);
+    }
+    return nullptr;
+  }
+
+  const coal::CollisionGeometry* shape(const Primitive* p) {
+    auto [it, inserted] = shapes_.try_emplace(p);
+    if (inserted) {
+      switch (p->kind) {
+        case Primitive::Kind::sphere:
+          it->second = std::make_unique<coal::Sphere>(p->radius);
+          break;
+        case Primitive::Kind::capsule:
+          it->second = std::make_unique<coal::Capsule>(p->radius, 2 * p->half_length);
+          break;
+        case Primitive::Kind::box:
+          it->second = std::make_unique<coal::Box>(coal::Vec3s(2 * p->half_extents));
+          break;
+        case Primitive::Kind::hull: {
+          const Hull& hull = cached_hull(p->hull);
+          auto points = std::make_shared<std::vector<coal::Vec3s>>();
+          for (const Vec3<double>& v : hull.vertices) points->push_back(v);
+          auto triangles = std::make_shared<std::vector<coal::Triangle>>();
+          for (const std::vector<int>& f : hull.faces)
+            for (std::size_t k = 1; k + 1 < f.size(); ++k)
+              triangles->emplace_back(std::size_t(f[0]), std::size_t(f[k]), std::size_t(f[k + 1]));
+          it->second = std::make_unique<Convex>(points, unsigned(points->size()), triangles,
+                                                unsigned(triangles->size()));
+          break;
+        }
+      }
+    }
+    return it->second.get();
+  }
+
+  coal::GJKSolver solver_;
+  std::map<const void*, std::unique_ptr<coal::CollisionGeometry>> shapes_;
+  std::vector<Query> queries_;
+};
+#endif
+
 }  // namespace
+
+std::unique_ptr<Runner> make_primitive_peer_runner(PrimitivePeer peer,
+                                                   std::span<const PrimitiveInput> inputs,
+                                                   std::string* why) {
+  switch (peer) {
+    case PrimitivePeer::fcl_libccd:
+      return std::make_unique<FclPrimitiveRunner>(inputs, fcl::GST_LIBCCD);
+    case PrimitivePeer::fcl_indep:
+      return std::make_unique<FclPrimitiveRunner>(inputs, fcl::GST_INDEP);
+    case PrimitivePeer::coal_1e12:
+    case PrimitivePeer::coal_1e6:
+#if NEARPOINT_BENCH_HAVE_COAL
+      return std::make_unique<CoalPrimitiveRunner>(inputs,
+                                                   peer == PrimitivePeer::coal_1e12 ? 1e-12 : 1e-6);
+#else
+      if (why) *why = "coal's snapshot was not found (NEARPOINT_PEERS_DIR, bench/run.sh --peers)";
+      return nullptr;
+#endif
+  }
+  if (why) *why = "unknown peer";
+  return nullptr;
+}
 
 bool peers_available() {
   return true;
@@ -269,6 +612,33 @@ std::unique_ptr<Runner> make_peer_runner(Peer peer, std::span<const PairInput> i
       return std::make_unique<BulletRunner>(inputs, settings.tolerance);
     case Peer::ccd_intersect:
       return std::make_unique<CcdRunner>(inputs);
+    case Peer::opengjk:
+#if NEARPOINT_BENCH_HAVE_OPENGJK
+      for (const PairInput& in : inputs) {
+        if (in.radius_a > 0 || in.radius_b > 0) {
+          if (why) *why = "openGJK takes vertex lists only (no rounded polytopes)";
+          return nullptr;
+        }
+      }
+      return std::make_unique<OpenGjkRunner>(inputs);
+#else
+      if (why)
+        *why = "openGJK's snapshot was not found (NEARPOINT_PEERS_DIR, bench/run.sh --peers)";
+      return nullptr;
+#endif
+    case Peer::coal:
+#if NEARPOINT_BENCH_HAVE_COAL
+      for (const PairInput& in : inputs) {
+        if (in.radius_a > 0 || in.radius_b > 0) {
+          if (why) *why = "coal::Convex is used without its swept-sphere radius here";
+          return nullptr;
+        }
+      }
+      return std::make_unique<CoalRunner>(inputs, settings.tolerance);
+#else
+      if (why) *why = "coal's snapshot was not found (NEARPOINT_PEERS_DIR, bench/run.sh --peers)";
+      return nullptr;
+#endif
   }
   if (why) *why = "unknown peer";
   return nullptr;

@@ -14,6 +14,12 @@ std::unique_ptr<Runner> make_peer_runner(Peer, std::span<const PairInput>, const
   return nullptr;
 }
 
+std::unique_ptr<Runner> make_primitive_peer_runner(PrimitivePeer, std::span<const PrimitiveInput>,
+                                                   std::string* why) {
+  if (why) *why = "built without NEARPOINT_BENCH_PEERS";
+  return nullptr;
+}
+
 std::string check_peer_builds() {
   return "";
 }

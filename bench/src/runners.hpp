@@ -38,6 +38,8 @@ enum class Peer : unsigned char {
   fcl_indep,      ///< fcl::distance, GST_INDEP (FCL's own GJK)
   bullet,         ///< btGjkPairDetector + btVoronoiSimplexSolver on btConvexHullShape, double
   ccd_intersect,  ///< libccd's ccdGJKIntersect: the yes/no query only
+  opengjk,  ///< openGJK's compute_minimum_distance (scalar, double), vertices posed in the call
+  coal,     ///< coal's GJKSolver::shapeDistance on coal::Convex (GJK only, no EPA)
 };
 const char* to_string(Peer peer);
 
@@ -45,7 +47,9 @@ const char* to_string(Peer peer);
 ///   FCL (both solvers): DistanceRequest::distance_tolerance (default 1e-6);
 ///   Bullet: btVoronoiSimplexSolver::setEqualVertexThreshold (default 1e-12 in double; its GJK's
 ///           relative stopping tolerance REL_ERROR2 = 1e-6 is compiled in and cannot be changed);
-///   libccd: ccd_t::max_iterations is its only knob (set to 1000 here, see peers.cpp).
+///   libccd: ccd_t::max_iterations is its only knob (set to 1000 here, see peers.cpp);
+///   openGJK: none (its tolerances are compiled in);
+///   coal: GJKSolver::gjk_tolerance (default 1e-6).
 struct PeerSettings {
   double tolerance = kNaN;
 };
@@ -58,6 +62,35 @@ bool peers_available();
 /// for FCL, btConvexHullShape for Bullet), poses converted to the peer's native types.
 std::unique_ptr<Runner> make_peer_runner(Peer peer, std::span<const PairInput> inputs,
                                          const PeerSettings& settings, std::string* why);
+
+/// A primitive for the primitives experiment (issue 25, item 3), in its local frame: a sphere
+/// (`radius`), a capsule along z (`radius`, the segment from −half_length to +half_length), a box
+/// (`half_extents`) or a small hull (`hull`, a vertex list).
+struct Primitive {
+  enum class Kind : unsigned char { sphere, capsule, box, hull };
+  Kind kind = Kind::sphere;
+  double radius = 0;
+  double half_length = 0;
+  Vec3<double> half_extents = Vec3<double>::Zero();
+  std::shared_ptr<const std::vector<Vec3<double>>> hull;
+};
+
+struct PrimitiveInput {
+  const Primitive* a;
+  Pose<double> pose_a;
+  const Primitive* b;
+  Pose<double> pose_b;
+};
+
+/// The peers' best path for primitives: FCL's fcl::distance on its own shape types (it picks its
+/// specialised sphere–sphere, sphere–box, sphere–capsule and capsule–capsule routines, GJK for the
+/// rest) with either solver; coal's internal::ShapeShapeDistance (its specialised routines, GJK on
+/// its shape types otherwise) with the GJK tolerance 1e-12 or 1e-6.
+enum class PrimitivePeer : unsigned char { fcl_libccd, fcl_indep, coal_1e12, coal_1e6 };
+const char* to_string(PrimitivePeer peer);
+std::unique_ptr<Runner> make_primitive_peer_runner(PrimitivePeer peer,
+                                                   std::span<const PrimitiveInput> inputs,
+                                                   std::string* why);
 
 /// Checks, by computing with it, that the Bullet library linked uses the same btScalar as the
 /// headers we were compiled with (BT_USE_DOUBLE_PRECISION on both sides). Returns "" when
