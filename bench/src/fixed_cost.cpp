@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
   DistanceOptions<double> options;
   options.near_points = true;
   constexpr int kPoses = 1000;
-  volatile double sink = 0;
+  [[maybe_unused]] volatile double sink = 0;  // keeps the queries from being optimised away
   std::printf("%-18s %10s %10s %10s %12s\n", "case", "median_ns", "q10_ns", "q90_ns", "separated");
   for (const Case& c : cases) {
     if (!only.empty() && only != c.name) continue;

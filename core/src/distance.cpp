@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 
 #include "distance_internal.hpp"
 #include "gjk.hpp"
@@ -75,9 +76,13 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   // B relative to A: t = R_Aᵀ(p_B − p_A). A common offset of both poses cancels in p_B − p_A.
   // Written out (detail::rotate_back per column): Eigen's 3×3 products were left out of line here,
   // on the path to the first support point.
-  Mat3<S> rotation;
-  for (int j = 0; j < 3; ++j)
-    rotation.col(j) = detail::rotate_back(pose_a.rotation, Vec3<S>(pose_b.rotation.col(j)));
+  // Two points (spheres' cores) need no relative rotation: B's support is its centre whatever
+  // the direction, so K is known from the translation alone (detail::point_pair_outcome).
+  constexpr bool point_pair = std::is_same_v<GA, Point> && std::is_same_v<GB, Point>;
+  Mat3<S> rotation = Mat3<S>::Identity();
+  if constexpr (!point_pair)
+    for (int j = 0; j < 3; ++j)
+      rotation.col(j) = detail::rotate_back(pose_a.rotation, Vec3<S>(pose_b.rotation.col(j)));
   const Vec3<S> translation =
       detail::rotate_back(pose_a.rotation, Vec3<S>(pose_b.translation - pose_a.translation));
   const Vec3<S> a_center = support_a.center();
@@ -141,9 +146,12 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   const ColdStart cold_start =
       options.penetration_bound ? ColdStart::single_point : options.cold_start;
   detail::LoopOutcome<S> loop;
-  detail::run_numerical_algorithm(k_set, diameter, epsilon * diameter * diameter,
-                                  std::max(0, options.max_iterations), cutoff, settled_below,
-                                  options.subalgorithm, cold_start, cache, loop);
+  if constexpr (point_pair)
+    detail::point_pair_outcome(k_set, diameter, cutoff, settled_below, cache, loop);
+  else
+    detail::run_numerical_algorithm(k_set, diameter, epsilon * diameter * diameter,
+                                    std::max(0, options.max_iterations), cutoff, settled_below,
+                                    options.subalgorithm, cold_start, cache, loop);
 
   const detail::Nearest<S>& nearest = loop.nearest;
   const detail::Simplex<S>& simplex = loop.simplex;

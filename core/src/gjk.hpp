@@ -405,4 +405,55 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   out.finished_by = backup ? FinishedBy::backup_procedure : FinishedBy::distance_subalgorithm;
 }
 
+/// The loop's outcome when both cores are points (spheres, or points): K = A − B is the single
+/// point y = −δ (eq. 34's frame), so ν(K) = y, and its support point in every direction is y
+/// itself: g(ν) = |ν|² + h_K(−ν) = |ν|² − ν·ν = 0 (eq. 25), and Theorem 1 certifies ν exactly,
+/// up to the rounding of δ that the roundoff allowance covers. run_numerical_algorithm reaches
+/// the same ν after its first support call and a second that repeats it; this is that run written
+/// out, without the simplex machinery. Its exits and counts are the loop's: the first support
+/// plane (cold starts) proves a cutoff, the contact settles the verdict, ν = 0 encloses the
+/// origin, otherwise step 3's support call meets eq. (35) with g = 0. The certificate is the
+/// exact one whichever exit (gap 0, L = |ν|), where the loop's early exits kept a weaker one.
+template <class S, class K>
+void point_pair_outcome(const K& k_set, S diameter, S cutoff, S settled_below,
+                        const SimplexCache* cache, LoopOutcome<S>& out) {
+  using std::sqrt;
+  const Vec3<S> zero = Vec3<S>::Zero();
+  const Vec3<S> y = k_set.difference(zero, zero);  // −δ: all of K
+  out.simplex.add(y, zero, zero, 0, 0, /*update_tables=*/false);
+  out.simplex.newest = -1;
+  Nearest<S>& nearest = out.nearest;
+  nearest.subset = 1u;
+  nearest.lambda[0] = S(1);
+  nearest.lambda[1] = nearest.lambda[2] = nearest.lambda[3] = S(0);
+  nearest.nu = y;
+  nearest.nu_norm2 = y.squaredNorm();
+  const S nu_length = sqrt(nearest.nu_norm2);
+  out.nu_length = nu_length;
+  out.gap = 0;
+  out.lower_bound = nu_length;
+  // A warm start reads the cached pairs as the loop would: a point's only vertex is index 0.
+  bool warm = false;
+  if (cache && cache->count > 0 && cache->count <= 4)
+    for (int i = 0; i < cache->count; ++i)
+      warm |= (cache->index_a[i] == 0) & (cache->index_b[i] == 0);
+  out.warm_started = warm;
+  bool before_support = true;
+  if (!warm && nu_length > cutoff + distance_roundoff(diameter)) {
+    out.termination = Termination::beyond_cutoff;  // the first support plane: d ≥ |δ|
+  } else if (nearest.nu_norm2 > 0 && settled_below >= 0 &&
+             nearest.nu_norm2 <= settled_below * settled_below) {
+    out.termination = Termination::contact;
+  } else if (!(nearest.nu_norm2 > 0)) {
+    out.termination = Termination::origin_enclosed;
+  } else {
+    out.termination = Termination::tolerance;  // eq. (35) with g = 0
+    before_support = false;
+  }
+  out.iterations = 0;
+  out.support_calls = (warm ? 0 : 1) + (before_support ? 0 : 1);
+  out.subalgorithm_runs = 1;
+  out.finished_by = FinishedBy::distance_subalgorithm;
+}
+
 }  // namespace nearpoint::detail

@@ -251,5 +251,73 @@ TEST(Pose, QuaternionCheckAcceptsNearUnitAndRejectsTheRest) {
   EXPECT_NEAR(id.translation.norm(), 0, 1e-15);
 }
 
+// Two points (spheres' cores) are answered without the GJK loop (detail::point_pair_outcome):
+// K is one point, so g = 0 and Theorem 1 certifies ν exactly. Guards that closed form against
+// the loop itself, which runs for a one-vertex polytope with the same radius: same verdict,
+// distances and near points within the bounds, a bound no weaker, the loop's exits (cutoff,
+// contact, coincident centres) and its warm-start reading of the cache, far from the origin and
+// at tiny and huge scales (the rescaled path) too.
+TEST(PointPair, ClosedFormAgreesWithTheLoop) {
+  std::mt19937_64 rng(25);
+  std::normal_distribution<double> normal;
+  std::uniform_real_distribution<double> unit(0, 1);
+  const std::vector<V> origin = {V::Zero()};
+  int separated = 0, total = 0;
+  for (const double scale : {1e-200, 1e-6, 1.0, 1e5, 1e200}) {
+    for (const double far : {0.0, 1e6}) {
+      for (int k = 0; k < 200; ++k) {
+        const double ra = scale * unit(rng), rb = scale * unit(rng);
+        const Shape<double> sa = Shape<double>::sphere(ra), sb = Shape<double>::sphere(rb);
+        const Shape<double> pa(Polytope<double>(origin), ra), pb(Polytope<double>(origin), rb);
+        const V u = V(normal(rng), normal(rng), normal(rng)).normalized();
+        const Pose<double> a = Pose<double>::from_quaternion(
+            Eigen::Quaterniond(normal(rng), normal(rng), normal(rng), normal(rng)),
+            V(far, -far, 0.5 * far));
+        const Pose<double> b = Pose<double>::from_quaternion(
+            Eigen::Quaterniond(normal(rng), normal(rng), normal(rng), normal(rng)),
+            a.translation + (k == 0 ? 0.0 : 2.5 * scale * unit(rng)) * u);
+        for (const bool near_points : {true, false}) {
+          for (const double cutoff : {std::numeric_limits<double>::infinity(), 0.0}) {
+            DistanceOptions<double> options;
+            options.near_points = near_points;
+            options.distance_cutoff = cutoff;
+            const DistanceResult<double> closed = distance(sa, a, sb, b, options);
+            const DistanceResult<double> loop = distance(pa, a, pb, b, options);
+            ASSERT_NE(closed.status, Status::invalid_input) << closed.message;
+            ASSERT_EQ(closed.status, loop.status) << "scale " << scale << " k " << k;
+            EXPECT_EQ(closed.beyond_cutoff(), loop.beyond_cutoff());
+            EXPECT_LE(closed.error_bound, loop.error_bound * (1 + 1e-12) + 1e-300);
+            EXPECT_LE(std::abs(closed.distance - loop.distance),
+                      closed.error_bound + loop.error_bound);
+            EXPECT_EQ(closed.support_calls, loop.support_calls);
+            EXPECT_EQ(closed.subalgorithm_runs, loop.subalgorithm_runs);
+            EXPECT_EQ(closed.simplex_size, 1);
+            if (near_points) {
+              const double tolerance = closed.error_bound + loop.error_bound + 1e-15 * far;
+              EXPECT_LE((closed.point_a - loop.point_a).norm(), tolerance);
+              EXPECT_LE((closed.point_b - loop.point_b).norm(), tolerance);
+            }
+            // A warm start from the query's own cache: read as the loop reads it.
+            SimplexCache cache_closed, cache_loop;
+            distance(sa, a, sb, b, options, &cache_closed);
+            distance(pa, a, pb, b, options, &cache_loop);
+            const DistanceResult<double> warm_closed =
+                distance(sa, a, sb, b, options, &cache_closed);
+            const DistanceResult<double> warm_loop = distance(pa, a, pb, b, options, &cache_loop);
+            EXPECT_EQ(warm_closed.warm_started, warm_loop.warm_started);
+            EXPECT_EQ(warm_closed.status, warm_loop.status);
+            EXPECT_EQ(warm_closed.support_calls, warm_loop.support_calls);
+            separated += closed.status == Status::separated;
+            ++total;
+          }
+        }
+      }
+    }
+  }
+  // A representative sample: both verdicts well represented.
+  EXPECT_GT(separated, total / 5);
+  EXPECT_LT(separated, 4 * total / 5);
+}
+
 }  // namespace
 }  // namespace nearpoint
