@@ -87,6 +87,10 @@ struct ArgmaxDot {
   V best[2];
   I where[2];
   I lane_index;
+  // A polytope of at most kLanes vertices: the second half of its one block holds copies of
+  // vertex 0 (the padding), which can never win against vertex 0 itself, so only the first half
+  // is evaluated and the first merge of the reduction is skipped. The same index, bit for bit.
+  bool first_half_only;
 
   /// kLanes copies of s. A broadcast, where V{} + s added zero on GJK's critical path (and
   /// writing lane by lane went through memory).
@@ -97,15 +101,21 @@ struct ArgmaxDot {
       out = V{s, s, s, s, s, s, s, s};
   }
   /// The first block of 2 × kLanes vertices.
-  [[gnu::always_inline]] ArgmaxDot(const S* x, const S* y, const S* z, S dx, S dy, S dz)
-      : xs(x), ys(y), zs(z) {
+  [[gnu::always_inline]] ArgmaxDot(const S* x, const S* y, const S* z, S dx, S dy, S dz,
+                                   bool half = false)
+      : xs(x), ys(y), zs(z), first_half_only(half) {
     splat(dx, vx);
     splat(dy, vy);
     splat(dz, vz);
     for (int l = 0; l < kLanes; ++l) lane_index[l] = Index(l);
-    for (int h = 0; h < 2; ++h) {
-      value(h * kLanes, best[h]);
-      where[h] = lane_index + Index(h * kLanes);
+    value(0, best[0]);
+    where[0] = lane_index;
+    if (!first_half_only) {
+      value(kLanes, best[1]);
+      where[1] = lane_index + Index(kLanes);
+    } else {
+      best[1] = best[0];  // never read (no further blocks); keeps the state defined
+      where[1] = where[0];
     }
   }
   // By reference, not by value: a vector return type would change the ABI of the baseline copy
@@ -144,7 +154,7 @@ struct ArgmaxDot {
     };
     V top = best[0];
     I at = where[0];
-    merge(top, at, best[1], where[1]);
+    if (!first_half_only) merge(top, at, best[1], where[1]);
     if constexpr (kLanes == 4) {
       merge(top, at, __builtin_shufflevector(top, top, 1, 0, 3, 2),
             __builtin_shufflevector(at, at, 1, 0, 3, 2));
@@ -173,13 +183,11 @@ template <class V, class I, class S, int kLanes>
 
 /// Two scans in one loop (see PairScan): the common blocks interleaved, then the longer one's rest.
 template <class V, class I, class S, int kLanes>
-[[gnu::always_inline]] inline detail::IndexPair argmax_dot_pair_simd(const S* const a[3],
-                                                                     std::size_t na, S ax, S ay,
-                                                                     S az, const S* const b[3],
-                                                                     std::size_t nb, S bx, S by,
-                                                                     S bz) {
-  ArgmaxDot<V, I, S, kLanes> scan_a(a[0], a[1], a[2], ax, ay, az);
-  ArgmaxDot<V, I, S, kLanes> scan_b(b[0], b[1], b[2], bx, by, bz);
+[[gnu::always_inline]] inline detail::IndexPair argmax_dot_pair_simd(
+    const S* const a[3], std::size_t na, S ax, S ay, S az, const S* const b[3], std::size_t nb,
+    S bx, S by, S bz, std::size_t real_a, std::size_t real_b) {
+  ArgmaxDot<V, I, S, kLanes> scan_a(a[0], a[1], a[2], ax, ay, az, real_a <= kLanes);
+  ArgmaxDot<V, I, S, kLanes> scan_b(b[0], b[1], b[2], bx, by, bz, real_b <= kLanes);
   const std::size_t common = std::min(na, nb);
   std::size_t i = 2 * kLanes;
   for (; i < common; i += 2 * kLanes) {
@@ -205,15 +213,15 @@ __attribute__((always_inline)) inline std::size_t argmax_dot(const S* xs, const 
     return argmax_dot_simd<Float8, Int32x8, float, 8>(xs, ys, zs, n, dx, dy, dz);
 }
 template <class S>
-__attribute__((always_inline)) inline detail::IndexPair argmax_dot_pair(const S* const a[3],
-                                                                        std::size_t na, S ax, S ay,
-                                                                        S az, const S* const b[3],
-                                                                        std::size_t nb, S bx, S by,
-                                                                        S bz) {
+__attribute__((always_inline)) inline detail::IndexPair argmax_dot_pair(
+    const S* const a[3], std::size_t na, S ax, S ay, S az, const S* const b[3], std::size_t nb,
+    S bx, S by, S bz, std::size_t real_a, std::size_t real_b) {
   if constexpr (std::is_same_v<S, double>)
-    return argmax_dot_pair_simd<Double4, Int64x4, double, 4>(a, na, ax, ay, az, b, nb, bx, by, bz);
+    return argmax_dot_pair_simd<Double4, Int64x4, double, 4>(a, na, ax, ay, az, b, nb, bx, by, bz,
+                                                             real_a, real_b);
   else
-    return argmax_dot_pair_simd<Float8, Int32x8, float, 8>(a, na, ax, ay, az, b, nb, bx, by, bz);
+    return argmax_dot_pair_simd<Float8, Int32x8, float, 8>(a, na, ax, ay, az, b, nb, bx, by, bz,
+                                                           real_a, real_b);
 }
 
 // One copy compiled for AVX2 and one for the baseline, chosen once at run time. Explicit dispatch
@@ -529,7 +537,8 @@ template <class S>
     return climb_indices(a, Vec3<S>(ax, ay, az), hint_a, b, Vec3<S>(bx, by, bz), hint_b);
   const S* const coords_a[3] = {a.xs_.data(), a.ys_.data(), a.zs_.data()};
   const S* const coords_b[3] = {b.xs_.data(), b.ys_.data(), b.zs_.data()};
-  return argmax_dot_pair<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx, by, bz);
+  return argmax_dot_pair<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx, by, bz,
+                            a.size_, b.size_);
 }
 
 template <class S>
