@@ -146,9 +146,22 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   const ColdStart cold_start =
       options.penetration_bound ? ColdStart::single_point : options.cold_start;
   detail::LoopOutcome<S> loop;
-  if constexpr (point_pair)
+  constexpr bool segment_pair = std::is_same_v<GA, Segment<S>> && std::is_same_v<GB, Segment<S>>;
+  bool answered = false;
+  if constexpr (point_pair) {
     detail::point_pair_outcome(k_set, diameter, cutoff, settled_below, cache, loop);
-  else
+    answered = true;
+  } else if constexpr (segment_pair) {
+    answered = detail::segment_pair_outcome(k_set, diameter, epsilon * diameter * diameter, cutoff,
+                                            settled_below, loop);
+    if (!answered) [[unlikely]] {  // the loop starts from an empty simplex
+      loop.simplex.used = 0;
+      loop.simplex.newest = -1;
+      loop.simplex.tables_valid = true;
+      loop.warm_started = false;
+    }
+  }
+  if (!answered)
     detail::run_numerical_algorithm(k_set, diameter, epsilon * diameter * diameter,
                                     std::max(0, options.max_iterations), cutoff, settled_below,
                                     options.subalgorithm, cold_start, cache, loop);

@@ -456,4 +456,127 @@ void point_pair_outcome(const K& k_set, S diameter, S cutoff, S settled_below,
   out.finished_by = FinishedBy::distance_subalgorithm;
 }
 
+/// The loop's outcome when both cores are segments (capsules), from the closed form of the
+/// nearest points of two segments, certified as the loop certifies its answers. K = A − B is the
+/// parallelogram {a(s) − b(t) − δ : s, t ∈ [0, 1]}; the parameters (s, t) of its point nearest
+/// the origin are found by clamping the stationary point of |a(s) − b(t) − δ|² to the unit
+/// square (the segments' nearest points, as in Ericson's Real-Time Collision Detection, 5.1.9).
+/// ν is written as a convex combination of K's vertices y_ij = a_i − b_j − δ (eq. 22): (s, t)
+/// lies in one of the square's two triangles along its diagonal, whose barycentric weights are
+/// (1 − s, s − t, t) or (1 − t, t − s, s). One support call then gives g(ν) = |ν|² − ν·s_K(−ν)
+/// (eq. 25) and the support-plane bound L, and the answer is kept only when g is at its roundoff
+/// level (the loop's own acceptance of a polytope answer, Termination::roundoff_floor, or eq. 35
+/// when g is below ε·D²), so the reported bound is Theorem 1's as for any loop exit. Otherwise
+/// (nearly parallel segments whose stationary point the rounding moved, say) it returns false
+/// and the caller runs the loop. A warm-start cache is not read: the answer needs none.
+template <class S, class K>
+bool segment_pair_outcome(const K& k_set, S diameter, S d2_tolerance, S cutoff, S settled_below,
+                          LoopOutcome<S>& out) {
+  using std::sqrt;
+  Vec3<S> y[2][2], on_a[2], on_b[2];
+  for (int i = 0; i < 2; ++i)
+    for (int j = 0; j < 2; ++j) k_set.vertex_pair(i, j, y[i][j], on_a[i], on_b[j]);
+  // a(s) − b(t) − δ = r + s·d1 − t·d2 with r = y00, d1 = a1 − a0, d2 = b1 − b0.
+  const Vec3<S> r = y[0][0];
+  const Vec3<S> d1 = on_a[1] - on_a[0];
+  const Vec3<S> d2 = on_b[1] - on_b[0];
+  const S a = d1.dot(d1), e = d2.dot(d2), f = d2.dot(r), c = d1.dot(r);
+  const auto clamp01 = [](S x) { return x > S(0) ? (x < S(1) ? x : S(1)) : S(0); };
+  S s_par = 0, t_par = 0;
+  if (!(a > 0) && !(e > 0)) {
+    // both segments are points
+  } else if (!(a > 0)) {
+    t_par = clamp01(f / e);
+  } else if (!(e > 0)) {
+    s_par = clamp01(-c / a);
+  } else {
+    const S b = d1.dot(d2);
+    const S denominator = a * e - b * b;  // ≥ 0; 0 when parallel
+    s_par = denominator > 0 ? clamp01((b * f - c * e) / denominator) : S(0);
+    t_par = (b * s_par + f) / e;
+    if (t_par < 0) {
+      t_par = 0;
+      s_par = clamp01(-c / a);
+    } else if (t_par > 1) {
+      t_par = 1;
+      s_par = clamp01((b - c) / a);
+    }
+  }
+  // The triangle of the unit square that holds (s, t), and its barycentric weights.
+  const bool lower = s_par >= t_par;
+  const int corner[3][2] = {{0, 0}, {lower ? 1 : 0, lower ? 0 : 1}, {1, 1}};
+  const S weight[3] = {lower ? S(1) - s_par : S(1) - t_par, lower ? s_par - t_par : t_par - s_par,
+                       lower ? t_par : s_par};
+  Simplex<S>& simplex = out.simplex;
+  Nearest<S>& nearest = out.nearest;
+  Vec3<S> nu = Vec3<S>::Zero();
+  nearest.subset = 0;
+  for (int k = 0; k < 3; ++k) {
+    if (!(weight[k] > 0)) continue;
+    const int i = corner[k][0], j = corner[k][1];
+    const int slot = simplex.add(y[i][j], on_a[i], on_b[j], i, j, /*update_tables=*/false);
+    nearest.subset |= 1u << slot;
+    nearest.lambda[slot] = weight[k];
+    nu += weight[k] * y[i][j];  // eq. (22)
+  }
+  for (int slot = simplex.size(); slot < 4; ++slot) nearest.lambda[slot] = S(0);
+  simplex.newest = -1;
+  nearest.nu = nu;
+  nearest.nu_norm2 = nu.squaredNorm();
+  const S nu_length = sqrt(nearest.nu_norm2);
+  out.nu_length = nu_length;
+  out.iterations = 0;
+  out.subalgorithm_runs = 1;
+  out.warm_started = false;
+  out.finished_by = FinishedBy::distance_subalgorithm;
+  if (!(nearest.nu_norm2 > 0)) {  // the segments cross: ν = 0, g = 0
+    out.gap = 0;
+    out.lower_bound = 0;
+    out.support_calls = 0;
+    out.termination = Termination::origin_enclosed;
+    return true;
+  }
+  // The certificate: one support call, eq. (25), and the support plane's lower bound.
+  Vec3<S> w, support_a, support_b;
+  std::int32_t ia, ib;
+  k_set.support(-nu, w, support_a, support_b, ia, ib);
+  const S nu_dot_w = nu.dot(w);
+  const S gap = nearest.nu_norm2 - nu_dot_w;
+  const S lower_bound = std::max(S(0), nu_dot_w / nu_length);
+  const S roundoff = roundoff_gap_of_length(nu_length, diameter);
+  if (!(gap <= roundoff)) return false;  // not at the optimum to within roundoff: run the loop
+  out.gap = certified_gap(gap, nearest.nu_norm2, lower_bound, roundoff);
+  out.lower_bound = lower_bound;
+  out.support_calls = 1;
+  // The loop's closing certificate (run_numerical_algorithm): when ν lies inside a triangle of
+  // K's vertices (the segments' nearest points inside both, the usual near-contact case), the
+  // triangle's own normal is K's plane and proves d ≥ n̂·s_K(−n̂) to roundoff, where the plane
+  // normal to a short ν proves little.
+  if (simplex.size() == 3 && nu_length - lower_bound > distance_roundoff(diameter)) {
+    Vec3<S> normal = (simplex.y[1] - simplex.y[0]).cross(simplex.y[2] - simplex.y[0]);
+    const S length = normal.norm();
+    if (length > 0) {
+      normal /= length;
+      if (normal.dot(nu) < 0) normal = -normal;
+      k_set.support(-normal, w, support_a, support_b, ia, ib);
+      ++out.support_calls;
+      const S plane_bound = normal.dot(w);
+      if (plane_bound > out.lower_bound) {
+        out.lower_bound = plane_bound;
+        out.gap = certified_gap(out.gap, nearest.nu_norm2, plane_bound,
+                                roundoff_gap(nearest.nu_norm2, diameter));
+      }
+    }
+  }
+  const S proven = out.lower_bound;
+  if (proven > cutoff + distance_roundoff(diameter))
+    out.termination = Termination::beyond_cutoff;
+  else if (settled_below >= 0 && nearest.nu_norm2 <= settled_below * settled_below)
+    out.termination = Termination::contact;
+  else
+    out.termination =
+        out.gap <= d2_tolerance ? Termination::tolerance : Termination::roundoff_floor;
+  return true;
+}
+
 }  // namespace nearpoint::detail
