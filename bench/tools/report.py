@@ -332,7 +332,7 @@ class Report:
             if r["impl"] == "nearpoint" and (r["pair"], r["case"]) not in groups:
                 groups.append((r["pair"], r["case"]))
         peers = ["fcl_libccd", "fcl_indep", "coal_1e-12", "coal_1e-6"]
-        md = ["Median ns per query (examples × rounds, one interleaved run). nearpoint: GJK on support "
+        md = ["Median over 41 rounds of each block's mean ns per query (blocks timed whole after an untimed pass over the same block: these queries are too short for a clock read each; one interleaved run). nearpoint: GJK on support "
               "functions with near points and its certified error bound (a sphere is a point with a "
               "radius, a capsule a segment with one); FCL 0.7: `fcl::distance` on its own shapes with "
               "nearest points (it takes its specialised sphere–sphere, sphere–box, sphere–capsule and "
