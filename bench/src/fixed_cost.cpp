@@ -5,11 +5,12 @@
 //   nearpoint-fixed-cost [--passes N] [--case NAME] [--count]
 //
 // Cases: point-point (two spheres), segment-triangle (polytopes of 2 and 3 vertices, as in the
-// paper set), capsule-capsule, box-box, sphere-hull24. Each has 1,000 fixed-seed poses about half
-// of them separated; near points are asked for, as in the bench. Timing: one pass runs the 1,000
-// queries back to back; reported is the median over passes of the time per query (ns), which
-// includes the loop and a volatile store of the distance, ≈ 1 ns. With --count the passes are run
-// untimed (for `valgrind --tool=callgrind`; divide Ir by passes × 1,000).
+// paper set), capsule-capsule, box-box, sphere-hull24, hull24-hull24 (two 24-vertex polytopes).
+// Each has 1,000 fixed-seed poses about half of them separated; near points are asked for, as in
+// the bench. Timing: one pass runs the 1,000 queries back to back; reported is the median over
+// passes of the time per query (ns), which includes the loop and a volatile store of the distance,
+// ≈ 1 ns. With --count the passes are run untimed (for `valgrind --tool=callgrind`; divide Ir by
+// passes × 1,000).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -83,6 +84,8 @@ int main(int argc, char** argv) {
       {"box-box", Shape<double>(Box<double>{Vec3<double>(0.5, 0.3, 0.2)}),
        Shape<double>(Box<double>{Vec3<double>(0.4, 0.4, 0.25)}), 1.6},
       {"sphere-hull24", Shape<double>::sphere(0.3), Shape<double>(Polytope<double>(hull)), 1.0},
+      {"hull24-hull24", Shape<double>(Polytope<double>(hull)),
+       Shape<double>(Polytope<double>(hull)), 1.2},
   };
   DistanceOptions<double> options;
   options.near_points = true;

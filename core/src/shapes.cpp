@@ -79,7 +79,7 @@ namespace {
 // lowest index among equal values. '>' is false for NaN, so a NaN product is never selected.
 // Compiled for AVX2 and for the baseline (where each vector becomes SSE2 pairs), chosen at load
 // time. A state object, so that two scans can run interleaved (PairScan).
-template <class V, class I, class S, int kLanes>
+template <class V, class I, class S, int kLanes, bool kFirstHalfOnly = false>
 struct ArgmaxDot {
   using Index = std::remove_reference_t<decltype(std::declval<I>()[0])>;
   const S *xs, *ys, *zs;
@@ -87,10 +87,10 @@ struct ArgmaxDot {
   V best[2];
   I where[2];
   I lane_index;
-  // A polytope of at most kLanes vertices: the second half of its one block holds copies of
-  // vertex 0 (the padding), which can never win against vertex 0 itself, so only the first half
-  // is evaluated and the first merge of the reduction is skipped. The same index, bit for bit.
-  bool first_half_only;
+  // kFirstHalfOnly: a polytope of at most kLanes vertices, whose one block's second half holds
+  // copies of vertex 0 (the padding), which can never win against vertex 0 itself: only the first
+  // half is evaluated and the first merge of the reduction is skipped. The same index, bit for
+  // bit. A template parameter, so that the scan of larger polytopes is compiled as before.
 
   /// kLanes copies of s. A broadcast, where V{} + s added zero on GJK's critical path (and
   /// writing lane by lane went through memory).
@@ -101,16 +101,15 @@ struct ArgmaxDot {
       out = V{s, s, s, s, s, s, s, s};
   }
   /// The first block of 2 × kLanes vertices.
-  [[gnu::always_inline]] ArgmaxDot(const S* x, const S* y, const S* z, S dx, S dy, S dz,
-                                   bool half = false)
-      : xs(x), ys(y), zs(z), first_half_only(half) {
+  [[gnu::always_inline]] ArgmaxDot(const S* x, const S* y, const S* z, S dx, S dy, S dz)
+      : xs(x), ys(y), zs(z) {
     splat(dx, vx);
     splat(dy, vy);
     splat(dz, vz);
     for (int l = 0; l < kLanes; ++l) lane_index[l] = Index(l);
     value(0, best[0]);
     where[0] = lane_index;
-    if (!first_half_only) {
+    if constexpr (!kFirstHalfOnly) {
       value(kLanes, best[1]);
       where[1] = lane_index + Index(kLanes);
     } else {
@@ -154,7 +153,7 @@ struct ArgmaxDot {
     };
     V top = best[0];
     I at = where[0];
-    if (!first_half_only) merge(top, at, best[1], where[1]);
+    if constexpr (!kFirstHalfOnly) merge(top, at, best[1], where[1]);
     if constexpr (kLanes == 4) {
       merge(top, at, __builtin_shufflevector(top, top, 1, 0, 3, 2),
             __builtin_shufflevector(at, at, 1, 0, 3, 2));
@@ -182,12 +181,20 @@ template <class V, class I, class S, int kLanes>
 }
 
 /// Two scans in one loop (see PairScan): the common blocks interleaved, then the longer one's rest.
-template <class V, class I, class S, int kLanes>
-[[gnu::always_inline]] inline detail::IndexPair argmax_dot_pair_simd(
-    const S* const a[3], std::size_t na, S ax, S ay, S az, const S* const b[3], std::size_t nb,
-    S bx, S by, S bz, std::size_t real_a, std::size_t real_b) {
-  ArgmaxDot<V, I, S, kLanes> scan_a(a[0], a[1], a[2], ax, ay, az, real_a <= kLanes);
-  ArgmaxDot<V, I, S, kLanes> scan_b(b[0], b[1], b[2], bx, by, bz, real_b <= kLanes);
+/// kTiny: both polytopes have at most kLanes vertices (one block each, see ArgmaxDot).
+template <class V, class I, class S, int kLanes, bool kTiny>
+[[gnu::always_inline]] inline detail::IndexPair argmax_dot_pair_simd(const S* const a[3],
+                                                                     std::size_t na, S ax, S ay,
+                                                                     S az, const S* const b[3],
+                                                                     std::size_t nb, S bx, S by,
+                                                                     S bz) {
+  if constexpr (kTiny) {
+    ArgmaxDot<V, I, S, kLanes, true> scan_a(a[0], a[1], a[2], ax, ay, az);
+    ArgmaxDot<V, I, S, kLanes, true> scan_b(b[0], b[1], b[2], bx, by, bz);
+    return {scan_a.index(), scan_b.index()};
+  }
+  ArgmaxDot<V, I, S, kLanes> scan_a(a[0], a[1], a[2], ax, ay, az);
+  ArgmaxDot<V, I, S, kLanes> scan_b(b[0], b[1], b[2], bx, by, bz);
   const std::size_t common = std::min(na, nb);
   std::size_t i = 2 * kLanes;
   for (; i < common; i += 2 * kLanes) {
@@ -212,16 +219,22 @@ __attribute__((always_inline)) inline std::size_t argmax_dot(const S* xs, const 
   else
     return argmax_dot_simd<Float8, Int32x8, float, 8>(xs, ys, zs, n, dx, dy, dz);
 }
+/// The lanes of one vector of S: a polytope of at most this many vertices scans one vector.
 template <class S>
-__attribute__((always_inline)) inline detail::IndexPair argmax_dot_pair(
-    const S* const a[3], std::size_t na, S ax, S ay, S az, const S* const b[3], std::size_t nb,
-    S bx, S by, S bz, std::size_t real_a, std::size_t real_b) {
+constexpr std::size_t kScanLanes = std::is_same_v<S, double> ? 4 : 8;
+
+template <class S, bool kTiny>
+__attribute__((always_inline)) inline detail::IndexPair argmax_dot_pair(const S* const a[3],
+                                                                        std::size_t na, S ax, S ay,
+                                                                        S az, const S* const b[3],
+                                                                        std::size_t nb, S bx, S by,
+                                                                        S bz) {
   if constexpr (std::is_same_v<S, double>)
-    return argmax_dot_pair_simd<Double4, Int64x4, double, 4>(a, na, ax, ay, az, b, nb, bx, by, bz,
-                                                             real_a, real_b);
+    return argmax_dot_pair_simd<Double4, Int64x4, double, 4, kTiny>(a, na, ax, ay, az, b, nb, bx,
+                                                                    by, bz);
   else
-    return argmax_dot_pair_simd<Float8, Int32x8, float, 8>(a, na, ax, ay, az, b, nb, bx, by, bz,
-                                                           real_a, real_b);
+    return argmax_dot_pair_simd<Float8, Int32x8, float, 8, kTiny>(a, na, ax, ay, az, b, nb, bx, by,
+                                                                  bz);
 }
 
 // One copy compiled for AVX2 and one for the baseline, chosen once at run time. Explicit dispatch
@@ -537,8 +550,11 @@ template <class S>
     return climb_indices(a, Vec3<S>(ax, ay, az), hint_a, b, Vec3<S>(bx, by, bz), hint_b);
   const S* const coords_a[3] = {a.xs_.data(), a.ys_.data(), a.zs_.data()};
   const S* const coords_b[3] = {b.xs_.data(), b.ys_.data(), b.zs_.data()};
-  return argmax_dot_pair<S>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx, by, bz,
-                            a.size_, b.size_);
+  if (a.size_ <= kScanLanes<S> && b.size_ <= kScanLanes<S>)
+    return argmax_dot_pair<S, true>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx,
+                                    by, bz);
+  return argmax_dot_pair<S, false>(coords_a, a.xs_.size(), ax, ay, az, coords_b, b.xs_.size(), bx,
+                                   by, bz);
 }
 
 template <class S>
