@@ -313,6 +313,10 @@ class Report:
                 rows.append([c, f"({n['polytope_a']},{n['polytope_b']})", n["M"], ns(t),
                              f"{ns(tf)} ({LABEL.get(f, '—')})", ratio(tf / t),
                              f"{ns(ta)} ({LABEL.get(a, '—')})", ratio(ta / t), "yes" if win else "**no**"])
+        if not fast:  # neither openGJK nor coal measured: no yardstick, no target verdict
+            total = 0
+            out.append("\nopenGJK and coal were not measured in this run (see the summary's "
+                       "'Not measured'): no target peer.\n")
         out.append(f"\nnearpoint at or below the fastest target peer in **{wins} of {total}** groups; "
                    f"at or below every peer in {wins_all} of {total}.\n")
         out.append(table(["case", "pair", "M", "nearpoint ns", "fastest target peer ns", "ratio",
@@ -721,7 +725,8 @@ class Report:
                "openGJK 174d3aa (scalar, double, `compute_minimum_distance` on vertices posed in the "
                "call), coal cf75966 (`GJKSolver::shapeDistance` on `coal::Convex<coal::Triangle>` "
                "from the hulls, GJK only, tolerance 1e-12 and 1e-6; openGJK and coal built from "
-               f"the snapshots in `{m.get('peers_dir', '../shared/peers')}`). "
+               f"the snapshots in `{m.get('peers_dir', '../shared/peers')}`, when there: see "
+               "'Not measured' below). "
                f"nearpoint runs with its defaults (ε = {num(self.meta.get('default_epsilon')):.3g}, "
                f"max_iterations {self.meta.get('default_max_iterations', '?')}), near points on, and "
                "both subalgorithms are measured (the engine's default is "
