@@ -3,7 +3,7 @@
 # Idempotent: packages already present are left alone, and nothing is fetched when all are there.
 #
 #   deploy/install-deps.sh            # build + test dependencies
-#   deploy/install-deps.sh --bench    # also the benchmark peers (FCL, libccd, Bullet)
+#   deploy/install-deps.sh --bench    # also the benchmark peers (FCL, libccd, Bullet; coal's Boost)
 #   deploy/install-deps.sh --image    # only what building nearpointd and nearpoint needs (the
 #                                     # build stage of deploy/Containerfile: no tests, no tools)
 set -euo pipefail
@@ -66,7 +66,9 @@ if ! $image; then
   if ! command -v kubectl >/dev/null 2>&1; then packages+=(kubernetes-client); fi
 fi
 if $bench; then
-  packages+=(libbenchmark-dev libfcl-dev libccd-dev libbullet-dev python3-matplotlib)
+  # coal, built from ../shared/peers by bench/, needs Boost's filesystem library
+  packages+=(libbenchmark-dev libfcl-dev libccd-dev libbullet-dev python3-matplotlib
+    libboost-filesystem-dev)
 fi
 
 missing=()
