@@ -346,6 +346,11 @@ if __name__ == "__main__":
     parser.add_argument("--pythonpath", required=True)
     ARGS = parser.parse_args()
     sys.path.insert(0, ARGS.pythonpath)
+    # This script starts nearpointd and the CLI while channels are open. With gRPC's fork support
+    # on, each start waits for gRPC's thread pool to go idle, and a channel retrying a refused
+    # handshake never does: one CI run timed out so. The children exec at once and share nothing
+    # with gRPC, so the support is not needed.
+    os.environ["GRPC_ENABLE_FORK_SUPPORT"] = "false"
     import grpc  # noqa: E402
     import nearpoint_client as npc  # noqa: E402
 
