@@ -268,6 +268,30 @@ struct Recorder {
   std::map<std::uint64_t, Eigen::Vector3d> sent_pose;
 };
 
+// One session per scene, through `client`, each recording its reports and resume events in its
+// own Recorder; up to 4 updates in flight, 20 s to reconnect.
+void open_recorded_sessions(npc::Client& client, std::vector<std::unique_ptr<Recorder>>& records,
+                            std::vector<std::unique_ptr<npc::Session>>& sessions) {
+  for (int k = 0; k < kScenes; ++k) {
+    records.push_back(std::make_unique<Recorder>());
+    Recorder* record = records.back().get();
+    npc::SessionOptions options;
+    options.max_in_flight = 4;
+    options.reconnect_timeout = 20000ms;
+    options.on_report = [record](const npc::Report& report) {
+      std::lock_guard lock(record->mutex);
+      record->reports.push_back(report);
+    };
+    options.on_resumed = [record](const npc::ResumeEvent& event) {
+      std::lock_guard lock(record->mutex);
+      record->resumes.push_back(event);
+    };
+    auto session = client.open_session(scene_name(k), options);
+    ASSERT_TRUE(session.ok()) << session.status().describe();
+    sessions.push_back(std::move(*session));
+  }
+}
+
 TEST_F(Sharded, ScenesSpreadOverEveryReplicaAndStayThere) {
   ASSERT_NO_FATAL_FAILURE(create_scenes());
   const std::map<std::string, int> where = placement();
@@ -357,24 +381,7 @@ TEST_F(Sharded, AReplicaDiesOnlyItsScenesResumeAndItComesBack) {
 
   std::vector<std::unique_ptr<Recorder>> records;
   std::vector<std::unique_ptr<npc::Session>> sessions;
-  for (int k = 0; k < kScenes; ++k) {
-    records.push_back(std::make_unique<Recorder>());
-    Recorder* record = records.back().get();
-    npc::SessionOptions options;
-    options.max_in_flight = 4;
-    options.reconnect_timeout = 20000ms;
-    options.on_report = [record](const npc::Report& report) {
-      std::lock_guard lock(record->mutex);
-      record->reports.push_back(report);
-    };
-    options.on_resumed = [record](const npc::ResumeEvent& event) {
-      std::lock_guard lock(record->mutex);
-      record->resumes.push_back(event);
-    };
-    auto session = client_->open_session(scene_name(k), options);
-    ASSERT_TRUE(session.ok()) << session.status().describe();
-    sessions.push_back(std::move(*session));
-  }
+  ASSERT_NO_FATAL_FAILURE(open_recorded_sessions(*client_, records, sessions));
   std::uint64_t step = 0;
   auto push_all = [&](const std::set<int>& only = {}) {
     ++step;
@@ -558,24 +565,7 @@ TEST_F(Sharded, ADrainingReplicaHandsItsScenesOnWithoutLoss) {
 
   std::vector<std::unique_ptr<Recorder>> records;
   std::vector<std::unique_ptr<npc::Session>> sessions;
-  for (int k = 0; k < kScenes; ++k) {
-    records.push_back(std::make_unique<Recorder>());
-    Recorder* record = records.back().get();
-    npc::SessionOptions options;
-    options.max_in_flight = 4;
-    options.reconnect_timeout = 20000ms;
-    options.on_report = [record](const npc::Report& report) {
-      std::lock_guard lock(record->mutex);
-      record->reports.push_back(report);
-    };
-    options.on_resumed = [record](const npc::ResumeEvent& event) {
-      std::lock_guard lock(record->mutex);
-      record->resumes.push_back(event);
-    };
-    auto session = client_->open_session(scene_name(k), options);
-    ASSERT_TRUE(session.ok()) << session.status().describe();
-    sessions.push_back(std::move(*session));
-  }
+  ASSERT_NO_FATAL_FAILURE(open_recorded_sessions(*client_, records, sessions));
   std::uint64_t step = 0;
   auto push_all = [&] {
     ++step;
