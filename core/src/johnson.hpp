@@ -43,6 +43,18 @@ inline S det3(const Vec3<S>& a, const Vec3<S>& b, const Vec3<S>& c) {
   return a.dot(b.cross(c));
 }
 
+/// det(p1, p2, p3): the signed volume of the tetrahedron (0, p1, p2, p3), formed as
+/// p1·((p2 − p1) × (p3 − p1)) (equal in exact arithmetic). The cross product of the points
+/// themselves, p2 × p3, cancels terms of size |p|² when the tetrahedron lies far from the origin
+/// (an error of ε|p|³ against a volume of h·|n|, with h the origin's distance from the face's
+/// plane): the sign then came out at random, and a tetrahedron 10⁶ of its sizes away was taken to
+/// enclose the origin. With edge vectors the error is ε|p|·|n|, i.e. h is resolved to a few ulps
+/// of |p|, as the other three volumes (each formed about a vertex) already resolve theirs.
+template <class S>
+inline S volume_with_origin(const Vec3<S>& p1, const Vec3<S>& p2, const Vec3<S>& p3) {
+  return p1.dot((p2 - p1).cross(p3 - p1));
+}
+
 /// Whether the origin lies strictly inside the tetrahedron (p0, p1, p2, p3), from the signs of
 /// signed volumes formed directly from coordinates: with one vertex moved to the origin, each
 /// volume must have the sign of the whole. Robust where the Δ's of a flat tetrahedron are not.
@@ -51,7 +63,7 @@ inline bool tetrahedron_encloses_origin(const Vec3<S>& p0, const Vec3<S>& p1, co
                                         const Vec3<S>& p3) {
   const Vec3<S> zero = Vec3<S>::Zero();
   const S whole = det3<S>(p1 - p0, p2 - p0, p3 - p0);
-  return same_sign(whole, det3<S>(p1 - zero, p2 - zero, p3 - zero)) &&
+  return same_sign(whole, volume_with_origin(p1, p2, p3)) &&
          same_sign(whole, det3<S>(zero - p0, p2 - p0, p3 - p0)) &&
          same_sign(whole, det3<S>(p1 - p0, zero - p0, p3 - p0)) &&
          same_sign(whole, det3<S>(p1 - p0, p2 - p0, zero - p0));
@@ -156,7 +168,7 @@ struct Simplex {
   template <unsigned Used, unsigned Slot>
   void update_deltas_fixed() {
     static constexpr DeltaPlan kPlan = make_delta_plan(Used, Slot);
-    [this]<std::size_t... P>(std::index_sequence<P...>) {
+    [&]<std::size_t... P>(std::index_sequence<P...>) {
       (apply_step<kPlan.steps[P]>(), ...);
     }
     (std::make_index_sequence<kPlan.count>{});

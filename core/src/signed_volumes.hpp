@@ -173,7 +173,7 @@ inline void sv_tetrahedron(const Vec3<S> (&y)[4], Nearest<S>& out) {
   // Signed volumes with one vertex moved to the origin: the origin's barycentric weights times
   // the whole volume.
   const S mu = det3<S>(s2 - s1, s3 - s1, s4 - s1);
-  const S c[4] = {det3<S>(s2 - zero, s3 - zero, s4 - zero), det3<S>(zero - s1, s3 - s1, s4 - s1),
+  const S c[4] = {volume_with_origin(s2, s3, s4), det3<S>(zero - s1, s3 - s1, s4 - s1),
                   det3<S>(s2 - s1, zero - s1, s4 - s1), det3<S>(s2 - s1, s3 - s1, zero - s1)};
   // Faces whose opposite vertex shares the whole's sign hide the origin. One mask, not a chain of
   // branches: which faces those are is data.

@@ -285,6 +285,51 @@ std::string describe(const DistanceResult<S>& r) {
   return out.str();
 }
 
+// The input as read, for NEARPOINT_FUZZ_VERBOSE: enough to rebuild a finding as a unit test.
+template <class S>
+std::string describe(const Body<S>& body) {
+  std::ostringstream out;
+  out.precision(17);
+  const auto vec = [&](const Vec3<S>& v) { out << '(' << v.transpose() << ')'; };
+  for (const Piece<S>& piece : body.pieces) {
+    std::visit(
+        [&](const auto& g) {
+          using G = std::decay_t<decltype(g)>;
+          if constexpr (std::is_same_v<G, Point>) {
+            out << "point";
+          } else if constexpr (std::is_same_v<G, Segment<S>>) {
+            out << "segment ";
+            vec(g.a);
+            vec(g.b);
+          } else if constexpr (std::is_same_v<G, Box<S>>) {
+            out << "box ";
+            vec(g.half_extents);
+          } else if constexpr (std::is_same_v<G, Polytope<S>>) {
+            out << "polytope";
+            for (std::size_t i = 0; i < g.size(); ++i) {
+              out << ' ';
+              vec(g.vertex(i));
+            }
+          } else if constexpr (std::is_same_v<G, Cylinder<S>>) {
+            out << "cylinder r " << g.radius << " h " << g.half_height;
+          } else if constexpr (std::is_same_v<G, Cone<S>>) {
+            out << "cone r " << g.radius << " h " << g.half_height;
+          } else {
+            out << "ellipsoid ";
+            vec(g.radii);
+          }
+        },
+        piece.shape.geometry);
+    out << " radius " << piece.shape.radius << " offset R ("
+        << piece.offset.rotation.reshaped().transpose() << ") t ";
+    vec(piece.offset.translation);
+    out << "; ";
+  }
+  out << "pose R (" << body.pose.rotation.reshaped().transpose() << ") t ";
+  vec(body.pose.translation);
+  return out.str();
+}
+
 template <class S>
 bool result_finite(const DistanceResult<S>& r) {
   return finite(r.distance) && finite(r.error_bound) && finite(r.gap) && finite(r.diameter_bound) &&
@@ -302,7 +347,9 @@ void check_result(const DistanceResult<S>& r, const Body<S>& a, const Body<S>& b
   const auto where = [&] { return std::string(what) + ": " + describe(r); };
   // NEARPOINT_FUZZ_VERBOSE=1: print every answer (to see what a seed or a finding does).
   static const bool verbose = std::getenv("NEARPOINT_FUZZ_VERBOSE") != nullptr;
-  if (verbose) std::fprintf(stderr, "%s\n", where().c_str());
+  if (verbose)
+    std::fprintf(stderr, "%s\n  A: %s\n  B: %s\n", where().c_str(), describe(a).c_str(),
+                 describe(b).c_str());
   const bool inputs_finite = a.inputs_finite && b.inputs_finite;
   if (r.status == Status::invalid_input) {
     NEARPOINT_FUZZ_CHECK(r.message != nullptr && *r.message != '\0',

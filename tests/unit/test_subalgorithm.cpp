@@ -420,5 +420,58 @@ TEST(SignedVolumes, ShortSegmentFarFromOriginKeepsItsWeightsAccurate) {
   EXPECT_LT(worst, 4 * std::numeric_limits<double>::epsilon());
 }
 
+// A tetrahedron of size s at distance R from the origin never encloses it, however large R/s: the
+// verdict "intersecting" rests on the signs of its four volumes with the origin. The one formed
+// from the points alone, det(p1, p2, p3), once cancelled terms of |p|² and took its sign from
+// roundoff from R/s ≈ 4·10³ in float (≈ 7·10⁷ in double): a warm start that moved a tetrahedron
+// from around the origin to 1.2·10⁷ away answered "intersecting" (fuzz_engine, regressions/
+// engine/float-perturbed-warm-start-intersecting-7e6-apart). The nearest point found instead must
+// lie within the roundoff of the points' size of the exact one (long double).
+template <class S>
+void check_far_tetrahedra(int trials) {
+  using L = long double;
+  using VS = Vec3<S>;
+  std::mt19937_64 rng(2026);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  int enclosed_sv = 0, enclosed_johnson = 0;
+  double worst = 0;
+  for (int trial = 0; trial < trials; ++trial) {
+    const double ratio = std::pow(10.0, 1.0 + 9.0 * (trial % 100) / 99.0);  // R/s: 10 … 10¹⁰
+    const V far = ratio * V(normal(rng), normal(rng), normal(rng)).normalized();
+    std::vector<V> pts;
+    for (int i = 0; i < 4; ++i)
+      pts.emplace_back((far + V(normal(rng), normal(rng), normal(rng)))
+                           .template cast<S>()
+                           .template cast<double>());
+    Simplex<S> simplex;
+    for (const V& p : pts)
+      simplex.add(p.template cast<S>(), p.template cast<S>(), VS::Zero(), 0, 0);
+    simplex.newest = -1;
+    enclosed_johnson += simplex.encloses_origin();
+    Nearest<S> sv;
+    signed_volumes(simplex, sv);
+    enclosed_sv += sv.subset == 15u;
+    const V exact = brute_force_nearest(pts);
+    double size = 0;
+    for (const V& p : pts) size = std::max(size, p.norm());
+    worst = std::max(
+        worst, double((sv.nu.template cast<L>() - exact.template cast<L>()).norm() / L(size)));
+  }
+  std::printf(
+      "tetrahedra 10 to 1e10 of their sizes from the origin (%s): enclosed: signed volumes %d, "
+      "johnson %d; worst |nu - exact| / |y| = %.3g\n",
+      sizeof(S) == 4 ? "float" : "double", enclosed_sv, enclosed_johnson, worst);
+  EXPECT_EQ(enclosed_sv, 0);
+  EXPECT_EQ(enclosed_johnson, 0);
+  EXPECT_LT(worst, 64 * std::numeric_limits<S>::epsilon());
+}
+
+TEST(SignedVolumes, FarTetrahedronNeverEnclosesTheOriginInFloat) {
+  check_far_tetrahedra<float>(2000);
+}
+TEST(SignedVolumes, FarTetrahedronNeverEnclosesTheOriginInDouble) {
+  check_far_tetrahedra<double>(2000);
+}
+
 }  // namespace
 }  // namespace nearpoint::detail
