@@ -15,5 +15,10 @@ if [ -n "${NEARPOINT_FUZZ_RUNS:-}" ]; then limit=("-runs=$NEARPOINT_FUZZ_RUNS");
 # -timeout: one input taking 10 s is a hang (every target bounds its per-input work).
 # -rss_limit_mb: a leak or a blow-up, not a big machine's allowance.
 # -max_len: enough for every seed; larger inputs only slow the search.
+# -entropic=0: libFuzzer's default entropic schedule spent 75% of fuzz_engine's time on its own
+# bookkeeping (InputCorpus::UpdateFeatureFrequency and AddRareFeature, under perf) once the corpus
+# held ~60,000 features; the plain schedule runs 4–5× as many inputs per second (engine: 1,200 →
+# 5,500 per second under ASan) and found two new compound findings in its first minute.
 exec "$binary" "${limit[@]}" -timeout=10 -rss_limit_mb=2048 -max_len=8192 -print_final_stats=1 \
+  -entropic=0 \
   -artifact_prefix="$artifacts/" ${NEARPOINT_FUZZ_ARGS:-} "$corpus" "$@"
