@@ -521,10 +521,26 @@ void run(ByteReader& in) {
 
   const Compound<S> ca(a.pieces), cb(b.pieces);
   std::vector<SimplexCache> caches(a.pieces.size() * b.pieces.size());
+  static const bool verbose = std::getenv("NEARPOINT_FUZZ_VERBOSE") != nullptr;
+  if (verbose)  // every piece pair on its own, as single shapes at their composed world poses
+    for (std::size_t i = 0; i < a.pieces.size(); ++i)
+      for (std::size_t j = 0; j < b.pieces.size(); ++j)
+        std::fprintf(stderr, "pieces %zu-%zu alone: %s\n", i, j,
+                     describe(distance(a.pieces[i].shape, piece_pose(a, i), b.pieces[j].shape,
+                                       piece_pose(b, j), options))
+                         .c_str());
   const CompoundResult<S> cold = distance(ca, a.pose, cb, b.pose, options, caches);
+  if (verbose)
+    std::fprintf(stderr, "compound cold: pieces %d-%d, evaluated %d, pruned %d, stopped %d\n",
+                 cold.piece_a, cold.piece_b, cold.pairs_evaluated, cold.pairs_pruned,
+                 cold.pairs_stopped_at_best);
   check_result(cold.nearest, a, b, std::max(cold.piece_a, 0), std::max(cold.piece_b, 0), directions,
                "compound cold");
   const CompoundResult<S> warm = distance(ca, a.pose, cb, b.pose, options, caches);
+  if (verbose)
+    std::fprintf(stderr, "compound warm: pieces %d-%d, evaluated %d, pruned %d, stopped %d\n",
+                 warm.piece_a, warm.piece_b, warm.pairs_evaluated, warm.pairs_pruned,
+                 warm.pairs_stopped_at_best);
   check_result(warm.nearest, a, b, std::max(warm.piece_a, 0), std::max(warm.piece_b, 0), directions,
                "compound warm");
   check_agree(cold.nearest, warm.nearest, "compound cold vs warm");

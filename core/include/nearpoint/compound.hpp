@@ -46,8 +46,11 @@ class Compound {
 template <class Scalar>
 struct CompoundResult {
   /// The result for the nearest piece pair (its near points and gradient refer to the whole
-  /// objects' poses). When intersecting and a penetration bound was asked for, `penetration_bound`
-  /// is the largest d⁻ over the intersecting piece pairs (paper, Section VIII).
+  /// objects' poses). Its `error_bound` covers the objects' distance, not only this pair's: when
+  /// another evaluated pair's interval [distance − error_bound, distance + error_bound] reaches
+  /// lower, the bound is widened to reach it. When intersecting and a penetration bound was asked
+  /// for, `penetration_bound` is the largest d⁻ over the intersecting piece pairs (paper, Section
+  /// VIII).
   DistanceResult<Scalar> nearest;
   int piece_a = -1;
   int piece_b = -1;
