@@ -186,7 +186,7 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
     const S interval = std::max(S(0), core_distance - loop.lower_bound);
     result.error_bound = std::min(sqrt(loop.gap), interval) + roundoff;
   } else {
-    result.error_bound = roundoff;
+    result.error_bound = sqrt(loop.gap) + roundoff;  // the enclosure's residual (see the loop)
   }
   // A rotation that is not quite one (accepted up to max |(RᵀR − I)ᵢⱼ| ≤ 1e-6 in double, 1.2e-4
   // in float: see Pose). B is placed in A's frame with R_Aᵀ, which is R_A⁻¹ only when E = R_AᵀR_A

@@ -119,6 +119,52 @@ S certified_gap(S gap, S nu_norm2, S lower_bound, S roundoff) {
   return std::max(S(0), sharpened >= -roundoff ? std::min(gap, sharpened) : gap);
 }
 
+/// Whether ν = 0 from a full tetrahedron is certified. The subalgorithms call the origin
+/// enclosed from the signs of volumes of size |y|·|n| (n a face normal): on a needle-thin
+/// tetrahedron with edges ~D long, n's own cancellation can flip them (found by fuzz_engine: a
+/// polytope with a spike 2e9 long answered 'intersecting' where the shapes are 0.014 apart). The
+/// verdict claims d ≈ 0, and either of two things proves it to within `tolerance`:
+///  - the weights λ the signs produced: d ≤ |Σλᵢyᵢ|, a convex combination of points of K (up to
+///    rounding). Decisive when the tetrahedron is well shaped, whatever the origin's depth;
+///  - the nearest point of the faces: d ≤ its distance. Decisive when the tetrahedron is flat or
+///    the origin lies near a face, where the weights carry large relative errors (a flat
+///    tetrahedron around the origin gives garbage λ but a face through the origin).
+/// A wrong "enclosed" fails both: its weights miss the origin and so do its faces. `certified2`
+/// receives the square of the proven bound (0 for fewer than four points, whose ν is formed as
+/// Σλy already). NaN is not certified.
+template <class S>
+bool enclosure_certified(const Simplex<S>& simplex, const Nearest<S>& nearest, S tolerance,
+                         S& certified2) {
+  certified2 = 0;
+  if (nearest.subset != 15u) return true;
+  const S tolerance2 = tolerance * tolerance;
+  const Vec3<S>(&y)[4] = simplex.y;
+  const auto residual2 = [&](const S(&lambda)[4]) {
+    Vec3<S> residual = Vec3<S>::Zero();
+    for (int i = 0; i < 4; ++i) residual += lambda[i] * y[i];
+    return residual.squaredNorm();
+  };
+  // The subalgorithm's own weights first (the common case: twelve multiply-adds).
+  certified2 = residual2(nearest.lambda);
+  if (certified2 <= tolerance2) return true;
+  // Then signed volumes' weights: Johnson's Δ's for the whole tetrahedron can miss where these
+  // hold (36 of the paper set's 2000 intersecting pairs, with the paper's ε).
+  const Vec3<S> zero = Vec3<S>::Zero();
+  const S c[4] = {volume_with_origin(y[1], y[2], y[3]),
+                  det3<S>(zero - y[0], y[2] - y[0], y[3] - y[0]),
+                  det3<S>(y[1] - y[0], zero - y[0], y[3] - y[0]),
+                  det3<S>(y[1] - y[0], y[2] - y[0], zero - y[0])};
+  const S sum = c[0] + c[1] + c[2] + c[3];
+  const S lambda[4] = {c[0] / sum, c[1] / sum, c[2] / sum, c[3] / sum};
+  certified2 = residual2(lambda);
+  if (certified2 <= tolerance2) return true;
+  Nearest<S> faces;
+  nearest_of_faces(simplex.y, 15u, faces);
+  if (!(faces.nu_norm2 <= tolerance2)) return false;
+  certified2 = faces.nu_norm2;
+  return true;
+}
+
 /// What the loop hands back to the query: the final simplex and ν, and how the run ended.
 template <class S>
 struct LoopOutcome {
@@ -298,9 +344,19 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
                            simplex.size(), nearest->subset, double(nearest->nu_norm2), double(gap),
                            int(backup), int(repeated));
     if (!(nearest->nu_norm2 > 0)) {
-      out.termination = Termination::origin_enclosed;  // ν = 0: "intersecting", g = 0
-      exit_before_support = true;
-      break;
+      S certified2;
+      if (enclosure_certified(simplex, *nearest, interval_floor, certified2)) {
+        out.gap = certified2;  // d ≤ its square root: the verdict's own certificate
+        out.termination = Termination::origin_enclosed;  // ν = 0: "intersecting"
+        exit_before_support = true;
+        break;
+      }
+      // Neither the weights nor the faces put the origin within roundoff of the tetrahedron:
+      // the signs that said "enclosed" were wrong. The nearest point of its faces is the iterate
+      // instead, and the loop goes on from there.
+      nearest_of_faces(simplex.y, 15u, *nearest);
+      ++extra_runs;
+      continue;
     }
     if (out.gap <= d2_tolerance) {
       out.termination = Termination::tolerance;  // eq. (35)

@@ -162,6 +162,23 @@ inline void sv_triangle(const Vec3<S>& s1, int i, const Vec3<S>& s2, int j, cons
   nearest_edge(s1, i, s2, j, s3, k, 8u, out);
 }
 
+/// The nearest point of the tetrahedron's faces opposite the vertices in `faces` (bit m: the face
+/// without slot m). The face opposite vertex m is (m + 1, m + 2, m + 3) mod 4. In a GJK step about
+/// 60% of the tetrahedra that do not enclose the origin show it one face only, and the nearest
+/// point lies on it: the loop then runs once, straight into `out`.
+template <class S>
+inline void nearest_of_faces(const Vec3<S> (&y)[4], unsigned faces, Nearest<S>& out) {
+  Nearest<S> face;
+  bool first = true;
+  for (int m = 0; m < 4; ++m) {
+    if (!((faces >> m) & 1u)) continue;
+    const int a = (m + 1) % 4, b = (m + 2) % 4, c3 = (m + 3) % 4;
+    sv_triangle(y[a], a, y[b], b, y[c3], c3, first ? out : face);
+    if (!first) keep_nearer(face, out);
+    first = false;
+  }
+}
+
 /// The tetrahedron of all four slots.
 template <class S>
 inline void sv_tetrahedron(const Vec3<S> (&y)[4], Nearest<S>& out) {
@@ -189,19 +206,7 @@ inline void sv_tetrahedron(const Vec3<S> (&y)[4], Nearest<S>& out) {
   }
   // A flat tetrahedron hides nothing: every face is a candidate.
   const bool flat = !(mu != 0);
-  const unsigned visible = flat ? 15u : ~hidden & 15u;
-  // The face opposite vertex m is (m + 1, m + 2, m + 3) mod 4. In a GJK step about 60% of the
-  // tetrahedra that do not enclose the origin show it one face only, and the nearest point lies
-  // on it: the loop then runs once, straight into `out`.
-  Nearest<S> face;
-  bool first = true;
-  for (int m = 0; m < 4; ++m) {
-    if (!((visible >> m) & 1u)) continue;
-    const int a = (m + 1) % 4, b = (m + 2) % 4, c3 = (m + 3) % 4;
-    sv_triangle(y[a], a, y[b], b, y[c3], c3, first ? out : face);
-    if (!first) keep_nearer(face, out);
-    first = false;
-  }
+  nearest_of_faces(y, flat ? 15u : ~hidden & 15u, out);
 }
 
 /// ν(co V_k) by signed volumes, on the occupied slots of the simplex: a table gives each occupancy
