@@ -15,8 +15,9 @@
 #                        All stages run; the command fails if any failed, and says which.
 #                        TEST_STAGES="main fuzz" (say) runs a subset.
 #   deploy/run.sh fuzz [SECONDS]
-#                        the fuzz stage alone, each target for SECONDS (default 60); the documented
-#                        longer run is `deploy/run.sh fuzz 3600` (tests/fuzz/README.md).
+#                        the fuzz stage alone, each target for SECONDS (default 60); the 10⁷-input
+#                        run is in tests/fuzz/README.md (NEARPOINT_FUZZ_RUNS, and
+#                        NEARPOINT_FUZZ_SANITIZE=undefined for build-fuzz-ub, UBSan without ASan).
 #   deploy/run.sh sharded [smoke]
 #                        three nearpointd behind HAProxy (consistent hashing on the scene id) on
 #                        127.0.0.1 until Ctrl-C; `smoke` spreads 30 scenes and stops (sharded.sh)
@@ -25,7 +26,8 @@
 #                        built with g++ in its own build tree (build-asan or build-tsan).
 # Environment: BUILD_DIR (default build; the main tree only), JOBS (default: number of cores),
 # CTEST_ARGS (extra, every stage), DEMO_PLOT (the demo's SVG, default demo.svg here), DEMO_ARGS
-# (e.g. "--steps 100 --json"), NEARPOINT_FUZZ_SECONDS / NEARPOINT_FUZZ_RUNS (tests/fuzz/README.md).
+# (e.g. "--steps 100 --json"), NEARPOINT_FUZZ_SECONDS / NEARPOINT_FUZZ_RUNS /
+# NEARPOINT_FUZZ_SANITIZE (tests/fuzz/README.md).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
@@ -57,10 +59,13 @@ tsan_env() {
 
 # build-fuzz: clang, everything instrumented for coverage and ASan+UBSan, the tests included, so
 # that the fuzz stage and the asan stage configure it alike and share its objects.
+# With $1 = undefined: build-fuzz-ub, UBSan without ASan (the long runs: more inputs per second).
 configure_and_build_fuzz_tree() {
+  local sanitize="${1:-address,undefined}"
   build=build-fuzz
+  if [ "$sanitize" = undefined ]; then build=build-fuzz-ub; fi
   configure_and_build -DCMAKE_CXX_COMPILER=clang++ -DCMAKE_C_COMPILER=clang -DNEARPOINT_FUZZ=ON \
-    -DNEARPOINT_BUILD_TESTS=ON -DNEARPOINT_WITH_DDS=ON
+    -DNEARPOINT_FUZZ_SANITIZE="$sanitize" -DNEARPOINT_BUILD_TESTS=ON -DNEARPOINT_WITH_DDS=ON
 }
 
 # The fuzz stage: the libFuzzer targets of tests/fuzz in build-fuzz (clang; ASan+UBSan), every
@@ -73,10 +78,11 @@ fuzz_stage() {
   if [ -n "${NEARPOINT_FUZZ_RUNS:-}" ]; then timeout=172800; fi
   # Subshells, here and below: one stage's build directory and options stay out of the next.
   # The DDS bridge is not fuzzed (the asan stage runs its tests).
+  # NEARPOINT_FUZZ_SANITIZE=undefined: the same targets without ASan, in build-fuzz-ub.
   ( asan_env
     BUILD_TARGETS="fuzz_engine fuzz_jsonl fuzz_scene_file fuzz_requests" \
-      configure_and_build_fuzz_tree &&
-    NEARPOINT_FUZZ_SECONDS="$seconds" ctest --test-dir build-fuzz --output-on-failure -j "$jobs" \
+      configure_and_build_fuzz_tree "${NEARPOINT_FUZZ_SANITIZE:-}" &&
+    NEARPOINT_FUZZ_SECONDS="$seconds" ctest --test-dir "$build" --output-on-failure -j "$jobs" \
       -L fuzz --timeout "$timeout" ${CTEST_ARGS:-} )
 }
 
