@@ -76,6 +76,10 @@ struct PairScan {
                                  std::int32_t hint_a, const Polytope<S>& b,
                                  const Vec3<S>& direction_b, std::int32_t hint_b);
 };
+// Defined and instantiated in shapes.cpp: declared here so that code using the search does not
+// instantiate the variable itself (clang: -Wundefined-var-template).
+extern template std::atomic<PairScan::Search<float>> PairScan::chosen<float>;
+extern template std::atomic<PairScan::Search<double>> PairScan::chosen<double>;
 
 template <class G, class S>
 struct Support;
