@@ -214,6 +214,13 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
       return out;
     }
   }
+  // The gradient's moments are positions crossed with the normal: with pieces placed near the
+  // largest number they overflow too (found by fuzz_engine: a piece offset of 1.8e308).
+  if (out.nearest.has_gradient &&
+      !(out.nearest.gradient_a.allFinite() && out.nearest.gradient_b.allFinite())) {
+    detail::set_invalid(out.nearest, "the answer is too large to represent in this precision");
+    return out;
+  }
   if (!options.near_points) out.nearest.has_near_points = false;
   return out;
 }

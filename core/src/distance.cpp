@@ -487,7 +487,8 @@ void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
   // The promise of no non-finite output. Inside the loop's range distances, bounds and d⁻ are
   // finite by construction (D(K) ≤ 2^128, radii ≤ max/256; rescaled_query checks its own); near
   // points are p_A plus a length and overflow when p_A is near the largest number.
-  if (result.has_near_points && !(result.point_a.allFinite() && result.point_b.allFinite()))
+  if ((result.has_near_points && !(result.point_a.allFinite() && result.point_b.allFinite())) ||
+      (result.has_gradient && !(result.gradient_a.allFinite() && result.gradient_b.allFinite())))
       [[unlikely]]
     set_invalid(result, kNotRepresentable);
 }

@@ -276,7 +276,8 @@ std::string describe(const DistanceResult<S>& r) {
   out.precision(17);
   out << "status " << to_string(r.status) << ", termination " << to_string(r.termination)
       << ", distance " << r.distance << ", error_bound " << r.error_bound << ", iterations "
-      << r.iterations << ", warm " << r.warm_started;
+      << r.iterations << ", warm " << r.warm_started << ", gap " << r.gap << ", diameter_bound "
+      << r.diameter_bound;
   if (r.has_near_points)
     out << ", point_a (" << r.point_a.transpose() << "), point_b (" << r.point_b.transpose()
         << "), normal (" << r.normal.transpose() << ")";
