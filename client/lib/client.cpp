@@ -223,8 +223,13 @@ class SessionImpl final : public Session {
 
   std::shared_ptr<Call> open_call(const std::string& server_scene_id);
   void read_loop();
+  // The server's answer to the update `report.sequence`, which also answers every update before
+  // it that is still in flight (coalesced into it).
   void deliver(Report report);
+  // To the caller (on_report or next()); the update has already left in_flight_.
+  void hand_over(Report report);
   // Gives every update in flight an UNAVAILABLE error report (they will never be answered).
+  // Only once the stream is over and no push can add to in_flight_ (state_ not connected).
   void fail_in_flight(const std::string& why);
   bool reconnect(const Status& cause);
 
@@ -588,13 +593,8 @@ SessionImpl::~SessionImpl() {
 }
 
 void SessionImpl::deliver(Report report) {
-  report.received = Clock::now();
   {
     std::lock_guard lock(mutex_);
-    if (resumed_sequence_ != 0 && report.sequence >= resumed_sequence_) {
-      report.resumed = true;  // the first report of the stream that replaced a lost one
-      resumed_sequence_ = 0;
-    }
     // In order: every update up to this report's sequence number is answered now (coalesced
     // ones by this report; they will get none of their own and leave the window here).
     while (!in_flight_.empty() && in_flight_.front().sequence <= report.sequence) {
@@ -604,6 +604,18 @@ void SessionImpl::deliver(Report report) {
         --outstanding_;
       }
       in_flight_.pop_front();
+    }
+  }
+  hand_over(std::move(report));
+}
+
+void SessionImpl::hand_over(Report report) {
+  report.received = Clock::now();
+  {
+    std::lock_guard lock(mutex_);
+    if (resumed_sequence_ != 0 && report.sequence >= resumed_sequence_) {
+      report.resumed = true;  // the first report of the stream that replaced a lost one
+      resumed_sequence_ = 0;
     }
     if (!options_.on_report) {
       ready_.push_back(std::move(report));
@@ -623,16 +635,15 @@ void SessionImpl::fail_in_flight(const std::string& why) {
     std::lock_guard lock(mutex_);
     lost.swap(in_flight_);
   }
+  // Each failed update is handed over directly: putting it back into in_flight_ for deliver()
+  // to pop once let an update pushed meanwhile sit in front of it, unanswered for good, while
+  // the window count went below zero (every later push then waited for a full window).
   for (const InFlight& update : lost) {
     Report report;
     report.sequence = update.sequence;
     report.sent = update.sent;
     report.error = Status::error(kUnavailable, why);
-    {
-      std::lock_guard lock(mutex_);
-      in_flight_.push_back(update);  // so that deliver() pops it like an answered one
-    }
-    deliver(std::move(report));
+    hand_over(std::move(report));
   }
 }
 
@@ -749,6 +760,11 @@ void SessionImpl::read_loop() {
       if (closing && status.ok()) {
         state_ = State::closed;
         changed_.notify_all();
+      } else if (state_ == State::connected) {
+        // The stream is over: from here a push waits (for the next stream, or to be refused)
+        // instead of adding to in_flight_ an update that this stream will neither send nor
+        // answer, while the updates in flight on it are answered below.
+        state_ = State::reconnecting;
       }
     }
     if (closing && status.ok()) {

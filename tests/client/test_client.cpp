@@ -8,9 +8,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <condition_variable>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <sstream>
+#include <thread>
 
 #include "common/time_scale.hpp"
 #include "demo.hpp"
@@ -549,6 +552,83 @@ TEST(SessionDrain, UpdatesTheServerDidNotReadAreReportedNeverEvaluated) {
   // The server's count of updates read is what was answered.
   EXPECT_NE(server.log().find("updates=" + std::to_string(answered) + " "), std::string::npos)
       << server.log();
+}
+
+// The race behind a TSan-only failure of Sharded.ADrainingReplicaHandsItsScenesOnWithoutLoss: a
+// push made while a drained stream's unread updates were being answered went out on the finished
+// stream. It was never sent and never answered, and when the answers for the updates before it
+// were counted the window count dropped below zero, so that every later push of the session
+// waited for "a full window". Here the push is made from another thread while the first of those
+// answers is being handed over (on the reader thread, in on_report): it must be refused (the
+// stream is over and this session does not reconnect) or answered, never accepted and lost.
+TEST(SessionDrain, APushWhileTheStreamEndsIsRefusedOrAnsweredNeverLost) {
+  LocalServer server;
+  ASSERT_EQ(server.start(NEARPOINTD_PATH, 0, {"--workers", "1", "--max-in-flight", "1"}), "");
+  auto client = client::Client::connect(server.target());
+  auto geometry = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
+  ASSERT_TRUE(geometry.ok()) << geometry.status().describe();
+  client::Scene scene;
+  for (int i = 0; i < 60; ++i)
+    scene.objects.push_back({"box" + std::to_string(i), geometry->geometry_id, {}, {}, {}});
+  auto created = client->create_scene(scene);
+  ASSERT_TRUE(created.ok()) << created.status().describe();
+
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::vector<std::uint64_t> accepted, reported;
+  std::thread late_pusher;
+  bool late_push_returned = false;
+  client::Session* session_ptr = nullptr;
+  const client::ObjectPose moved("box0", Eigen::Isometry3d(Eigen::Translation3d(0.5, 0, 0)));
+  client::SessionOptions options;
+  options.max_in_flight = 256;
+  options.reconnect = false;
+  options.on_report = [&](const client::Report& report) {
+    std::unique_lock lock(mutex);
+    reported.push_back(report.sequence);
+    changed.notify_all();
+    if (report.error.ok() || late_pusher.joinable()) return;
+    late_pusher = std::thread([&] {
+      auto pushed = session_ptr->push({moved}, Clock::now() + seconds(20));
+      std::lock_guard done(mutex);
+      if (pushed.ok()) accepted.push_back(*pushed);
+      late_push_returned = true;
+      changed.notify_all();
+    });
+    // Long enough for a push that is let through to return; one that waits (correctly) for the
+    // stream's end to be settled is refused once this callback has returned.
+    changed.wait_for(lock, seconds(1), [&] { return late_push_returned; });
+  };
+  auto session = client->open_session(created->scene_id, options);
+  ASSERT_TRUE(session.ok()) << session.status().describe();
+  session_ptr = session->get();
+  for (std::uint64_t i = 0; i < 100; ++i) {
+    auto pushed = (*session)->push({moved}, Clock::now() + seconds(10));
+    ASSERT_TRUE(pushed.ok()) << pushed.status().describe();
+    std::lock_guard lock(mutex);
+    accepted.push_back(*pushed);
+  }
+  {
+    // SIGTERM once the stream is open and answering, with updates still unread.
+    std::unique_lock lock(mutex);
+    ASSERT_TRUE(changed.wait_for(lock, seconds(20), [&] { return !reported.empty(); }));
+  }
+  EXPECT_EQ(server.stop(), 0) << server.log();
+  const auto give_up = Clock::now() + seconds(30);
+  while ((*session)->status().ok() && Clock::now() < give_up)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_TRUE(client::is_server_drain((*session)->status())) << (*session)->status().describe();
+  {
+    std::unique_lock lock(mutex);
+    ASSERT_TRUE(late_pusher.joinable()) << "no update was left unread by the drain";
+    changed.wait_for(lock, seconds(20), [&] { return late_push_returned; });
+  }
+  late_pusher.join();
+  std::lock_guard lock(mutex);
+  // Every accepted update answered exactly once, in order (the late one, if it was accepted).
+  EXPECT_EQ(reported, accepted) << accepted.size() << " accepted, the last " << accepted.back()
+                                << "; " << reported.size() << " answered, the last "
+                                << reported.back();
 }
 
 // ---- nearpointd --scene ----
