@@ -11,7 +11,7 @@
 // Bytes that do not parse are what gRPC itself refuses before any handler runs: skipped.
 // Invariants: every rejection is a known, non-internal error with a message and a gRPC status a
 // client can act on; every accepted query and update yields one well-formed report per request
-// (finite numbers, distance ≥ 0, one entry per pair, within the message limit).
+// (finite numbers, distance ≥ 0, the entries its report mode allows, within the message limit).
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -83,7 +83,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           fuzz::check_error(started.error(), "Query");
           break;
         }
-        fuzz::check_report(waiter.wait(), "Query");
+        fuzz::check_report(waiter.wait(), true, "Query");
         break;
       }
       case 3: {
@@ -111,7 +111,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         }
         fuzz::ReportWaiter waiter;
         stream->evaluate(std::move(prepared.value()), waiter.callback());
-        fuzz::check_report(waiter.wait(), "StreamPoses");
+        fuzz::check_report(waiter.wait(), false, "StreamPoses");
         break;
       }
       case 4: {

@@ -84,6 +84,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     fuzz::check_error(started.error(), "query");
     return 0;
   }
-  fuzz::check_report(waiter.wait(), "query of the loaded scene");
+  fuzz::check_report(waiter.wait(), true, "query of the loaded scene");
   return 0;
 }

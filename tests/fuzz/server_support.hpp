@@ -55,12 +55,60 @@ inline void check_error(const server::Error& error, const char* what) {
                        "an error mapped to an unhelpful gRPC status; " + where);
 }
 
-/// A report: one entry per selected pair of its scene, finite numbers, distance ≥ 0, an engine
-/// error only with a message, and small enough to be sent.
-inline void check_report(const server::Report& report, const char* what) {
+/// The entries a report mode allows (nearpoint.v1.ReportMode): distinct selected pairs of the
+/// scene in the scene's pair order, every pair for REPORT_MODE_ALL_PAIRS (and for a unary query
+/// in REPORT_MODE_CHANGED), no BEYOND_CUTOFF pair where the mode leaves those out, at most one
+/// per object or one in all for the nearest modes.
+inline void check_report_pairs(const server::Report& report, bool unary, const char* what) {
+  const std::vector<server::ScenePair>& selected = report.scene->pairs;
+  const std::string where = std::string(what) + ", mode " + std::to_string(int(report.mode)) +
+                            ", " + std::to_string(report.pairs.size()) + " of " +
+                            std::to_string(selected.size()) + " pairs";
+  NEARPOINT_FUZZ_CHECK(
+      report.mode != server::ReportMode::unspecified && report.mode != server::ReportMode::unknown,
+      "a report whose mode was not resolved; " + where);
+  std::size_t next = 0;  // the first scene pair an entry may still be
+  for (const server::PairReport& p : report.pairs) {
+    while (next < selected.size() &&
+           (selected[next].object_a != p.object_a || selected[next].object_b != p.object_b))
+      ++next;
+    NEARPOINT_FUZZ_CHECK(next < selected.size(),
+                         "an entry that is not a selected pair, a repeated one or one out of the "
+                         "scene's order; " +
+                             where);
+    ++next;
+    const bool cutoff_mode = report.mode == server::ReportMode::within_cutoff ||
+                             report.mode == server::ReportMode::nearest_per_object ||
+                             report.mode == server::ReportMode::global_minimum;
+    NEARPOINT_FUZZ_CHECK(!cutoff_mode || p.status != server::PairStatus::beyond_cutoff,
+                         "a BEYOND_CUTOFF entry in a mode that leaves them out; " + where);
+  }
+  switch (report.mode) {
+    case server::ReportMode::all_pairs:
+      NEARPOINT_FUZZ_CHECK(report.pairs.size() == selected.size(),
+                           "a report without one entry per pair; " + where);
+      break;
+    case server::ReportMode::changed:
+      NEARPOINT_FUZZ_CHECK(!unary || report.pairs.size() == selected.size(),
+                           "a unary query in changed mode without every pair; " + where);
+      break;
+    case server::ReportMode::nearest_per_object:
+      NEARPOINT_FUZZ_CHECK(report.pairs.size() <= report.scene->objects.size(),
+                           "more nearest pairs than objects; " + where);
+      break;
+    case server::ReportMode::global_minimum:
+      NEARPOINT_FUZZ_CHECK(report.pairs.size() <= 1, "more than one global minimum; " + where);
+      break;
+    default:
+      break;
+  }
+}
+
+/// A report: the entries its mode allows, finite numbers, distance ≥ 0, an engine error only with
+/// a message, and small enough to be sent. `unary`: the answer to Query, not to a stream update.
+inline void check_report(const server::Report& report, bool unary, const char* what) {
   NEARPOINT_FUZZ_CHECK(report.scene != nullptr, std::string(what) + ": a report without its scene");
-  NEARPOINT_FUZZ_CHECK(report.pairs.size() == report.scene->pairs.size(),
-                       std::string(what) + ": a report without one entry per pair");
+  check_report_pairs(report, unary, what);
   for (const server::PairReport& p : report.pairs) {
     const std::string where = std::string(what) + ": pair " + std::to_string(p.object_a) + "-" +
                               std::to_string(p.object_b) + ", distance " +
