@@ -272,10 +272,16 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
 
   if (options.penetration_bound && result.status == Status::intersecting) {
     // eq. (32)–(33) on the cores, plus the radii; for rounded shapes whose cores are apart the
-    // overlap r_A + r_B − d is the exact penetration depth.
+    // overlap r_A + r_B − d is the exact penetration depth. The tetrahedron's corners are the
+    // computed support points, each within the error bound's roundoff of a true point of K, and
+    // the origin is inside it up to the enclosure's residual (both in error_bound, which is the
+    // cores' here): a ball that fits in the computed tetrahedron fits in the true one once shrunk
+    // by that much.
     result.has_penetration_bound = true;
     result.penetration_bound =
-        cores_intersect ? detail::penetration_lower_bound(simplex, nearest.subset) + radii
+        cores_intersect ? std::max(S(0), detail::penetration_lower_bound(simplex, nearest.subset) -
+                                             result.error_bound) +
+                              radii
                         : std::max(S(0), radii - core_distance);
   }
 
