@@ -516,6 +516,33 @@ TEST(SessionReconnect, NeverStreamsToAnotherSceneUnderItsId) {
   std::filesystem::remove(file);
 }
 
+// A server that reads one update at a time (--max-in-flight 1) and a scene heavy enough (60
+// boxes, 1770 pairs) that a stream's updates are still unread when SIGTERM arrives; the scene's id
+// on it, or "" after a failure.
+std::string start_slow_server(LocalServer& server, std::unique_ptr<client::Client>& client) {
+  if (std::string error =
+          server.start(NEARPOINTD_PATH, 0, {"--workers", "1", "--max-in-flight", "1"});
+      !error.empty()) {
+    ADD_FAILURE() << error;
+    return {};
+  }
+  client = client::Client::connect(server.target());
+  auto geometry = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
+  if (!geometry.ok()) {
+    ADD_FAILURE() << geometry.status().describe();
+    return {};
+  }
+  client::Scene scene;
+  for (int i = 0; i < 60; ++i)
+    scene.objects.push_back({"box" + std::to_string(i), geometry->geometry_id, {}, {}, {}});
+  auto created = client->create_scene(scene);
+  if (!created.ok()) {
+    ADD_FAILURE() << created.status().describe();
+    return {};
+  }
+  return created->scene_id;
+}
+
 // Issue 21 item 2, the client's side: a drain (SIGTERM) answers every update the server read and
 // ends the stream UNAVAILABLE "draining"; the updates still in flight were never read. The
 // session must say so (is_server_drain, "did not read this update") instead of "connection
@@ -524,19 +551,13 @@ TEST(SessionReconnect, NeverStreamsToAnotherSceneUnderItsId) {
 // updates are still unread when SIGTERM arrives.
 TEST(SessionDrain, UpdatesTheServerDidNotReadAreReportedNeverEvaluated) {
   LocalServer server;
-  ASSERT_EQ(server.start(NEARPOINTD_PATH, 0, {"--workers", "1", "--max-in-flight", "1"}), "");
-  auto client = client::Client::connect(server.target());
-  auto geometry = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
-  ASSERT_TRUE(geometry.ok()) << geometry.status().describe();
-  client::Scene scene;
-  for (int i = 0; i < 60; ++i)
-    scene.objects.push_back({"box" + std::to_string(i), geometry->geometry_id, {}, {}, {}});
-  auto created = client->create_scene(scene);
-  ASSERT_TRUE(created.ok()) << created.status().describe();
+  std::unique_ptr<client::Client> client;
+  const std::string scene_id = start_slow_server(server, client);
+  ASSERT_FALSE(scene_id.empty());
   client::SessionOptions options;
   options.max_in_flight = 256;
   options.reconnect = false;  // the server is gone for good: fail instead of retrying
-  auto session = client->open_session(created->scene_id, options);
+  auto session = client->open_session(scene_id, options);
   ASSERT_TRUE(session.ok()) << session.status().describe();
   constexpr std::uint64_t kUpdates = 200;
   for (std::uint64_t i = 0; i < kUpdates; ++i) {
@@ -583,15 +604,9 @@ TEST(SessionDrain, UpdatesTheServerDidNotReadAreReportedNeverEvaluated) {
 // stream is over and this session does not reconnect) or answered, never accepted and lost.
 TEST(SessionDrain, APushWhileTheStreamEndsIsRefusedOrAnsweredNeverLost) {
   LocalServer server;
-  ASSERT_EQ(server.start(NEARPOINTD_PATH, 0, {"--workers", "1", "--max-in-flight", "1"}), "");
-  auto client = client::Client::connect(server.target());
-  auto geometry = client->register_geometry(box_geometry({0.5, 0.5, 0.5}));
-  ASSERT_TRUE(geometry.ok()) << geometry.status().describe();
-  client::Scene scene;
-  for (int i = 0; i < 60; ++i)
-    scene.objects.push_back({"box" + std::to_string(i), geometry->geometry_id, {}, {}, {}});
-  auto created = client->create_scene(scene);
-  ASSERT_TRUE(created.ok()) << created.status().describe();
+  std::unique_ptr<client::Client> client;
+  const std::string scene_id = start_slow_server(server, client);
+  ASSERT_FALSE(scene_id.empty());
 
   std::mutex mutex;
   std::condition_variable changed;
@@ -619,7 +634,7 @@ TEST(SessionDrain, APushWhileTheStreamEndsIsRefusedOrAnsweredNeverLost) {
     // stream's end to be settled is refused once this callback has returned.
     changed.wait_for(lock, seconds(1), [&] { return late_push_returned; });
   };
-  auto session = client->open_session(created->scene_id, options);
+  auto session = client->open_session(scene_id, options);
   ASSERT_TRUE(session.ok()) << session.status().describe();
   session_ptr = session->get();
   for (std::uint64_t i = 0; i < 100; ++i) {
