@@ -154,9 +154,12 @@ P3 p3(const Vec3<S>& v) {
   return {LD(v.x()), LD(v.y()), LD(v.z())};
 }
 
-// One piece placed in the world by the very floating-point rotation and translation entries the
-// engine was given (composed here as the engine composes them): vertex shapes as their world
-// vertices, smooth ones by their parameters and frame. h(u) = h_core(u) + r|u|.
+// One piece placed in the world by its object's pose and its offset, composed in long double
+// (not in Scalar: the engine composes piece poses relative to A's frame, so pieces whose world
+// coordinates overflow Scalar are answered, and a world-frame composition in Scalar would give
+// this reference infinities; fuzz_engine found float pieces at ±2·FLT_MAX that are 0.0017
+// apart): vertex shapes as their world vertices, smooth ones by their parameters and frame.
+// h(u) = h_core(u) + r|u|.
 struct RefPiece {
   enum Kind { vertices, cylinder, cone, ellipsoid } kind = vertices;
   std::vector<P3> world;  // vertex shapes: R·v + t
@@ -188,11 +191,19 @@ struct RefPiece {
 };
 
 template <class S>
-RefPiece reference_piece(const Shape<S>& shape, const Pose<S>& pose) {
+RefPiece reference_piece(const Shape<S>& shape, const Pose<S>& pose, const Pose<S>& offset) {
   RefPiece out;
   out.radius = shape.radius;
-  for (int i = 0; i < 9; ++i) out.rot[i] = LD(pose.rotation(i / 3, i % 3));
-  out.t = p3(pose.translation);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      for (int k = 0; k < 3; ++k)
+        out.rot[3 * r + c] += LD(pose.rotation(r, k)) * LD(offset.rotation(k, c));
+  const P3 o = p3(offset.translation);
+  for (int r = 0; r < 3; ++r) {
+    const LD moved = LD(pose.rotation(r, 0)) * o.x + LD(pose.rotation(r, 1)) * o.y +
+                     LD(pose.rotation(r, 2)) * o.z + LD(pose.translation(r));
+    (r == 0 ? out.t.x : r == 1 ? out.t.y : out.t.z) = moved;
+  }
   const auto place = [&](const Vec3<S>& v) {
     const P3 l = p3(v);
     out.world.push_back({out.rot[0] * l.x + out.rot[1] * l.y + out.rot[2] * l.z + out.t.x,
@@ -257,13 +268,16 @@ template <class S>
 RefBody reference_body(const Body<S>& body) {
   RefBody out;
   for (std::size_t i = 0; i < body.pieces.size(); ++i) {
-    const Pose<S> pose = piece_pose(body, i);
     const Shape<S>& s = body.pieces[i].shape;
-    out.pieces.push_back(reference_piece(s, pose));
-    const P3 c = p3(pose.apply(core_center(s)));
+    const RefPiece& piece =
+        out.pieces.emplace_back(reference_piece(s, body.pose, body.pieces[i].offset));
+    const P3 z = p3(core_center(s));
+    const P3 c{piece.rot[0] * z.x + piece.rot[1] * z.y + piece.rot[2] * z.z + piece.t.x,
+               piece.rot[3] * z.x + piece.rot[4] * z.y + piece.rot[5] * z.z + piece.t.y,
+               piece.rot[6] * z.x + piece.rot[7] * z.y + piece.rot[8] * z.z + piece.t.z};
     out.centre_sum = {out.centre_sum.x + c.x, out.centre_sum.y + c.y, out.centre_sum.z + c.z};
-    out.magnitude = std::max(out.magnitude, norm(p3(pose.translation)) + norm(p3(core_center(s))) +
-                                                LD(core_extent(s)) + LD(s.radius));
+    out.magnitude =
+        std::max(out.magnitude, norm(piece.t) + norm(z) + LD(core_extent(s)) + LD(s.radius));
     out.magnitude = std::max(out.magnitude, norm(p3(body.pieces[i].offset.translation)) +
                                                 norm(p3(body.pose.translation)));
   }
