@@ -168,6 +168,13 @@ struct RefPiece {
   LD p0 = 0, p1 = 0, p2 = 0;  // cylinder/cone: radius, half height; ellipsoid: radii
   LD radius = 0;
 
+  /// R·l + t: a point of the piece's frame in the world.
+  P3 to_world(const P3& l) const {
+    return {rot[0] * l.x + rot[1] * l.y + rot[2] * l.z + t.x,
+            rot[3] * l.x + rot[4] * l.y + rot[5] * l.z + t.y,
+            rot[6] * l.x + rot[7] * l.y + rot[8] * l.z + t.z};
+  }
+
   LD support(const P3& u) const {
     LD h;
     if (kind == vertices) {
@@ -199,17 +206,12 @@ RefPiece reference_piece(const Shape<S>& shape, const Pose<S>& pose, const Pose<
       for (int k = 0; k < 3; ++k)
         out.rot[3 * r + c] += LD(pose.rotation(r, k)) * LD(offset.rotation(k, c));
   const P3 o = p3(offset.translation);
-  for (int r = 0; r < 3; ++r) {
-    const LD moved = LD(pose.rotation(r, 0)) * o.x + LD(pose.rotation(r, 1)) * o.y +
-                     LD(pose.rotation(r, 2)) * o.z + LD(pose.translation(r));
-    (r == 0 ? out.t.x : r == 1 ? out.t.y : out.t.z) = moved;
-  }
-  const auto place = [&](const Vec3<S>& v) {
-    const P3 l = p3(v);
-    out.world.push_back({out.rot[0] * l.x + out.rot[1] * l.y + out.rot[2] * l.z + out.t.x,
-                         out.rot[3] * l.x + out.rot[4] * l.y + out.rot[5] * l.z + out.t.y,
-                         out.rot[6] * l.x + out.rot[7] * l.y + out.rot[8] * l.z + out.t.z});
+  const auto moved = [&](int r) {  // row r of R_pose·o + t_pose
+    return LD(pose.rotation(r, 0)) * o.x + LD(pose.rotation(r, 1)) * o.y +
+           LD(pose.rotation(r, 2)) * o.z + LD(pose.translation(r));
   };
+  out.t = {moved(0), moved(1), moved(2)};
+  const auto place = [&](const Vec3<S>& v) { out.world.push_back(out.to_world(p3(v))); };
   std::visit(
       [&](const auto& g) {
         using G = std::decay_t<decltype(g)>;
@@ -272,9 +274,7 @@ RefBody reference_body(const Body<S>& body) {
     const RefPiece& piece =
         out.pieces.emplace_back(reference_piece(s, body.pose, body.pieces[i].offset));
     const P3 z = p3(core_center(s));
-    const P3 c{piece.rot[0] * z.x + piece.rot[1] * z.y + piece.rot[2] * z.z + piece.t.x,
-               piece.rot[3] * z.x + piece.rot[4] * z.y + piece.rot[5] * z.z + piece.t.y,
-               piece.rot[6] * z.x + piece.rot[7] * z.y + piece.rot[8] * z.z + piece.t.z};
+    const P3 c = piece.to_world(z);
     out.centre_sum = {out.centre_sum.x + c.x, out.centre_sum.y + c.y, out.centre_sum.z + c.z};
     out.magnitude =
         std::max(out.magnitude, norm(piece.t) + norm(z) + LD(core_extent(s)) + LD(s.radius));

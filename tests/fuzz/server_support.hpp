@@ -61,12 +61,18 @@ inline void check_error(const server::Error& error, const char* what) {
 /// per object or one in all for the nearest modes.
 inline void check_report_pairs(const server::Report& report, bool unary, const char* what) {
   const std::vector<server::ScenePair>& selected = report.scene->pairs;
-  const std::string where = std::string(what) + ", mode " + std::to_string(int(report.mode)) +
-                            ", " + std::to_string(report.pairs.size()) + " of " +
-                            std::to_string(selected.size()) + " pairs";
+  // Built only for a message: this runs for every report of every input.
+  const auto where = [&] {
+    return std::string(what) + ", mode " + std::to_string(int(report.mode)) + ", " +
+           std::to_string(report.pairs.size()) + " of " + std::to_string(selected.size()) +
+           " pairs";
+  };
   NEARPOINT_FUZZ_CHECK(
       report.mode != server::ReportMode::unspecified && report.mode != server::ReportMode::unknown,
-      "a report whose mode was not resolved; " + where);
+      "a report whose mode was not resolved; " + where());
+  const bool cutoff_mode = report.mode == server::ReportMode::within_cutoff ||
+                           report.mode == server::ReportMode::nearest_per_object ||
+                           report.mode == server::ReportMode::global_minimum;
   std::size_t next = 0;  // the first scene pair an entry may still be
   for (const server::PairReport& p : report.pairs) {
     while (next < selected.size() &&
@@ -75,29 +81,26 @@ inline void check_report_pairs(const server::Report& report, bool unary, const c
     NEARPOINT_FUZZ_CHECK(next < selected.size(),
                          "an entry that is not a selected pair, a repeated one or one out of the "
                          "scene's order; " +
-                             where);
+                             where());
     ++next;
-    const bool cutoff_mode = report.mode == server::ReportMode::within_cutoff ||
-                             report.mode == server::ReportMode::nearest_per_object ||
-                             report.mode == server::ReportMode::global_minimum;
     NEARPOINT_FUZZ_CHECK(!cutoff_mode || p.status != server::PairStatus::beyond_cutoff,
-                         "a BEYOND_CUTOFF entry in a mode that leaves them out; " + where);
+                         "a BEYOND_CUTOFF entry in a mode that leaves them out; " + where());
   }
   switch (report.mode) {
     case server::ReportMode::all_pairs:
       NEARPOINT_FUZZ_CHECK(report.pairs.size() == selected.size(),
-                           "a report without one entry per pair; " + where);
+                           "a report without one entry per pair; " + where());
       break;
     case server::ReportMode::changed:
       NEARPOINT_FUZZ_CHECK(!unary || report.pairs.size() == selected.size(),
-                           "a unary query in changed mode without every pair; " + where);
+                           "a unary query in changed mode without every pair; " + where());
       break;
     case server::ReportMode::nearest_per_object:
       NEARPOINT_FUZZ_CHECK(report.pairs.size() <= report.scene->objects.size(),
-                           "more nearest pairs than objects; " + where);
+                           "more nearest pairs than objects; " + where());
       break;
     case server::ReportMode::global_minimum:
-      NEARPOINT_FUZZ_CHECK(report.pairs.size() <= 1, "more than one global minimum; " + where);
+      NEARPOINT_FUZZ_CHECK(report.pairs.size() <= 1, "more than one global minimum; " + where());
       break;
     default:
       break;
