@@ -103,7 +103,19 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
     offset = detail::centroid_offset(pose_a, a_center, pose_b, b_center);
     diameter = extents + offset.norm();
   }
-  diameter_out = diameter;
+  // The working magnitude M that every roundoff term is a few ulps of (gjk.hpp,
+  // distance_roundoff): the one place where the rounding of placing the shapes enters the bound.
+  // With the origin shift every point of K is formed relative to the centroids, and the placement
+  // rounds by ulps of the vertices' offsets from their centres (≤ the extents), of the relative
+  // rotation applied to them, and of δ, each within D(K). Without it the loop adds the centroids
+  // back (MinkowskiDifference::difference): it rounds by ulps of z̄_A, of z̄_B and of the
+  // translation that places z̄_B in A's frame, so those enter M in full (1-norms: a bound on each
+  // component's rounding whatever the rotation).
+  S magnitude = diameter;
+  if (!options.origin_shift)
+    magnitude += S(2) * (a_center.cwiseAbs().sum() + b_center.cwiseAbs().sum() +
+                         translation.cwiseAbs().sum());
+  diameter_out = magnitude;
   const S radii = radius_a + radius_b;
   // One branch decides whether K is in the loop's range (and the radii representable): outside
   // it, tiny shapes would square to subnormals (1e-170 boxes came back "intersecting", bound 0)
@@ -111,9 +123,9 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   // rescaled by a power of two (rescaled_query), or refused.
   constexpr S smallest = power_of_two<S>(LoopRange<S>::low);
   constexpr S largest = power_of_two<S>(LoopRange<S>::high);
-  if (!(diameter >= smallest && diameter <= largest && radii <= kLargestLength<S>)) [[unlikely]] {
+  if (!(diameter >= smallest && magnitude <= largest && radii <= kLargestLength<S>)) [[unlikely]] {
     if (may_rescale) return false;
-    if (!(diameter <= kLargestLength<S>) || !(radii <= kLargestLength<S>)) {
+    if (!(magnitude <= kLargestLength<S>) || !(radii <= kLargestLength<S>)) {
       set_invalid(result, kTooLarge);
       return true;
     }
@@ -132,12 +144,19 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
 
   using std::sqrt;
   const S epsilon = options.epsilon > 0 ? options.epsilon : S(0);
-  const S cutoff = options.distance_cutoff + radii;  // the loop works on the cores
+  // The allowance for pose A's rotation defect (see the bound below), known before the loop so
+  // that a cutoff is proven past it too.
+  constexpr S tight = S(8) * std::numeric_limits<S>::epsilon();
+  const S defect_allowance =
+      defect2_a > tight * tight ? S(3) * (sqrt(defect2_a) - tight) * magnitude : S(0);
+  // The loop works on the cores, and proves a cutoff past its own roundoff (run_numerical_
+  // algorithm); the defect is added here.
+  const S cutoff = options.distance_cutoff + radii + defect_allowance;
 
   // Below this core distance the verdict can only be "intersecting" (see the verdict below:
   // separation needs |ν| − radii above the error bound, which is at least `roundoff`), so a query
   // that wants no near points, d⁻ or gradient can stop there instead of converging further.
-  const S roundoff = detail::distance_roundoff(diameter);
+  const S roundoff = detail::distance_roundoff(magnitude);
   const bool needs_simplex = options.near_points || options.penetration_bound || options.gradient;
   const S settled_below = needs_simplex ? S(-1) : radii + roundoff;
 
@@ -149,10 +168,10 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   constexpr bool segment_pair = std::is_same_v<GA, Segment<S>> && std::is_same_v<GB, Segment<S>>;
   bool answered = false;
   if constexpr (point_pair) {
-    detail::point_pair_outcome(k_set, diameter, cutoff, settled_below, cache, loop);
+    detail::point_pair_outcome(k_set, magnitude, cutoff, settled_below, cache, loop);
     answered = true;
   } else if constexpr (segment_pair) {
-    answered = detail::segment_pair_outcome(k_set, diameter, epsilon * diameter * diameter, cutoff,
+    answered = detail::segment_pair_outcome(k_set, magnitude, epsilon * diameter * diameter, cutoff,
                                             settled_below, loop);
     if (!answered) [[unlikely]] {  // the loop starts from an empty simplex
       loop.simplex.used = 0;
@@ -162,7 +181,7 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
     }
   }
   if (!answered)
-    detail::run_numerical_algorithm(k_set, diameter, epsilon * diameter * diameter,
+    detail::run_numerical_algorithm(k_set, magnitude, epsilon * diameter * diameter,
                                     std::max(0, options.max_iterations), cutoff, settled_below,
                                     options.subalgorithm, cold_start, cache, loop);
 
@@ -198,9 +217,9 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   // defect is what rounding an exact rotation's entries leaves and what RᵀR computed in floating
   // point cannot tell from 0: the roundoff allowance has always absorbed it (the paper set's and
   // the stiff suite's bounds stay tight); the excess is added. One predictable branch.
-  constexpr S tight = S(8) * std::numeric_limits<S>::epsilon();
-  if (defect2_a > tight * tight) [[unlikely]]
-    result.error_bound += S(3) * (sqrt(defect2_a) - tight) * diameter;
+  // Without the origin shift A's points enter the loop at their local size: M, not D(K), is
+  // what the defect moves (M = D(K) with the shift).
+  result.error_bound += defect_allowance;
 
   result.simplex_size = 0;
   for (int i = 0; i < 4; ++i) {
@@ -235,6 +254,21 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
     result.status = Status::iteration_limit;
   else
     result.status = separated ? Status::separated : Status::intersecting;
+  // Beyond the cutoff the loop stopped on a support plane's proof, d ≥ L, before |ν| converged:
+  // the answer is that certified lower bound, with the interval up to |ν| as its bound, so the
+  // truth lies in [distance, distance + error_bound] (what a caller filtering on the cutoff
+  // needs; |ν| alone may be far above the truth). L carries the loop's roundoff and the defect's.
+  if (loop.termination == Termination::beyond_cutoff) {
+    const S lower = loop.lower_bound - roundoff - defect_allowance - radii;
+    // |ν| bounds d from above; a computed L may pass it by a rounding, and the interval then
+    // keeps its roundoff on both sides of L (the closed forms, whose L is |ν|, answer the same).
+    const S upper = std::max(core_distance, loop.lower_bound) - radii + roundoff + defect_allowance;
+    if (lower > 0) {
+      result.status = Status::separated;
+      result.distance = lower;
+      result.error_bound = std::max(S(0), upper - lower);
+    }
+  }
 
   if (options.near_points || options.gradient) {
     // eq. (23)–(24): near points from the simplex weights, in A's frame relative to z̄_A.
@@ -258,7 +292,9 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
     Vec3<S> point_b = base + k_set.offset + on_b;
     Vec3<S> normal = Vec3<S>::Zero();  // A → B, A's frame: −ν/|ν|
     if (!cores_intersect) {
-      normal = -nearest.nu / core_distance;
+      // Scaled before it is squared: ν/|ν| with |ν|² formed as is would be no unit vector when
+      // |ν|² lies among the subnormals (a float pair reported intersecting 1e-21 apart).
+      normal = -nearest.nu.stableNormalized();
       point_a += radius_a * normal;
       point_b -= radius_b * normal;
     } else {
@@ -267,7 +303,9 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
     result.has_near_points = true;
     result.point_a = detail::rotate(pose_a.rotation, point_a) + origin;
     result.point_b = detail::rotate(pose_a.rotation, point_b) + origin;
+    // A unit vector in the world too: R_A may be a rotation only to within its accepted defect.
     result.normal = detail::rotate(pose_a.rotation, normal);
+    if (!cores_intersect) result.normal = result.normal.stableNormalized();
   }
 
   if (options.penetration_bound && result.status == Status::intersecting) {
@@ -382,6 +420,14 @@ template <class S, class GA, class GB>
   const S size = std::max({magnitude<S>(ga), magnitude<S>(gb), between.cwiseAbs().maxCoeff()});
   if (!(size <= kLargestLength<S>)) return set_invalid(result, kTooLarge);
   int k = size > 0 ? -std::ilogb(size) : 0;
+  Vec3<S> translation_hi, translation_lo;
+  for (int i = 0; i < 3; ++i) {
+    const S x = pose_b.translation[i], y = -pose_a.translation[i];
+    const S sum = x + y, z = sum - x;
+    translation_hi[i] = sum;
+    translation_lo[i] = (x - (sum - z)) + (y - z);
+  }
+  bool moved_world = false;
   Pose<S> scaled_a, scaled_b;
   scaled_a.rotation = pose_a.rotation;
   scaled_b.rotation = pose_b.rotation;
@@ -392,7 +438,20 @@ template <class S, class GA, class GB>
       return set_invalid(result,
                          "radii too large against the shapes' cores and separation to be "
                          "measured in this precision");
-    scaled_b.translation = scale_vector(Vec3<S>(pose_b.translation - pose_a.translation), k);
+    // The translations scaled as they are when both stay finite (always when shrinking): exact,
+    // so the query places the shapes, their centroids and its near points exactly as it would at
+    // the caller's scale, compensated where they cancel. Otherwise (tiny shapes far out) the
+    // world is moved to A's position with p_B − p_A kept exact as hi + lo (TwoSum): rounded, it
+    // would be off by an ulp of the translations, far more than the distance for shapes modelled
+    // far from their local origins and placed back by their poses (found by an outside fuzzer:
+    // vertices at 1e76 answered 2% off). B is placed at hi and A at −lo, each scaled exactly.
+    scaled_a.translation = scale_vector(pose_a.translation, k);
+    scaled_b.translation = scale_vector(pose_b.translation, k);
+    moved_world = !(scaled_a.translation.allFinite() && scaled_b.translation.allFinite());
+    if (moved_world) {
+      scaled_b.translation = scale_vector(translation_hi, k);
+      scaled_a.translation = scale_vector(Vec3<S>(-translation_lo), k);
+    }
     scaled_options.distance_cutoff = std::ldexp(options.distance_cutoff, k);
     S diameter = 0;
     const bool done = query<S>(scale_geometry<S>(ga, k), scaled_radius_a, scaled_a,
@@ -427,8 +486,11 @@ template <class S, class GA, class GB>
     result.distance = 0;
   }
   if (result.has_near_points) {
-    result.point_a = scale_vector(result.point_a, back) + pose_a.translation;
-    result.point_b = scale_vector(result.point_b, back) + pose_a.translation;
+    // A moved world placed A at −lo: its frame is the caller's moved by −(p_A + lo).
+    const Vec3<S> origin =
+        moved_world ? Vec3<S>(pose_a.translation + translation_lo) : Vec3<S>::Zero();
+    result.point_a = scale_vector(result.point_a, back) + origin;
+    result.point_b = scale_vector(result.point_b, back) + origin;
   }
   if (result.has_gradient) {  // ∂/∂rotation is a length (a lever arm × the unit normal)
     result.gradient_a.template tail<3>() =
@@ -480,6 +542,9 @@ void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
   if (!why && !(options.epsilon >= 0)) why = "options.epsilon must be >= 0";
   if (!why && std::isnan(options.distance_cutoff)) why = "options.distance_cutoff is NaN";
   if (why) return set_invalid(result, why);
+  // A refused query leaves the warm-start cache as it found it: the checks below can refuse an
+  // answer after the loop has written its simplex there.
+  const SimplexCache cache_before = cache ? *cache : SimplexCache{};
   // One dispatch per query; the loop below is specialised for the two concrete shapes.
   std::visit(
       [&](const auto& ga, const auto& gb) {
@@ -497,6 +562,8 @@ void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
       (result.has_gradient && !(result.gradient_a.allFinite() && result.gradient_b.allFinite())))
       [[unlikely]]
     set_invalid(result, kNotRepresentable);
+  if (cache && result.status == Status::invalid_input) [[unlikely]]
+    *cache = cache_before;
 }
 
 template const char* detail::invalid_pose_reason(const Pose<double>&);

@@ -90,24 +90,32 @@ auto diameter_bound(const K& k_set) {
   return k_set.a.extent() + k_set.b.extent() + k_set.offset.norm();
 }
 
-/// The roundoff allowance every reported error bound carries: a few ulps of D(K), the largest
-/// magnitude in the loop. No certificate resolves the distance more finely than this.
+// Roundoff. Every roundoff term of the loop and of the reported bound is a few ulps of one
+// number, the working magnitude M: the largest coordinate the loop forms, and so the scale of
+// every rounding in placing the shapes (a vertex's offset from its centre, the relative rotation
+// applied to it, the centroid offset δ) and in the loop's own arithmetic. With the origin shift
+// (eq. 34) every point of K is formed relative to the centroids, so M = D(K) of eq. (37); without
+// it the loop adds the centroids back and M grows by their size (query() in distance.cpp is the
+// one place that decides M). Callers pass M where these functions say `magnitude`.
+
+/// The roundoff allowance every reported error bound carries: a few ulps of M. No certificate
+/// resolves the distance more finely than this.
 template <class S>
-S distance_roundoff(S diameter) {
-  return S(8) * std::numeric_limits<S>::epsilon() * diameter;
+S distance_roundoff(S magnitude) {
+  return S(8) * std::numeric_limits<S>::epsilon() * magnitude;
 }
 
 /// The size of the roundoff in a computed g = ν·ν − ν·w. ν = Σλy carries an absolute error of a
-/// few ulps of D(K) whatever its length, and that error meets w (|w| ≤ D) in the inner product:
-/// a few ulps of D·(|ν| + D).
+/// few ulps of M whatever its length, and that error meets w (|w| ≤ M) in the inner product:
+/// a few ulps of M·(|ν| + M).
 template <class S>
-S roundoff_gap_of_length(S nu_length, S diameter) {
-  return S(16) * std::numeric_limits<S>::epsilon() * diameter * (nu_length + diameter);
+S roundoff_gap_of_length(S nu_length, S magnitude) {
+  return S(16) * std::numeric_limits<S>::epsilon() * magnitude * (nu_length + magnitude);
 }
 template <class S>
-S roundoff_gap(S nu_norm2, S diameter) {
+S roundoff_gap(S nu_norm2, S magnitude) {
   using std::sqrt;
-  return roundoff_gap_of_length(sqrt(nu_norm2), diameter);
+  return roundoff_gap_of_length(sqrt(nu_norm2), magnitude);
 }
 
 /// The certified gap: min(g, |ν|² − L²), clamped at 0. |ν|² − L² is only trusted while |ν| is
@@ -199,15 +207,16 @@ bool nearest_of_simplex(Subalgorithm method, const Simplex<S>& simplex, const Ve
   return distance_subalgorithm(simplex, subset_order(simplex, newest), nearest);
 }
 
-/// Runs steps 1–6. `diameter` is D(K) of eq. (37) and `d2_tolerance` ε·D(K)² of eq. (35);
+/// Runs steps 1–6. `magnitude` is the working magnitude M (see distance_roundoff) and
+/// `d2_tolerance` ε·D(K)² of eq. (35), D(K) of eq. (37);
 /// `cutoff` is on the core distance. An iterate with |ν| ≤ `settled_below` ends the loop
 /// (Termination::contact): the caller's verdict cannot change any more (negative: never).
 template <class S, class K>
-void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max_iterations,
+void run_numerical_algorithm(const K& k_set, S magnitude, S d2_tolerance, int max_iterations,
                              S cutoff, S settled_below, Subalgorithm method, ColdStart cold_start,
                              const SimplexCache* cache, LoopOutcome<S>& out) {
   Simplex<S>& simplex = out.simplex;
-  const S interval_floor = distance_roundoff(diameter);
+  const S interval_floor = distance_roundoff(magnitude);
   // A computed support-plane bound L carries roundoff of a few ulps of D(K) (in y and in the
   // inner product), so "d > cutoff" is proven only when L clears the cutoff by that much.
   // Without the margin, touching pairs were reported beyond a zero cutoff.
@@ -337,7 +346,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
     // On curved or flat-sided shapes the support point can jump between iterations (a cylinder's
     // two rims), so g of the latest iterate may be far worse than what an earlier support plane
     // proved: the stopping test uses the sharper of the two certificates.
-    const S roundoff = roundoff_gap_of_length(nu_length, diameter);
+    const S roundoff = roundoff_gap_of_length(nu_length, magnitude);
     out.gap = certified_gap(gap, nearest->nu_norm2, best_lower_bound, roundoff);
     out.lower_bound = best_lower_bound;
     NEARPOINT_TRACE_PRINTF("k=%d |V|=%d subset=%x |nu|^2=%.17g g=%.6g backup=%d rep=%d\n", k,
@@ -409,11 +418,11 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
     if (backup) {
       if (k > 0 && !(nearest->nu_norm2 < previous->nu_norm2)) {
         out.gap = certified_gap(previous_gap, previous->nu_norm2, best_lower_bound,
-                                roundoff_gap(previous->nu_norm2, diameter));
+                                roundoff_gap(previous->nu_norm2, magnitude));
         std::swap(nearest, previous);
         out.nu_length = sqrt(nearest->nu_norm2);
       }
-      out.termination = out.gap <= roundoff_gap(nearest->nu_norm2, diameter)
+      out.termination = out.gap <= roundoff_gap(nearest->nu_norm2, magnitude)
                             ? Termination::roundoff_floor
                             : Termination::numerical_limit;
       break;
@@ -428,7 +437,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
   // is short the support plane normal to ν proves little. When the answer lies on a triangle,
   // that triangle's own normal (accurate whatever |ν| is) gives the plane of K's face or of the
   // two shapes' edge–edge contact: one more support call proves d ≥ n̂·s_K(−n̂).
-  const S slack = distance_roundoff(diameter);
+  const S slack = distance_roundoff(magnitude);
   if (subset_size(nearest->subset) == 3 && nearest->nu_norm2 > 0 &&
       out.termination != Termination::beyond_cutoff && out.termination != Termination::contact &&
       out.nu_length - out.lower_bound > slack) {
@@ -447,7 +456,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
       if (plane_bound > out.lower_bound) {
         out.lower_bound = plane_bound;
         out.gap = certified_gap(out.gap, nearest->nu_norm2, plane_bound,
-                                roundoff_gap(nearest->nu_norm2, diameter));
+                                roundoff_gap(nearest->nu_norm2, magnitude));
       }
     }
   }
@@ -471,7 +480,7 @@ void run_numerical_algorithm(const K& k_set, S diameter, S d2_tolerance, int max
 /// origin, otherwise step 3's support call meets eq. (35) with g = 0. The certificate is the
 /// exact one whichever exit (gap 0, L = |ν|), where the loop's early exits kept a weaker one.
 template <class S, class K>
-void point_pair_outcome(const K& k_set, S diameter, S cutoff, S settled_below,
+void point_pair_outcome(const K& k_set, S magnitude, S cutoff, S settled_below,
                         const SimplexCache* cache, LoopOutcome<S>& out) {
   using std::sqrt;
   const Vec3<S> zero = Vec3<S>::Zero();
@@ -495,7 +504,7 @@ void point_pair_outcome(const K& k_set, S diameter, S cutoff, S settled_below,
       warm |= (cache->index_a[i] == 0) & (cache->index_b[i] == 0);
   out.warm_started = warm;
   bool before_support = true;
-  if (!warm && nu_length > cutoff + distance_roundoff(diameter)) {
+  if (!warm && nu_length > cutoff + distance_roundoff(magnitude)) {
     out.termination = Termination::beyond_cutoff;  // the first support plane: d ≥ |δ|
   } else if (nearest.nu_norm2 > 0 && settled_below >= 0 &&
              nearest.nu_norm2 <= settled_below * settled_below) {
@@ -526,7 +535,7 @@ void point_pair_outcome(const K& k_set, S diameter, S cutoff, S settled_below,
 /// (nearly parallel segments whose stationary point the rounding moved, say) it returns false
 /// and the caller runs the loop. A warm-start cache is not read: the answer needs none.
 template <class S, class K>
-bool segment_pair_outcome(const K& k_set, S diameter, S d2_tolerance, S cutoff, S settled_below,
+bool segment_pair_outcome(const K& k_set, S magnitude, S d2_tolerance, S cutoff, S settled_below,
                           LoopOutcome<S>& out) {
   using std::sqrt;
   Vec3<S> y[2][2], on_a[2], on_b[2];
@@ -599,7 +608,7 @@ bool segment_pair_outcome(const K& k_set, S diameter, S d2_tolerance, S cutoff, 
   const S nu_dot_w = nu.dot(w);
   const S gap = nearest.nu_norm2 - nu_dot_w;
   const S lower_bound = std::max(S(0), nu_dot_w / nu_length);
-  const S roundoff = roundoff_gap_of_length(nu_length, diameter);
+  const S roundoff = roundoff_gap_of_length(nu_length, magnitude);
   if (!(gap <= roundoff)) return false;  // not at the optimum to within roundoff: run the loop
   out.gap = certified_gap(gap, nearest.nu_norm2, lower_bound, roundoff);
   out.lower_bound = lower_bound;
@@ -608,7 +617,7 @@ bool segment_pair_outcome(const K& k_set, S diameter, S d2_tolerance, S cutoff, 
   // K's vertices (the segments' nearest points inside both, the usual near-contact case), the
   // triangle's own normal is K's plane and proves d ≥ n̂·s_K(−n̂) to roundoff, where the plane
   // normal to a short ν proves little.
-  if (simplex.size() == 3 && nu_length - lower_bound > distance_roundoff(diameter)) {
+  if (simplex.size() == 3 && nu_length - lower_bound > distance_roundoff(magnitude)) {
     Vec3<S> normal = (simplex.y[1] - simplex.y[0]).cross(simplex.y[2] - simplex.y[0]);
     const S length = normal.norm();
     if (length > 0) {
@@ -620,12 +629,12 @@ bool segment_pair_outcome(const K& k_set, S diameter, S d2_tolerance, S cutoff, 
       if (plane_bound > out.lower_bound) {
         out.lower_bound = plane_bound;
         out.gap = certified_gap(out.gap, nearest.nu_norm2, plane_bound,
-                                roundoff_gap(nearest.nu_norm2, diameter));
+                                roundoff_gap(nearest.nu_norm2, magnitude));
       }
     }
   }
   const S proven = out.lower_bound;
-  if (proven > cutoff + distance_roundoff(diameter))
+  if (proven > cutoff + distance_roundoff(magnitude))
     out.termination = Termination::beyond_cutoff;
   else if (settled_below >= 0 && nearest.nu_norm2 <= settled_below * settled_below)
     out.termination = Termination::contact;

@@ -102,22 +102,28 @@ struct Support<Point, S> {
 template <class S>
 struct Support<Segment<S>, S> {
   const Segment<S>& shape;
-  Vec3<S> center() const { return S(0.5) * (shape.a + shape.b); }
-  S extent() const { return S(0.5) * (shape.b - shape.a).norm(); }
+  // Each end is given relative to the centre as its own difference, a − c and b − c, each rounded
+  // once relative to the segment's length. The centre's own rounding then moves nothing: it is a
+  // reference point, placed by the pose like any centre. (The half-difference ±(b − a)/2 about a
+  // rounded centre was off by an ulp of the centre, which for a segment modelled far from its local
+  // origin is far more than its length: found by an outside fuzzer, segments at 1e38 answering
+  // "intersecting" 9.1 apart.) Halves first, so that the sum cannot overflow.
+  Vec3<S> center() const { return S(0.5) * shape.a + S(0.5) * shape.b; }
+  Vec3<S> end(std::int32_t index) const { return (index == 1 ? shape.b : shape.a) - center(); }
+  S extent() const { return std::max(end(0).norm(), end(1).norm()); }
   Vec3<S> support(const Vec3<S>& d, std::int32_t& index) const {
-    const Vec3<S> half = S(0.5) * (shape.b - shape.a);
+    const Vec3<S> a = end(0), b = end(1);
     // Ties and NaN choose a (index 0): any point of the segment is a valid support then.
-    if (half.dot(d) > 0) {
+    if ((b - a).dot(d) > 0) {
       index = 1;
-      return half;
+      return b;
     }
     index = 0;
-    return -half;
+    return a;
   }
   bool vertex(std::int32_t index, Vec3<S>& out) const {
     if (index != 0 && index != 1) return false;
-    const Vec3<S> half = S(0.5) * (shape.b - shape.a);
-    out = index == 1 ? half : Vec3<S>(-half);
+    out = end(index);
     return true;
   }
 };

@@ -87,7 +87,10 @@ void evaluate_pair(const SceneDefinition& scene, const ScenePair& pair,
       out.status = nearest.beyond_cutoff() ? PairStatus::beyond_cutoff : PairStatus::separated;
       break;
   }
-  out.distance_lower_bound = std::max(0.0, nearest.distance - nearest.error_bound);
+  // Beyond the cutoff the engine's distance is itself the certified lower bound.
+  out.distance_lower_bound = nearest.beyond_cutoff()
+                                 ? nearest.distance
+                                 : std::max(0.0, nearest.distance - nearest.error_bound);
   if (out.status == PairStatus::beyond_cutoff) {  // only the lower bound is meaningful
     // With several piece pairs the engine's `nearest` is one of them, whose bound need not hold
     // for the others (a piece its bounding spheres put beyond the cutoff may still be nearer

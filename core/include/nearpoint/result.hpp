@@ -75,10 +75,14 @@ template <class Scalar>
 struct DistanceResult {
   Status status = Status::invalid_input;
   /// Euclidean distance between the two (rounded) shapes, ≥ 0; 0 when intersecting. With
-  /// `beyond_cutoff()`, an upper bound (the true value lies within `error_bound` below it).
+  /// `beyond_cutoff()`, a certified lower bound above the cutoff: the true distance lies in
+  /// [distance, distance + error_bound].
   Scalar distance = 0;
-  /// Certified bound on |distance − true distance| (Theorem 1 and the support-plane bound:
-  /// min(√g, g/|ν|) plus a floating-point allowance).
+  /// Certified bound on |distance − true distance|, the truth being the distance of the shapes
+  /// posed exactly as given (R·x + t in exact arithmetic): Theorem 1 and the support-plane bound,
+  /// min(√g, g/|ν|), plus an allowance for rounding of a few ulps of the largest coordinate the
+  /// query forms (D(K) of eq. 37 with the origin shift; the centroids' size too without it) and
+  /// for pose A's rotation defect.
   Scalar error_bound = 0;
   /// The certified gap at exit (≥ 0; units: length²): min(g(ν), |ν|² − L²), where g(ν) =
   /// |ν|² + h_K(−ν) is the duality gap of eq. (25) and L the best support-plane lower bound found.
