@@ -105,9 +105,9 @@ struct Support<Segment<S>, S> {
   // Each end is given relative to the centre as its own difference, a − c and b − c, each rounded
   // once relative to the segment's length. The centre's own rounding then moves nothing: it is a
   // reference point, placed by the pose like any centre. (The half-difference ±(b − a)/2 about a
-  // rounded centre was off by an ulp of the centre, which for a segment modelled far from its local
-  // origin is far more than its length: found by an outside fuzzer, segments at 1e38 answering
-  // "intersecting" 9.1 apart.) Halves first, so that the sum cannot overflow.
+  // rounded centre was off by half an ulp of the centre, which for a segment modelled far from its
+  // local origin is far more than its length.) Halves first, so that the sum cannot overflow (an
+  // outside fuzzer's segment at 1.8e308 had D(K) = inf).
   Vec3<S> center() const { return S(0.5) * shape.a + S(0.5) * shape.b; }
   Vec3<S> end(std::int32_t index) const { return (index == 1 ? shape.b : shape.a) - center(); }
   S extent() const { return std::max(end(0).norm(), end(1).norm()); }

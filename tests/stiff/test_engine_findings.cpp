@@ -361,6 +361,35 @@ TEST_P(EngineFinding, EveryAnswerHoldsItsBound) {
   }
 }
 
+// A sibling of E13: a segment modelled 2^127 from its local origin, 2^75 (one ulp there) long,
+// placed back at the world origin by its pose, and a point 2^72 beyond its end along its axis.
+// a + b = 2^128 + 2^75 rounds to 2^128, so the rounded centre is the end a itself, and the ends
+// ±(b − a)/2 about it were both 2^74 off: the point looked inside the segment, a hundred million
+// million times the bound (ulps of the length) away from the truth. Each end is now its own
+// difference from the centre.
+TEST(EngineFindings, ASegmentFarFromItsLocalOriginKeepsItsEnds) {
+  const double end = std::ldexp(1.0, 127), ulp = std::ldexp(1.0, 75);
+  const Vec3<double> a(end, 0, 0), b(end + ulp, 0, 0);
+  Pose<double> placed;
+  placed.translation = Vec3<double>(-end, 0, 0);
+  Pose<double> beyond;
+  beyond.translation = Vec3<double>(-std::ldexp(1.0, 72), 0, 0);
+  for (const bool origin_shift : {true, false}) {
+    DistanceOptions<double> options;
+    options.origin_shift = origin_shift;
+    options.near_points = true;
+    SimplexCache cache{};
+    const DistanceResult<double> r = distance(Shape<double>(Segment<double>{a, b}), placed,
+                                              Shape<double>(Point{}), beyond, options, &cache);
+    ShapeText segment, point;
+    segment.kind = "segment";
+    segment.vertices = {{a.x(), a.y(), a.z()}, {b.x(), b.y(), b.z()}};
+    point.kind = "point";
+    check_answer(r, segment, placed, point, beyond, SimplexCache{}, cache,
+                 origin_shift ? "origin shift on" : "origin shift off");
+  }
+}
+
 TEST(EngineFindings, AllFiftyFourAreHere) {
   EXPECT_EQ(finding_files().size(), 54u);
 }
