@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The whole benchmark suite in one command: configures a Release build in build-bench (with the
 # peers FCL, libccd and Bullet), builds it, runs the five experiments one after another (never two
 # at once: they would disturb each other's timings), then writes the tables, the plots and

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Installing nearpoint: `cmake --install BUILD [--prefix DIR]` and `cpack -G DEB` (issue 23, item 5).
 #
 # Two components, so that an operator's machine does not pull the -dev packages:

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs, from Debian 12 packages, whatever nearpoint needs that this machine lacks.
 # Idempotent: packages already present are left alone, and nothing is fetched when all are there.
 #

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The container image's test (ctest label `container`; CI runs it in its main stage):
 #
 #   deploy/test-container.sh --nearpoint build/client/nearpoint

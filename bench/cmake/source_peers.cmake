@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # The peers that Debian does not package: openGJK and coal, built from the snapshots in
 # NEARPOINT_PEERS_DIR (../shared/peers/README.md: the tarballs, their commits and the build recipe).
 # Each is extracted once into the build tree and compiled there as a bench-local static library.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Per-replica capacity for the sharded deployment (README, "Deploy"): how many pose updates per
 # second one core of nearpointd answers for a reference scene, measured as
 #   updates answered / CPU seconds nearpointd used

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The peers behind the common Runner interface. Built only with NEARPOINT_BENCH_PEERS (see
 // peers_none.cpp for the build without them).
 //

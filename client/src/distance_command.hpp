@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `nearpoint distance`: JSON Lines pairs in, JSON Lines results out (DESIGN.md, "`nearpoint
 // distance` JSON Lines contract"). Local: no server, one engine call per line.
 //

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # cpack -G DEB on this build (issue 23, item 5): the runtime package holds nearpointd and the CLI
 # and depends on the shared libraries they link; the -dev package holds the headers, the CMake
 # package and the pkg-config file, and depends on the -dev packages a consumer compiles against.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // SHAPE objects of the JSON shape syntax (DESIGN.md, the `nearpoint distance` contract) → engine
 // shapes and poses, or the shapes as written (for geometry files, scene files and the wire). One
 // syntax for shapes everywhere: `nearpoint distance`, `nearpoint register`, scene files and
