@@ -30,7 +30,7 @@ while [ $# -gt 0 ]; do
     --peers) [ $# -ge 2 ] || { echo "bench/run.sh: --peers needs a folder" >&2; exit 2; }
              peers="$2"; shift ;;
     --peers=*) peers="${1#--peers=}" ;;
-    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+    -h|--help) sed -n '3,20p' "$0"; exit 0 ;;
     *) echo "bench/run.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift

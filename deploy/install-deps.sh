@@ -55,7 +55,7 @@ for arg in "$@"; do
     # peers for bench/ (FCL, libccd, Bullet; CGAL above gives the hulls fcl::Convex needs) and
     # matplotlib for bench/run.sh's plots (Debian's /usr/bin/python3)
     --bench) bench=true ;;
-    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    -h|--help) sed -n '3,9p' "$0"; exit 0 ;;
     *) echo "install-deps.sh: unknown option '$arg'" >&2; exit 2 ;;
   esac
 done
