@@ -9,7 +9,7 @@
 #                           bench/results/ and bench/RESULTS.md
 #   bench/run.sh --quick    smoke test: small samples, few rounds, into build-bench/quick-results/
 #                           (bench/results/ and bench/RESULTS.md are left alone)
-#   bench/run.sh --peers DIR  where the openGJK / coal snapshots are (../shared/peers/README.md);
+#   bench/run.sh --peers DIR  where the openGJK / coal snapshots are (bench/README.md, "Peers");
 #                           also NEARPOINT_PEERS_DIR. Default: ../shared/peers beside the repository,
 #                           or beside the main worktree when this is a `git worktree`. They are
 #                           built once into the build tree; a missing one is named and left out.

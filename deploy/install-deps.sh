@@ -67,7 +67,7 @@ if ! $image; then
   if ! command -v kubectl >/dev/null 2>&1; then packages+=(kubernetes-client); fi
 fi
 if $bench; then
-  # coal, built from ../shared/peers by bench/, needs Boost's filesystem library
+  # coal, built from its source snapshot by bench/, needs Boost's filesystem library
   packages+=(libbenchmark-dev libfcl-dev libccd-dev libbullet-dev python3-matplotlib
     libboost-filesystem-dev)
 fi
