@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The whole benchmark suite in one command: configures a Release build in build-bench (with the
 # peers FCL, libccd and Bullet), builds it, runs the five experiments one after another (never two
 # at once: they would disturb each other's timings), then writes the tables, the plots and
@@ -8,7 +9,7 @@
 #                           bench/results/ and bench/RESULTS.md
 #   bench/run.sh --quick    smoke test: small samples, few rounds, into build-bench/quick-results/
 #                           (bench/results/ and bench/RESULTS.md are left alone)
-#   bench/run.sh --peers DIR  where the openGJK / coal snapshots are (../shared/peers/README.md);
+#   bench/run.sh --peers DIR  where the openGJK / coal snapshots are (bench/README.md, "Peers");
 #                           also NEARPOINT_PEERS_DIR. Default: ../shared/peers beside the repository,
 #                           or beside the main worktree when this is a `git worktree`. They are
 #                           built once into the build tree; a missing one is named and left out.
@@ -29,7 +30,7 @@ while [ $# -gt 0 ]; do
     --peers) [ $# -ge 2 ] || { echo "bench/run.sh: --peers needs a folder" >&2; exit 2; }
              peers="$2"; shift ;;
     --peers=*) peers="${1#--peers=}" ;;
-    -h|--help) sed -n '2,21p' "$0"; exit 0 ;;
+    -h|--help) sed -n '3,20p' "$0"; exit 0 ;;
     *) echo "bench/run.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift

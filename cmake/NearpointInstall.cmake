@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 # Installing nearpoint: `cmake --install BUILD [--prefix DIR]` and `cpack -G DEB` (issue 23, item 5).
 #
 # Two components, so that an operator's machine does not pull the -dev packages:
@@ -22,6 +23,23 @@ install(FILES ${PROJECT_SOURCE_DIR}/deploy/cyclonedds-loopback.xml
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint COMPONENT runtime)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/examples COMPONENT runtime)
+
+# ---- licence (both components) ----
+# Apache-2.0 (LICENSE, NOTICE), the third-party notices, and a copyright file in Debian's
+# machine-readable format, in each package's documentation directory: share/doc/nearpoint for the
+# programs, share/doc/nearpoint-dev for the libraries (two .deb packages may not share a file).
+foreach(_nearpoint_component runtime dev)
+  if(_nearpoint_component STREQUAL "runtime")
+    set(_nearpoint_docdir ${CMAKE_INSTALL_DATADIR}/doc/nearpoint)
+  else()
+    set(_nearpoint_docdir ${CMAKE_INSTALL_DATADIR}/doc/nearpoint-dev)
+  endif()
+  install(FILES ${PROJECT_SOURCE_DIR}/LICENSE ${PROJECT_SOURCE_DIR}/NOTICE
+                ${PROJECT_SOURCE_DIR}/THIRD_PARTY_NOTICES.md
+          DESTINATION ${_nearpoint_docdir} COMPONENT ${_nearpoint_component})
+  install(FILES ${CMAKE_CURRENT_LIST_DIR}/debian-copyright RENAME copyright
+          DESTINATION ${_nearpoint_docdir} COMPONENT ${_nearpoint_component})
+endforeach()
 
 # ---- libraries and headers (dev) ----
 # The engine: Eigen only. Static libraries carry their private dependencies as link-only entries
@@ -84,6 +102,15 @@ else()
   set(NEARPOINT_INSTALLED_CLIENT OFF)
 endif()
 
+# The package's licence, for consumers that collect them: nearpoint_LICENSE in
+# nearpoint-config.cmake, and the NEARPOINT_LICENSE property on every exported target.
+set(NEARPOINT_LICENSE "Apache-2.0")
+foreach(_nearpoint_target nearpoint_core nearpoint_hull nearpoint_model nearpoint_proto nearpoint_client)
+  if(TARGET ${_nearpoint_target})
+    set_property(TARGET ${_nearpoint_target} PROPERTY NEARPOINT_LICENSE ${NEARPOINT_LICENSE})
+    set_property(TARGET ${_nearpoint_target} APPEND PROPERTY EXPORT_PROPERTIES NEARPOINT_LICENSE)
+  endif()
+endforeach()
 configure_package_config_file(${CMAKE_CURRENT_LIST_DIR}/nearpoint-config.cmake.in
   ${PROJECT_BINARY_DIR}/nearpoint-config.cmake INSTALL_DESTINATION ${NEARPOINT_INSTALL_CMAKEDIR})
 # 0.x: a minor version may break the API, so only the same minor version is compatible.
@@ -106,6 +133,10 @@ set(CPACK_PACKAGE_NAME nearpoint)
 set(CPACK_PACKAGE_VENDOR "nearpoint")
 set(CPACK_PACKAGE_CONTACT "nearpoint maintainers <nearpoint@localhost>")
 set(CPACK_PACKAGE_DESCRIPTION_SUMMARY "GJK distance engine and distance service (gRPC, DDS)")
+# Licence: Apache-2.0 for nearpoint's own code. A .deb has no licence field; its
+# /usr/share/doc/<package>/copyright (installed above) is where Debian looks.
+set(CPACK_RESOURCE_FILE_LICENSE ${PROJECT_SOURCE_DIR}/LICENSE)
+set(CPACK_RPM_PACKAGE_LICENSE "Apache-2.0")
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})
 set(CPACK_PACKAGING_INSTALL_PREFIX /usr)
 set(CPACK_DEB_COMPONENT_INSTALL ON)

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Installs, from Debian 12 packages, whatever nearpoint needs that this machine lacks.
 # Idempotent: packages already present are left alone, and nothing is fetched when all are there.
 #
@@ -54,7 +55,7 @@ for arg in "$@"; do
     # peers for bench/ (FCL, libccd, Bullet; CGAL above gives the hulls fcl::Convex needs) and
     # matplotlib for bench/run.sh's plots (Debian's /usr/bin/python3)
     --bench) bench=true ;;
-    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    -h|--help) sed -n '3,9p' "$0"; exit 0 ;;
     *) echo "install-deps.sh: unknown option '$arg'" >&2; exit 2 ;;
   esac
 done
@@ -66,7 +67,7 @@ if ! $image; then
   if ! command -v kubectl >/dev/null 2>&1; then packages+=(kubernetes-client); fi
 fi
 if $bench; then
-  # coal, built from ../shared/peers by bench/, needs Boost's filesystem library
+  # coal, built from its source snapshot by bench/, needs Boost's filesystem library
   packages+=(libbenchmark-dev libfcl-dev libccd-dev libbullet-dev python3-matplotlib
     libboost-filesystem-dev)
 fi

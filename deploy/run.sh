@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The README's two commands, and a developer's others.
 #   deploy/run.sh demo   installs what is missing, builds, and runs the main job
 #   deploy/run.sh test   installs what is missing, builds, and runs every stage of CI (what .ci/run

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Prints, one per line, the Debian packages that hold the shared libraries the given binaries
 # load (what dpkg-shlibdeps would compute, without dpkg-dev): deploy/Containerfile's runtime stage
 # installs exactly these, so that it carries no -dev package and no library a binary does not use.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # Scenes spread over three nearpointd replicas behind HAProxy, on this machine (127.0.0.1 only):
 #   deploy/sharded.sh            start them, print the address, run until Ctrl-C (then stop all)
 #   deploy/sharded.sh smoke      start them, create 30 scenes through the proxy with the CLI, show

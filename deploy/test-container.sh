@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The container image's test (ctest label `container`; CI runs it in its main stage):
 #
 #   deploy/test-container.sh --nearpoint build/client/nearpoint
@@ -31,7 +32,7 @@ nearpoint=""
 while [ $# -gt 0 ]; do
   case "$1" in
     --nearpoint) nearpoint="$2"; shift 2 ;;
-    -h|--help) sed -n '2,27p' "$0"; exit 0 ;;
+    -h|--help) sed -n '3,28p' "$0"; exit 0 ;;
     *) echo "test-container: unknown argument '$1'" >&2; exit 2 ;;
   esac
 done

@@ -1,5 +1,6 @@
+# SPDX-License-Identifier: Apache-2.0
 # The peers that Debian does not package: openGJK and coal, built from the snapshots in
-# NEARPOINT_PEERS_DIR (../shared/peers/README.md: the tarballs, their commits and the build recipe).
+# NEARPOINT_PEERS_DIR (bench/README.md, "Peers built from source": tarballs, commits, recipe).
 # Each is extracted once into the build tree and compiled there as a bench-local static library.
 # A missing tarball leaves that peer out with a message; the rest of the bench still builds and runs.
 #

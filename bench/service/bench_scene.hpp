@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The service benchmarks' scene, shared by nearpoint_service_bench (gRPC) and
 // nearpoint_dds_bench (gRPC beside DDS): 10 polytopes shaped like the paper's Section VII family
 // (12–100 vertices, 448 in all, 45 pairs) moving along a smooth trajectory.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the service benchmarks (nearpoint_service_bench, nearpoint_dds_bench) share besides the
 // scene itself (bench_scene.hpp): the gRPC messages that set the scene up and move it, and the
 // statistics and machine description they print.

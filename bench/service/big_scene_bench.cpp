@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint_big_scene_bench: what a big scene costs the server per update when only a few of its
 // objects move (issue 22). In-process, through the scene API (SceneService and PoseStream, as
 // every transport uses them), so the figures are server-side only: from the update being handed

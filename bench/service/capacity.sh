@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Per-replica capacity for the sharded deployment (README, "Deploy"): how many pose updates per
-# second one core of nearpointd answers for a reference scene, measured as
+# SPDX-License-Identifier: Apache-2.0
+# Per-replica capacity for the sharded deployment (docs/operations.md, "Sharded replicas"): how
+# many pose updates per second one core of nearpointd answers for a reference scene, measured as
 #   updates answered / CPU seconds nearpointd used
 # while `nearpoint load` keeps it busy from another process. nearpointd runs with --workers 1 as
 # a child on 127.0.0.1; its CPU time is read from /proc before and after, so the client's CPU

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint_dds_bench: round-trip latency of one pose stream over gRPC and over DDS, against the
 // same nearpointd process and the same scene, with each transport's floor measured in the same
 // run:

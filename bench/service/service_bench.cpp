@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint_service_bench: end-to-end latency and throughput of pose streams against nearpointd.
 //
 // Starts the server in-process on 127.0.0.1:0 (the same GrpcServer that nearpointd runs), registers

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // (3) Error against run time on the Section VII examples. Each implementation is run at a range
 // of its accuracy knob:
 //   nearpoint (Johnson and signed volumes): ε of eq. (35) from 1e-2 to 1e-15 and the engine's

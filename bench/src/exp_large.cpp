@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // (4) Large polytopes: the hulls of N random points on a unit sphere (A) and on an ellipsoid with
 // radii 1, 0.6, 0.35 (B), N = 10² … 10⁵. B follows a closed path around A that alternates between
 // separated (gaps up to ~0.75), touching and deeply intersecting configurations while it turns, in

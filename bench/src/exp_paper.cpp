@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // (1) The paper's Section VII experiment (Fig. 4): 12 polytopes, 20 pairs, separated / just
 // touching / intersecting, 100 random poses each — 6000 examples from the fixed-seed generator of
 // tests/common/paper_family.hpp, each with CGAL's exact distance.

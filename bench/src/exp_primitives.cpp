@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // (6) Primitives against the peers' specialised routines (issue 25, item 3): sphere–sphere,
 // capsule–capsule, box–box, sphere–capsule, sphere–box, and each primitive against a small hull.
 // nearpoint answers every pair with GJK on support functions (a sphere is a point with a radius, a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // (5) The stability report of issue 4: every case of the stiff suite (tests/stiff/stiff_cases.hpp)
 // through nearpoint (Johnson and signed volumes, double and float) and through the peers (FCL with
 // libccd and with its own GJK, Bullet in double, libccd's yes/no query), against CGAL's exact

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // (2) The paper's Section VIII / Table I: the two-piece object moving through five obstacles
 // (scenes/include/nearpoint/scenes/moving_object.hpp), distances to every obstacle at s = t/T,
 // t = 0 … T, for T = 10, 100, 1000, 10000. Total time with the single-point initialisation of

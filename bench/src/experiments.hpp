@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The five experiments. Each writes its CSV files under `args.out_dir`; bench/tools/report.py
 // turns them into tables, plots and bench/RESULTS.md.
 #pragma once

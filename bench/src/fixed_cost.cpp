@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint-fixed-cost: the fixed cost of a query on the smallest shapes (issue 25, item 2), with
 // nothing but the core linked, so that two builds can be run alternately and callgrind can count
 // one case's instructions without the bench's set-up.

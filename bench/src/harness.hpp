@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What every experiment shares: one interface for the implementations under test (nearpoint and
 // the peers), the per-query timer, order statistics, the command line and CSV output.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint-bench: the benchmark driver. `nearpoint-bench EXPERIMENT [--out DIR] [--quick]
 // [--rounds N]` runs one experiment (or `all`) and writes its CSV files; bench/run.sh runs them
 // all in sequence (never two at once: they would disturb each other's timings) and makes the

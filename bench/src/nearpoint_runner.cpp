@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint behind the common Runner interface.
 #include <map>
 #include <utility>

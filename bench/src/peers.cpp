@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The peers behind the common Runner interface. Built only with NEARPOINT_BENCH_PEERS (see
 // peers_none.cpp for the build without them).
 //
@@ -9,10 +10,10 @@
 //               depth solver (we ask for distances; EPA would only add cost on intersecting pairs);
 //   libccd 2.1  ccdGJKIntersect with a support callback that rotates the direction into the
 //               shape's frame and scans its vertices (FCL's own libccd glue does the same);
-//   openGJK     (snapshot, ../shared/peers) compute_minimum_distance on the vertex arrays, turned
+//   openGJK     (snapshot, bench/README.md) compute_minimum_distance on the vertex arrays, turned
 //               into the world frame inside the timed call (as FCL and nearpoint apply poses in
 //               theirs); scalar, double;
-//   coal        (snapshot, ../shared/peers) GJKSolver::shapeDistance on two
+//   coal        (snapshot, bench/README.md) GJKSolver::shapeDistance on two
 //               coal::Convex<coal::Triangle> built once from the CGAL hull (so that large hulls
 //               climb their neighbours), GJK only (compute_penetration = false, no EPA), the
 //               tolerance 1e-12 or its default 1e-6.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The peers when the benchmark is built without NEARPOINT_BENCH_PEERS: every peer declines, and
 // the reports say so instead of leaving columns out silently.
 #include "runners.hpp"

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The implementations under test, each behind `Runner`: nearpoint (any options, cold or warm) and
 // the peers built from Debian packages (FCL 0.7 with its libccd-based and its own GJK, Bullet 3.24
 // in double precision, libccd 2.1's yes/no query).

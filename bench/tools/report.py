@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Turns the CSV files of one benchmark run (bench/run.sh) into Markdown tables, PNG plots and the
 summary page (bench/RESULTS.md). Every figure it writes is read from those CSV files: nothing is
 typed in by hand, so a re-run of bench/run.sh rewrites every number.

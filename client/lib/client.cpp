@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nearpoint/client/client.hpp"
 
 #include <grpcpp/generic/generic_stub.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The client's plain structs ↔ nearpoint.v1 protobuf messages (mechanical; the server validates).
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `nearpoint stream --dds`: replays a trajectory to nearpointd's DDS bridge and checks every
 // report. Also the DDS client the tests and the benchmark use (DdsPoseClient).
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `nearpoint demo`: the paper's Section VIII experiment against a server. The moving object of
 // Fig. 5 (two convex pieces) passes five obstacles along a straight line with a slerp in
 // orientation (scenes/include/nearpoint/scenes/moving_object.hpp, the scene of bench's Table I);

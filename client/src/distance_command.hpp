@@ -1,5 +1,6 @@
-// `nearpoint distance`: JSON Lines pairs in, JSON Lines results out (DESIGN.md, "`nearpoint
-// distance` JSON Lines contract"). Local: no server, one engine call per line.
+// SPDX-License-Identifier: Apache-2.0
+// `nearpoint distance`: JSON Lines pairs in, JSON Lines results out (docs/design.md,
+// "`nearpoint distance` JSON Lines contract"). Local: no server, one engine call per line.
 //
 // Input, one JSON object per line (blank lines are skipped):
 //   {"id": any, "a": SHAPE, "b": SHAPE,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The JSON shape syntax lives in the transport-free formats library (formats/), shared with scene
 // files and nearpointd; the command-line code names it in its own namespace.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A nearpointd child process on 127.0.0.1:0, for `nearpoint demo` (and `load`) when no --target
 // is given, and for tests: started, its port read back from --port-file once it logs that it is
 // listening, stopped with SIGTERM (it drains and exits 0).

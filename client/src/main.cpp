@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The `nearpoint` command-line tool. One CLI11 subcommand per verb; each `add_*_subcommand`
 // function declares its arguments and help and runs its command from the callback, setting the
 // process's exit code. `distance` is local; register, scene, query, stream, load and demo talk to

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The server-facing verbs of `nearpoint`: register, scene create, query, stream, load. Each
 // takes its options, writes results to `out` (human text, or JSON with --json) and problems to
 // `err`, and returns the exit code (remote_common.hpp). main.cpp declares their command lines.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared by the server-facing verbs (register, scene, query, stream, load, demo): exit codes,
 // reports as JSON, mesh loading for geometry and scene files.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Trajectory files for `nearpoint stream` (and any other client that replays poses over time):
 // a sequence of steps, each a time and the poses of the objects that move at that step.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The distance query: validation, the relative frame, dispatch to the specialised loop, and the
 // result (near points, spherical extensions, error bound, penetration bound, gradient).
 #include "nearpoint/distance.hpp"

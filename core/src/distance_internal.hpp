@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Entry points shared inside the core: compound queries validate their poses once and then query
 // piece pairs without re-checking poses composed from validated ones.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The paper's Numerical Algorithm (Section VI, steps 1–6) on K = A − B, for two concrete shapes.
 #pragma once
 

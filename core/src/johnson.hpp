@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Johnson's distance subalgorithm (paper Section V, eq. 29–31) and the Backup Procedure (eq. 38).
 //
 // The simplex V_k lives in four slots. Inner products y_i·y_j and the cofactors Δ_i(Y_s) of every

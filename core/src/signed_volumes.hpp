@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The signed-volumes subalgorithm (Montanari, Petrinic & Barbieri, "Improving the GJK algorithm
 // for faster and more reliable distance queries between convex objects", ACM TOG 36(3), 2017).
 //

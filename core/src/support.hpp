@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Support adaptors: each concrete shape seen through what GJK needs (paper eq. 15–17).
 //
 // Every adaptor works relative to the shape's centre z̄ (eq. 34): `support` returns s(η) − z̄, so

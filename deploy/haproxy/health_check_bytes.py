@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Prints, as hex, the bytes HAProxy sends to check a nearpointd replica (deploy/haproxy/*.cfg,
 `tcp-check send-binary`): one gRPC health check (grpc.health.v1.Health/Check, service "") over
 cleartext HTTP/2, and the answer it expects (`tcp-check expect binary`: the gRPC message of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the DDS server bridge and the DDS client must agree on, in one place: topic names, QoS,
 // and the rule that Cyclone DDS never runs without a configuration here.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint_stream_demo: the smallest complete client of nearpointd. It registers three
 // geometries (a box as a polytope, a capsule, a cylinder), creates a scene, streams a box sliding
 // past the other two and prints one line per report.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The broad phase: world-frame boxes around the scene's objects, kept sorted along x as poses
 // stream in (sweep and prune), so that the pairs near one object are found without visiting every
 // other object. Our own small structure (no maintained Debian library provides an incremental

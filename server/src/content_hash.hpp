@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Content ids: SHA-256 (FIPS 180-4) over a canonical byte form, so that the same geometry gets the
 // same id on every replica and on every registration (registering twice is idempotent, and a
 // client that re-creates its scene on another replica after a failover names the same ids).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The DDS bridge: nearpointd's second transport, a thin adapter over the scene API exactly as the
 // gRPC service is. It reads nearpoint::msg::dds_::PoseUpdate_ samples on <prefix>pose_updates and
 // answers each with a nearpoint::msg::dds_::DistanceReport_ on <prefix>distance_reports (topic

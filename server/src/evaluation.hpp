@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One object pair of one update through the engine (the broad phase, in incremental.cpp, decided
 // that it needs to be).
 #pragma once

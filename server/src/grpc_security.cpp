@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "grpc_security.hpp"
 
 #include <grpcpp/security/auth_metadata_processor.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // ServerSecurity → gRPC server credentials: TLS (optionally mutual) and the bearer-token check.
 #pragma once
 

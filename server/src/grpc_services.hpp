@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The gRPC adapters: DistanceService and Diagnostics as callback services (one reactor class per
 // streaming RPC, state in members, OnDone cleans up — as in gRPC's route_guide example).
 #pragma once

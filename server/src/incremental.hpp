@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Only what changed causes work: which pairs of one evaluation reach the engine.
 //
 // A pose stream keeps the poses, options and pair results of its previous evaluation. A pair of

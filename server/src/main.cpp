@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpointd: the nearpoint distance server, over gRPC and/or DDS (whichever the build has).
 //
 //   nearpointd [--listen 127.0.0.1:50051] [--workers N] [--port-file PATH] [limits…]

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Prometheus metrics of nearpointd (issue 23): the recording hooks the scene service and the
 // transports call, and the HTTP endpoint (--metrics-listen) that serves them as text.
 //

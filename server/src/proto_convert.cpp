@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "proto_convert.hpp"
 
 #include <google/protobuf/io/coded_stream.h>

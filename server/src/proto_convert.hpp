@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Conversions between the nearpoint.v1 protobuf messages and the scene API's plain structs, and
 // the one mapping from scene API errors to gRPC status codes. Mechanical: no validation here
 // (the scene API validates, so every transport rejects the same inputs with the same messages).

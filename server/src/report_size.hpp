@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Upper bounds on the size of a report on the wire: the protobuf encoding of
 // nearpoint.v1.DistanceReport (proto/nearpoint/v1/nearpoint_distance.proto). The scene API uses
 // them to refuse, up front, a scene or a request whose report could not be sent in one message

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // `nearpointd --scene FILE`: preloads a scene file's geometries and scene (under the id the file
 // requests) into the scene API before the server announces its port, so that clients — a pure DDS
 // client among them — find the scene ready. The file format is the client's

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Watched pairs: thresholds with hysteresis and the ENTER/EXIT events of a pose stream.
 //
 // A stream's first update may name thresholds (nearpoint.v1.Threshold). Each resolves to a set of

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Happens-before edges that gRPC guarantees but ThreadSanitizer cannot see.
 //
 // gRPC orders a callback reactor's construction before its reactions (OnReadDone, OnWriteDone,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "validation.hpp"
 
 #ifdef NEARPOINT_HAVE_HULL

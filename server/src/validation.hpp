@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Validation of the scene API's inputs, with error paths that name the offending field.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The numbers both transports carry for the scene API's enums. They are the values of
 // nearpoint.v1's enums (proto/nearpoint/v1), which the DDS IDL (proto/dds) repeats as plain
 // integers, so that a report or an option means the same on gRPC and on DDS. Written once here

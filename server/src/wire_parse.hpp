@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Parsing requests ourselves, so that bytes that do not parse get a reason. gRPC's generated
 // handlers parse before our code runs: a unary request that fails is answered UNIMPLEMENTED with
 // no message, and a stream message that fails looks like the client's half-close (OnReadDone

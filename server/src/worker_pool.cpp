@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "nearpoint/server/worker_pool.hpp"
 
 namespace nearpoint::server {

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Process-boundary checks of the real `nearpoint` binary (standard library only).
 
     check_example_output.py NEARPOINT example PAIRS_JSONL   the shipped example, end to end

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Hostile input through the real binaries (issue 21, item 13; standard library only).
 
     check_hostile_files.py NEARPOINT NEARPOINTD SCRATCH_DIR

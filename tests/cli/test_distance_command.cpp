@@ -1,6 +1,7 @@
+// SPDX-License-Identifier: Apache-2.0
 // `nearpoint distance` without a process: run_distance on string streams, checked against the
-// contract in DESIGN.md ("`nearpoint distance` JSON Lines contract") and against direct calls of
-// nearpoint::distance on the same shapes.
+// contract in docs/design.md ("`nearpoint distance` JSON Lines contract") and against direct calls
+// of nearpoint::distance on the same shapes.
 #include <cmath>
 #include <cstring>
 #include <limits>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The trajectory reader of `nearpoint stream`: both formats give the same steps, and every kind of
 // malformed input is refused with a message naming its line.
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint::client and the server-facing `nearpoint` verbs against real nearpointd processes on
 // 127.0.0.1 (started by LocalServer, the same helper `nearpoint demo` uses). Truths come from the
 // core engine called directly in the test, or from plain geometry.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Small helpers shared by the oracle tests: finiteness of a whole result, a failure log that keeps
 // the first few messages of each kind (so a broken engine prints a readable report instead of
 // thousands of lines), and summary statistics.

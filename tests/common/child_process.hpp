@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A child process whose stdout and stderr are collected line by line by reader threads, so a test
 // can wait for a log line (no sleeping) and read a client's output. Waits are bounded; a child
 // still running when the object goes away is killed. Used by the tests that run nearpointd or the

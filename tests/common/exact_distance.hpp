@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The exact oracle: the distance between the convex hulls of two point sets, computed by CGAL's
 // Polytope_distance_d (a quadratic program solved in exact arithmetic), for the very inputs that
 // nearpoint sees.

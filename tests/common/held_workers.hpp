@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Holds every thread of a SceneService's worker pool until released, so that a test can make
 // "the server is slower than its client" happen for certain instead of hoping the engine is slow
 // enough. Each worker is taken by a query on `scene_id` whose completion waits; the constructor

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "common/paper_family.hpp"
 
 #include <algorithm>

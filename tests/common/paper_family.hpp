@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The experiment of Section VII of Gilbert, Johnson & Keerthi (1988), regenerated with a fixed
 // seed: 12 polytopes, 20 pairs, three cases (separated, just touching, intersecting), 100 random
 // poses per pair and case — 6000 examples. Used by the oracle tests and the benchmarks.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Random convex polytopes for tests: the hull of random points in a ball. Seeded, so a test sees
 // the same polytope every run.
 #pragma once

@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Writes the small meshes in this directory that tests/mesh/test_mesh_import.cpp reads.
 
 Each mesh is built so that its convex hull is known by construction (the expectations are stated

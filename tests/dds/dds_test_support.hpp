@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared pieces of the DDS tests: domain ids, topic prefixes, update samples that own their
 // strings, and a client loop that collects this client's reports.
 //

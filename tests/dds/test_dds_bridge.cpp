@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The DDS bridge in-process: a SceneService with the bridge on a test domain, and a real DDS
 // client (the one `nearpoint stream --dds` uses) publishing samples to it. The answers are checked
 // against the engine's own distance, computed here from the same numbers. Needs no gRPC.

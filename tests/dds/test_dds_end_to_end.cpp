@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // DDS across a process boundary: nearpointd --dds as one child process, `nearpoint stream --dds`
 // as another. The test creates the scene over gRPC (both transports serve one scene store),
 // writes a trajectory file, runs the client on it and checks every line the client printed:

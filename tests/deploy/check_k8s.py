@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """deploy/k8s (issue 23, item 4): the example overlay renders (kubectl kustomize), the tree passes
 yamllint, and the rendered objects agree with the binaries they run:
 

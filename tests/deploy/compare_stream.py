@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Checks a streamed trajectory's reports against the engine run locally (`nearpoint distance`).
 
     compare_stream.py --scene S.json --trajectory T.jsonl --reports R.jsonl --nearpoint BIN

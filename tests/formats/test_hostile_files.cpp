@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Hostile scene files and JSON text (issue 21, item 13), read through the formats library as
 // `nearpoint scene create`, `nearpoint register` and `nearpointd --scene` read them: each one is
 // refused with a short message naming the file and the line, instead of overflowing the stack,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the engine (nearpoint::distance, single shapes and compounds) on arbitrary
 // shapes, poses and radii, in double and in float, held to invariants that hold for every correct
 // answer rather than to today's numbers:

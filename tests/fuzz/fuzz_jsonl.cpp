@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the JSON Lines reader of `nearpoint distance` (run_distance on string
 // streams, as the tests and the binary run it). Invariants: the whole input is read (exit 0: bad
 // lines are answered, not fatal), one answer per non-blank input line, every answer a JSON object

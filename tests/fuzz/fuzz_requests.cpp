@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the protobuf request handlers of nearpointd in process, bytes → parse →
 // validate → handle, as the gRPC adapter does it (server/src/grpc_services.cpp), without a
 // network. An input is a sequence of up to 12 records, each an operation byte, a 16-bit length and

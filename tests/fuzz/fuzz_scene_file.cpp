@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // libFuzzer target: the scene-file loader, JSON and YAML, through nearpointd's own preload path
 // (formats::load_scene_file → register the geometries → create the scene), then one query of the
 // scene at its initial poses. The first byte picks the format (even: JSON, odd: YAML); the rest is

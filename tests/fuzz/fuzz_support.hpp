@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the fuzz targets share: a reader that turns libFuzzer's bytes into the values a target
 // needs, and the one way a target reports a broken invariant.
 //

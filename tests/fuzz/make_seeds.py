@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """Writes the seed corpus of tests/fuzz (run from anywhere; rewrites corpus/*/seed-*).
 
 Seeds are small, meaningful inputs: the shipped examples (examples/), the scene files' shapes, and

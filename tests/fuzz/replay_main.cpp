@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // main() for the fuzz targets in builds without libFuzzer (the normal g++ build): runs
 // LLVMFuzzerTestOneInput once on each file named, or on each file of each directory named, so
 // that the seed corpus and every saved finding are regression tests of the ordinary test suite.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # One bounded libFuzzer run (the ctest tests fuzz.NAME.run call this):
 #   run_fuzzer.sh BINARY WORK_CORPUS ARTIFACT_DIR SEED_DIR...
 # Fuzzes for $NEARPOINT_FUZZ_SECONDS seconds (default 60), or, when $NEARPOINT_FUZZ_RUNS is set,

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What the server-side fuzz targets share: a scene service with small limits (so that one input's
 // work stays bounded and a libFuzzer timeout means a real hang), evaluations waited for in the
 // calling thread, and the invariants every answer of the scene API must meet.

@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # cpack -G DEB on this build (issue 23, item 5): the runtime package holds nearpointd and the CLI
 # and depends on the shared libraries they link; the -dev package holds the headers, the CMake
 # package and the pkg-config file, and depends on the -dev packages a consumer compiles against.
@@ -19,6 +20,13 @@ contents "$runtime" | grep -qx './usr/bin/nearpoint' || fail "the CLI not in $ru
 contents "$dev" | grep -qx './usr/include/nearpoint/distance.hpp' || fail "headers not in $dev"
 contents "$dev" | grep -q '/usr/lib/.*cmake/nearpoint/nearpoint-config.cmake' ||
   fail "CMake package not in $dev"
+# The licence: each package carries LICENSE, NOTICE and a machine-readable copyright file.
+for pair in "$runtime:nearpoint" "$dev:nearpoint-dev"; do
+  deb="${pair%%:*}" doc="./usr/share/doc/${pair##*:}"
+  for file in copyright LICENSE NOTICE THIRD_PARTY_NOTICES.md; do
+    contents "$deb" | grep -qx "$doc/$file" || fail "$doc/$file not in $deb"
+  done
+done
 depends=$(dpkg-deb -f "$runtime" Depends)
 echo "nearpoint Depends: $depends"
 for lib in libgrpc++ libprotobuf libc6; do

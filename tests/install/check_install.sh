@@ -1,4 +1,5 @@
 #!/usr/bin/env bash
+# SPDX-License-Identifier: Apache-2.0
 # The installed package from a consumer's side (issue 23, item 5): installs this build into a
 # fresh temporary prefix, then builds tests/install/consumer against it with find_package
 # (nearpoint::core; nearpoint::client and nearpoint::proto when the build has them) and builds the

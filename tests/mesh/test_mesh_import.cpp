@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint_mesh_import: mesh files to convex pieces. The shipped meshes (tests/data/, written by
 // make_meshes.py) have hulls known by construction; random point clouds check the hull against
 // the engine itself: the distance to the imported hull must equal the distance to every vertex

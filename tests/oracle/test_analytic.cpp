@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Analytic oracles: shape pairs whose distance has a closed form (or a 1-D root find), evaluated
 // in long double from the very double inputs the engine sees. Each family draws many random
 // configurations from a fixed seed, checks that both verdicts occur in it, and holds the engine to

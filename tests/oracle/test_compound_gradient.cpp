@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Compound objects (paper eq. 2–4: distance = minimum over piece pairs, with bounding-sphere
 // pruning and per-piece-pair warm-start caches), the gradient of the distance with respect to the
 // poses (Section II) against central finite differences, and the rejection of invalid input.

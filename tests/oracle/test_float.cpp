@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The paper experiment in single precision: the engine instantiated with float, on a subset of the
 // Section VII examples (10 poses per pair and case: 600 examples) converted to float, against the
 // exact distance of the float inputs (the CGAL oracle evaluates R·v + t exactly from the float

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The paper's Section VII experiment (12 polytopes, 20 pairs, separated / just touching /
 // intersecting, 100 random poses each: 6000 examples) against CGAL's exact distance.
 //

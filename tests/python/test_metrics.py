@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """nearpointd's Prometheus endpoint (issue 23, item 2) across the process boundary: a real
 nearpointd with --metrics-listen 127.0.0.1:0 serves a streamed trajectory and queries from the
 Python client, then /metrics is scraped over HTTP and its counters must match what was sent.

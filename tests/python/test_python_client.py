@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """The Python client (client/python) against a real nearpointd child process on 127.0.0.1:0.
 
 Distances are checked against analytic truth: for axis-aligned boxes the distance is the length

@@ -1,4 +1,5 @@
 #!/usr/bin/python3
+# SPDX-License-Identifier: Apache-2.0
 """nearpointd's TLS, mutual TLS and bearer token (issue 23, item 3), against real nearpointd
 processes on 127.0.0.1:0, with a throw-away CA and certificates made here with openssl.
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A scene of paper-like polytopes (a box, cylinders modelled as prisms, random hulls) plus a
 // two-piece "arm", registered on a server, with a smooth trajectory and the local check of every
 // reported distance against the engine.

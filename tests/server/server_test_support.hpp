@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Shared pieces of the server tests: geometries built twice from the same numbers (as a wire
 // message for the server, as an engine Compound for the local check), poses, client contexts with
 // deadlines, and an in-process server on 127.0.0.1:0.

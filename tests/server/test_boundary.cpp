@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The service's boundary against requests within every limit that could still not be answered:
 // reports larger than the server can send, and ids too long to echo. A real in-process server
 // on 127.0.0.1:0 and the generated gRPC client (issue 21, items 3 and 4).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Issue 22: the broad phase (world-frame boxes, sweep and prune) and "only moved objects cause
 // work". Every check is against a brute-force reference: the boxes against the objects' vertices,
 // the sweep against all boxes, pruned pairs against the engine run on every pair, and a stream

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Integration tests: a real in-process server on 127.0.0.1:0, driven through the generated gRPC
 // client. Every reported distance is checked against the engine run locally on the same poses.
 #include <google/protobuf/descriptor.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The real nearpointd binary as a child process: it binds 127.0.0.1:0, writes the port file,
 // serves a stream, and on SIGTERM drains the stream and exits 0. Its stderr (structured logs) is
 // read through a pipe, which also tells when it is listening — no sleeping.

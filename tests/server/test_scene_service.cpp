@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The scene API without any transport: what the gRPC service (and later the DDS bridge) adapts.
 #include <gtest/gtest.h>
 

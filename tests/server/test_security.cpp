@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The pure parts of nearpointd's transport security (server/src/security.cpp): which --listen
 // addresses count as loopback (everything else needs TLS or --insecure) and the token
 // comparison. The flags and files are tested through the real binary (tests/security/).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Scenes spread over three nearpointd replicas behind HAProxy (issue 24), as real processes on
 // 127.0.0.1: deploy/haproxy/nearpoint.cfg hashes the x-nearpoint-scene header that the client
 // library puts on every call about a scene (consistent hashing), and checks each replica with the

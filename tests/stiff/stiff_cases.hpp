@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The named suite of stiff and extreme cases (issue: numerical stability). Every case has polytope
 // cores (a point, a segment and a box are polytopes too) plus optional radii, so its truth is the
 // exact distance of CGAL's oracle on the very inputs the engine sees, minus the radii (eq. 8).

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Reliability at the boundary (issue 21, items 8–12): the certified error bound must hold for every
 // input the engine accepts, in double and in float, and what it cannot handle must be refused with
 // a message. Each test names the mechanism it guards. Truths come from CGAL's exact distance on the

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The stiff and extreme suite: every named case × {Johnson, signed volumes} × {double, float},
 // against CGAL's exact distance on the very inputs. Guards the promises of the numerical design:
 // the right verdict, |d − d_exact| within the reported error bound and within a stated figure

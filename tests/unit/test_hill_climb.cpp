@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Polytopes built with their hull's faces: the checks on the faces, and support by climbing the
 // hull's edges against the linear scan; distances on climbing polytopes against CGAL's exact
 // distance, cold and warm.

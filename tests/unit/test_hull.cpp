@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint::convex_hull and hull_polytope at the boundary (issue 21, item 1): the hull is
 // canonical (the same input gives the same vertices, order and faces in any process state), hulls
 // we build are always accepted as polytopes with faces (also far from the origin), and nearly flat

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Unit tests of the support functions (eq. 15–17), centres and extents (eq. 34, 37), input
 // validation, and poses.
 #include <gtest/gtest.h>

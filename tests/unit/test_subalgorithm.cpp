@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Unit tests of Johnson's distance subalgorithm and the Backup Procedure (paper Section V–VI),
 // checked against a brute-force nearest point of co Y computed independently.
 #include <gtest/gtest.h>

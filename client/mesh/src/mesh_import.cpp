@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Mesh import: assimp reads the file, CGAL finds each part's extreme points.
 //
 // Why CGAL's extreme_points_3 rather than qhull: its predicates are exact (filtered floating point

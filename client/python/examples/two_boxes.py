@@ -1,4 +1,5 @@
 #!/usr/bin/env python3
+# SPDX-License-Identifier: Apache-2.0
 """Two boxes: a fixed cube and a flat box sliding past it; one line per streamed report.
 
     PYTHONPATH=build/client/python /usr/bin/python3 client/python/examples/two_boxes.py [HOST:PORT]

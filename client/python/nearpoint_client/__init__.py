@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """nearpoint_client: talk to nearpointd, the nearpoint distance server, from Python.
 
     import nearpoint_client as npc

@@ -1,3 +1,4 @@
+# SPDX-License-Identifier: Apache-2.0
 """The nearpoint Python client: a thin, typed layer over the generated gRPC stubs.
 
 Everything on the wire is in metres and radians; poses map an object's geometry frame to the

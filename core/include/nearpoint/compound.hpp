@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Objects made of several convex pieces (paper eq. 2–4): the distance between two such objects is
 // the minimum over piece pairs, and the pieces may each carry a radius (eq. 7–8).
 #pragma once

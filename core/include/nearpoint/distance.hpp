@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The distance query: the paper's Numerical Algorithm (Section VI) on K = A − B.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Query options. Every default lives here, once, with what it means physically.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Poses: where a shape sits in the world. K(q) = T(q)·C + p(q), the paper's eq. (9)–(10).
 #pragma once
 

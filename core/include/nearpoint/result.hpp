@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // What a distance query returns, and the warm-start cache it reads and writes.
 #pragma once
 

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The convex shapes the engine knows, each described by what GJK needs from it: a support function
 // (paper eq. 15–17), a centre (the z̄ of eq. 34) and an extent about that centre (a term of eq. 37).
 // Every shape may carry a spherical-extension radius r (eq. 5–8): a sphere is a point with a

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Builds and links against the installed nearpoint::client and nearpoint::proto; runs without a
 // server: a call to a closed loopback port must come back as a value (UNAVAILABLE), not a crash.
 #include <chrono>

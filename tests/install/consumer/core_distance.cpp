@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // One distance with the installed engine: a unit box at the origin and a unit sphere centred at
 // (4, 0, 0) are 2 apart. Prints the distance; exits 1 when it is not 2 within the error bound.
 #include <cmath>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpoint::client — the C++ client of nearpointd (gRPC, nearpoint.v1.DistanceService).
 //
 //   auto client = nearpoint::client::Client::connect("127.0.0.1:50051");

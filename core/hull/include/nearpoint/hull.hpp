@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Convex hulls (CGAL, exact predicates): the hull's vertices and faces of a point set, and a
 // Polytope built from them that climbs its edges for support queries (see Polytope's constructor
 // with faces). A separate library (nearpoint::hull) so that the engine itself needs Eigen only.

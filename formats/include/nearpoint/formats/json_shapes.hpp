@@ -1,7 +1,8 @@
-// SHAPE objects of the JSON shape syntax (DESIGN.md, the `nearpoint distance` contract) → engine
-// shapes and poses, or the shapes as written (for geometry files, scene files and the wire). One
-// syntax for shapes everywhere: `nearpoint distance`, `nearpoint register`, scene files and
-// `nearpointd --scene` all parse SHAPEs here.
+// SPDX-License-Identifier: Apache-2.0
+// SHAPE objects of the JSON shape syntax (docs/design.md, the `nearpoint distance` contract) →
+// engine shapes and poses, or the shapes as written (for geometry files, scene files and the
+// wire). One syntax for shapes everywhere: `nearpoint distance`, `nearpoint register`, scene files
+// and `nearpointd --scene` all parse SHAPEs here.
 //
 //   SHAPE = {"polytope": [[x,y,z], ...]} | {"sphere": {}} | {"segment": [[x,y,z],[x,y,z]]}
 //         | {"box": [hx,hy,hz]} | {"ellipsoid": [rx,ry,rz]}

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Geometry and scene files: JSON (or YAML with the same structure) → the scene API's plain
 // structs (the scene model, nearpoint/model/scene_types.hpp). Transport-free, so that the client
 // (`nearpoint register`, `nearpoint scene create`) and the server (`nearpointd --scene`) read the

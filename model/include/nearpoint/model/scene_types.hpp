@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The scene model: the plain inputs and outputs of the scene API, shared by the server, the client
 // and the file formats. They mirror the wire messages of nearpoint.v1 field for field (so error
 // paths such as "poses[2].pose.rotation" read the same on every transport) but depend on no

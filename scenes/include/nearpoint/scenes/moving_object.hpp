@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The moving-object scene of the paper's Section VIII (after its Fig. 5, Canny's example): a
 // two-piece object K_A = K6 ∪ K7 moves through five convex obstacles K1 … K5 along a straight
 // line while its orientation turns by spherical linear interpolation (slerp); the distances are

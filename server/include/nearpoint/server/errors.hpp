@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Errors of the scene API: a code, the offending field and a message. Transports turn them into
 // their own form in one place each (gRPC: `to_grpc_status` in the service adapter).
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The server's limits, each with its default and why. One home: flags and tests override these.
 #pragma once
 

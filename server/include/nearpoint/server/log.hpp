@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Structured logs: one line per event, key=value pairs, to stderr.
 //   ts=2026-11-21T19:44:36.123456Z level=info event=stream_closed stream=3 updates=412 ...
 // Values with spaces, quotes or '=' are double-quoted with backslash escapes.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The scene API: geometry store, scenes, unary queries and pose streams, independent of any
 // transport. The gRPC service is a thin adapter over it, and so will be the DDS bridge.
 //

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The server's view of the scene model: the plain structs of nearpoint/model/scene_types.hpp
 // (shared with the client and the file formats) under the names the server has always used, plus
 // what only the server has: the report of one evaluation, which points at the scene it belongs to.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpointd's transport security (issue 23, item 3): TLS on the gRPC port, optionally mutual, and
 // an optional bearer token. Loaded and checked once at start, before anything binds, so that bad
 // configuration stops the server with a message naming the flag.

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // nearpointd's gRPC server: the DistanceService and Diagnostics services over one SceneService,
 // plus health checking and reflection. ServerConfig's `workers` and `limits` describe the
 // SceneService and apply to every transport. Used by main() and, in-process, by the tests and the

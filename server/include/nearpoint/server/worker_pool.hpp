@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // A fixed pool of threads that runs the geometry. The transports' threads only read, validate,
 // convert and write; everything that calls the distance engine is posted here.
 #pragma once

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // Mesh files (OBJ, STL ascii/binary, OFF, PLY; also the other formats assimp reads, e.g. glTF)
 // to the convex pieces nearpoint works on: each part of the mesh becomes the convex hull of its
 // vertices, given as the hull's vertices only.
