@@ -6,7 +6,7 @@
 // replaces a slot, only the inner products of that slot and the Δ's of subsets containing it are
 // recomputed (Section VI: "only (ν + 1) new inner products need to be calculated").
 //
-// Notation of the paper (with the equations its copy lost, from DESIGN.md):
+// Notation of the paper (with the equations its copy lost, written out in docs/design.md):
 //   Δ_i({y_i}) = 1
 //   Δ_j(Y_s ∪ {y_j}) = Σ_{i∈I_s} Δ_i(Y_s)·(y_i·y_k − y_i·y_j),  k = min I_s,  j ∉ I_s     (30)
 //   Δ(Y_s) = Σ_{i∈I_s} Δ_i(Y_s)

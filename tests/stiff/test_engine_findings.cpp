@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // The 54 inputs an outside fuzzer found on 2026-12-03 whose answers lay outside their own error
 // bound (tests/data/engine-findings/, one decoded input per file: shapes, poses, options and the
 // answers of that day). Each is replayed as the fuzzer ran it — a cold query, a warm one with the
