@@ -182,9 +182,12 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
     }
   }
   if (!answered)
-    detail::run_numerical_algorithm(k_set, magnitude, epsilon * diameter * diameter,
-                                    std::max(0, options.max_iterations), cutoff, settled_below,
-                                    options.subalgorithm, cold_start, cache, loop);
+    detail::run_numerical_algorithm(
+        k_set,
+        detail::LoopInput<S>{magnitude, epsilon * diameter * diameter,
+                             std::max(0, options.max_iterations), cutoff, settled_below,
+                             options.subalgorithm, cold_start},
+        cache, loop);
 
   const detail::Nearest<S>& nearest = loop.nearest;
   const detail::Simplex<S>& simplex = loop.simplex;

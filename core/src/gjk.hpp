@@ -208,43 +208,34 @@ bool nearest_of_simplex(Subalgorithm method, const Simplex<S>& simplex, const Ve
   return distance_subalgorithm(simplex, subset_order(simplex, newest), nearest);
 }
 
-/// Runs steps 1–6. `magnitude` is the working magnitude M (see distance_roundoff) and
-/// `d2_tolerance` ε·D(K)² of eq. (35), D(K) of eq. (37);
-/// `cutoff` is on the core distance. An iterate with |ν| ≤ `settled_below` ends the loop
-/// (Termination::contact): the caller's verdict cannot change any more (negative: never).
-template <class S, class K>
-void run_numerical_algorithm(const K& k_set, S magnitude, S d2_tolerance, int max_iterations,
-                             S cutoff, S settled_below, Subalgorithm method, ColdStart cold_start,
-                             const SimplexCache* cache, LoopOutcome<S>& out) {
-  Simplex<S>& simplex = out.simplex;
-  const S interval_floor = distance_roundoff(magnitude);
-  // A computed support-plane bound L carries roundoff of a few ulps of D(K) (in y and in the
-  // inner product), so "d > cutoff" is proven only when L clears the cutoff by that much.
-  // Without the margin, touching pairs were reported beyond a zero cutoff.
-  const S proven_beyond = cutoff + interval_floor;
-  // Johnson's method reads the inner products and Δ's every step; signed volumes never does, and
-  // the Backup Procedure rebuilds them on the rare occasions it runs.
-  const bool tables = method == Subalgorithm::johnson;
-  // ν_k and ν_{k−1} live in two buffers that trade places each step, rather than ν_k being
-  // copied aside: the subalgorithm writes its answer field by field, and the copy read those
-  // fresh 8-byte stores back as 16-byte loads (a store-forwarding stall every iteration).
-  Nearest<S> spare;
-  Nearest<S>* nearest = &out.nearest;
-  Nearest<S>* previous = &spare;
-  // Zeroed although every read follows a support call that wrote them: GCC 12 at -O3 cannot see
-  // that a step-4 descent implies step 3's call (ν ≠ 0) and warned on the float build.
-  Vec3<S> y = Vec3<S>::Zero(), on_a = Vec3<S>::Zero(), on_b = Vec3<S>::Zero();
-  std::int32_t ia = 0, ib = 0;
-  // The cost counters (LoopOutcome::support_calls, subalgorithm_runs) are derived at the end from
-  // k and a few events counted off the common path: increments in the loop itself measurably
-  // slowed the warm-started queries they exist to account for (2–3% on the Table I path).
-  int support_calls = 0;             // so far: V_0's support call and the final plane's
-  int rare_support_calls = 0;        // passes that tested (35) and then ran step 6
-  int extra_runs = 0;                // Backup Procedure runs
-  bool exit_before_support = false;  // the last pass ended before step 3's support call
+/// What the loop needs besides K (as Box2D's b2DistanceInput groups a query's inputs): its
+/// tolerances, its exits and how it starts.
+template <class S>
+struct LoopInput {
+  /// The working magnitude M that every roundoff term is a few ulps of (distance_roundoff).
+  S magnitude;
+  /// ε·D(K)² of eq. (35), D(K) of eq. (37).
+  S d2_tolerance;
+  int max_iterations;
+  /// On the core distance: a support plane proving d past it (by its roundoff) ends the loop.
+  S cutoff;
+  /// An iterate with |ν| ≤ this ends the loop (Termination::contact): the caller's verdict
+  /// cannot change any more. Negative: never.
+  S settled_below;
+  Subalgorithm method;
+  ColdStart cold_start;
+};
 
-  // Step 1: V_0. Warm start from the cached vertex pairs (Section VIII) or the single-point
-  // initialisation V_0 = {s_K(−z̄₁ + z̄₂)} (Section VI); in our frame −z̄₁ + z̄₂ = δ.
+/// Step 1: V_0 from the warm-start cache (Section VIII), or the single-point initialisation
+/// V_0 = {s_K(−z̄₁ + z̄₂)} (Section VI), in our frame −z̄₁ + z̄₂ = δ, with the centroids' point
+/// beside it for ColdStart::with_centroids. Returns the support calls made (0 or 1) and writes
+/// the first support plane's lower bound on d into `lower_bound` (0 when it proves nothing).
+template <class S, class K>
+int initial_simplex(const K& k_set, const LoopInput<S>& in, const SimplexCache* cache, bool tables,
+                    LoopOutcome<S>& out, S& lower_bound) {
+  Simplex<S>& simplex = out.simplex;
+  Vec3<S> y, on_a, on_b;
+  lower_bound = 0;
   if (cache && cache->count > 0 && cache->count <= 4) {
     for (int i = 0; i < cache->count; ++i) {
       bool duplicate = false;
@@ -257,36 +248,102 @@ void run_numerical_algorithm(const K& k_set, S magnitude, S d2_tolerance, int ma
     }
     out.warm_started = simplex.used != 0;
   }
-  // The best support-plane lower bound L found so far (see the loop).
-  S best_lower_bound = 0;
-  if (simplex.used == 0) {
-    Vec3<S> direction = k_set.offset;
-    const S offset_norm2 = direction.squaredNorm();
-    if (!(offset_norm2 > 0)) direction = Vec3<S>(1, 0, 0);  // concentric: any will do
-    k_set.support(direction, y, on_a, on_b, ia, ib);
-    support_calls = 1;
-    simplex.add(y, on_a, on_b, ia, ib, tables);
-    // This first support point is already a support plane: every x ∈ K has u·x ≥ u·s_K(−u) for
-    // any unit u, and |x| ≥ u·x, so d ≥ u·s_K(−u). With u = −δ/|δ| (towards K's centroid
-    // z̄₁ − z̄₂), s_K(−u) is the point just found. Well-separated pairs are decided by this bound
-    // without a second support call: the yes/no query's common case.
-    const S along = -direction.dot(y);
-    if (offset_norm2 > 0 && along > 0) {
-      using std::sqrt;
-      best_lower_bound = along / sqrt(offset_norm2);
-    }
-    // The centroids' difference z̄_A − z̄_B is a point of K (each centroid lies in its shape),
-    // here y = 0 − 0 − δ, and costs no support call. When the shapes overlap it usually lies
-    // deep inside K, and the simplex that encloses the origin needs one support point fewer.
-    // Not when the first support plane already proves the shapes apart (then it is an interior
-    // point the descent would only drop: measured, it cost separated pairs more than it saved),
-    // nor when it would repeat y (two points, say).
-    if (cold_start == ColdStart::with_centroids && !(best_lower_bound > interval_floor)) {
-      const Vec3<S> zero = Vec3<S>::Zero();
-      const Vec3<S> centroids = k_set.difference(zero, zero);
-      if (centroids != y) simplex.add(centroids, zero, zero, -1, -1, tables);
-    }
+  if (simplex.used != 0) return 0;
+  std::int32_t ia = 0, ib = 0;
+  Vec3<S> direction = k_set.offset;
+  const S offset_norm2 = direction.squaredNorm();
+  if (!(offset_norm2 > 0)) direction = Vec3<S>(1, 0, 0);  // concentric: any will do
+  k_set.support(direction, y, on_a, on_b, ia, ib);
+  simplex.add(y, on_a, on_b, ia, ib, tables);
+  // This first support point is already a support plane: every x ∈ K has u·x ≥ u·s_K(−u) for
+  // any unit u, and |x| ≥ u·x, so d ≥ u·s_K(−u). With u = −δ/|δ| (towards K's centroid
+  // z̄₁ − z̄₂), s_K(−u) is the point just found. Well-separated pairs are decided by this bound
+  // without a second support call: the yes/no query's common case.
+  const S along = -direction.dot(y);
+  if (offset_norm2 > 0 && along > 0) {
+    using std::sqrt;
+    lower_bound = along / sqrt(offset_norm2);
   }
+  // The centroids' difference z̄_A − z̄_B is a point of K (each centroid lies in its shape),
+  // here y = 0 − 0 − δ, and costs no support call. When the shapes overlap it usually lies
+  // deep inside K, and the simplex that encloses the origin needs one support point fewer.
+  // Not when the first support plane already proves the shapes apart (then it is an interior
+  // point the descent would only drop: measured, it cost separated pairs more than it saved),
+  // nor when it would repeat y (two points, say).
+  if (in.cold_start == ColdStart::with_centroids &&
+      !(lower_bound > distance_roundoff(in.magnitude))) {
+    const Vec3<S> zero = Vec3<S>::Zero();
+    const Vec3<S> centroids = k_set.difference(zero, zero);
+    if (centroids != y) simplex.add(centroids, zero, zero, -1, -1, tables);
+  }
+  return 1;
+}
+
+/// A sharper certificate near contact, for an answer ν on a triangle (y0, y1, y2) of K's points.
+/// ν's direction carries an error of ~ulp(M)/|ν|, so when ν is short the support plane normal to
+/// ν proves little; the triangle's own normal (accurate whatever |ν| is) gives the plane of K's
+/// face or of the two shapes' edge–edge contact, and one more support call proves
+/// d ≥ n̂·s_K(−n̂). Raises `out.lower_bound` and sharpens `out.gap` when it proves more. Returns
+/// the support calls made (0 or 1).
+template <class S, class K>
+int sharpen_by_triangle_plane(const K& k_set, const Vec3<S>& y0, const Vec3<S>& y1,
+                              const Vec3<S>& y2, const Nearest<S>& nearest, S magnitude,
+                              LoopOutcome<S>& out) {
+  Vec3<S> normal = (y1 - y0).cross(y2 - y0);
+  const S length = normal.norm();
+  if (!(length > 0)) return 0;
+  normal /= length;
+  if (normal.dot(nearest.nu) < 0) normal = -normal;
+  Vec3<S> w, on_a, on_b;
+  std::int32_t ia, ib;
+  k_set.support(-normal, w, on_a, on_b, ia, ib);
+  const S plane_bound = normal.dot(w);
+  if (plane_bound > out.lower_bound) {
+    out.lower_bound = plane_bound;
+    out.gap = certified_gap(out.gap, nearest.nu_norm2, plane_bound,
+                            roundoff_gap(nearest.nu_norm2, magnitude));
+  }
+  return 1;
+}
+
+/// Runs steps 1–6 of Section VI on K (see LoopInput). One function: the loop is GJK's single
+/// dependency chain (support → ν → support), and its state lives in registers across the steps.
+template <class S, class K>
+void run_numerical_algorithm(const K& k_set, const LoopInput<S>& in, const SimplexCache* cache,
+                             LoopOutcome<S>& out) {
+  const S magnitude = in.magnitude, d2_tolerance = in.d2_tolerance;
+  const int max_iterations = in.max_iterations;
+  const S settled_below = in.settled_below;
+  const Subalgorithm method = in.method;
+  Simplex<S>& simplex = out.simplex;
+  const S interval_floor = distance_roundoff(magnitude);
+  // A computed support-plane bound L carries roundoff of a few ulps of D(K) (in y and in the
+  // inner product), so "d > cutoff" is proven only when L clears the cutoff by that much.
+  // Without the margin, touching pairs were reported beyond a zero cutoff.
+  const S proven_beyond = in.cutoff + interval_floor;
+  // Johnson's method reads the inner products and Δ's every step; signed volumes never does, and
+  // the Backup Procedure rebuilds them on the rare occasions it runs.
+  const bool tables = method == Subalgorithm::johnson;
+  // ν_k and ν_{k−1} live in two buffers that trade places each step, rather than ν_k being
+  // copied aside: the subalgorithm writes its answer field by field, and the copy read those
+  // fresh 8-byte stores back as 16-byte loads (a store-forwarding stall every iteration).
+  Nearest<S> spare;
+  Nearest<S>* nearest = &out.nearest;
+  Nearest<S>* previous = &spare;
+  // Zeroed although every read follows a support call that wrote them: GCC 12 at -O3 cannot see
+  // that a step-4 descent implies step 3's call (ν ≠ 0) and warned on the float build.
+  Vec3<S> on_a = Vec3<S>::Zero(), on_b = Vec3<S>::Zero();
+  std::int32_t ia = 0, ib = 0;
+  // The cost counters (LoopOutcome::support_calls, subalgorithm_runs) are derived at the end from
+  // k and a few events counted off the common path: increments in the loop itself measurably
+  // slowed the warm-started queries they exist to account for (2–3% on the Table I path).
+  int rare_support_calls = 0;        // passes that tested (35) and then ran step 6
+  int extra_runs = 0;                // Backup Procedure runs
+  bool exit_before_support = false;  // the last pass ended before step 3's support call
+
+  // Step 1: V_0. The best support-plane lower bound L found so far starts with its first plane.
+  S best_lower_bound;
+  int support_calls = initial_simplex(k_set, in, cache, tables, out, best_lower_bound);
   simplex.newest = -1;  // V_0 has no "newest" point: try its subsets largest first
 
   Vec3<S> w = Vec3<S>::Zero();
@@ -434,32 +491,15 @@ void run_numerical_algorithm(const K& k_set, S magnitude, S d2_tolerance, int ma
     ++rare_support_calls;
     backup = true;
   }
-  // A sharper certificate near contact. ν's direction carries an error of ~ulp(D)/|ν|, so when ν
-  // is short the support plane normal to ν proves little. When the answer lies on a triangle,
-  // that triangle's own normal (accurate whatever |ν| is) gives the plane of K's face or of the
-  // two shapes' edge–edge contact: one more support call proves d ≥ n̂·s_K(−n̂).
-  const S slack = distance_roundoff(magnitude);
+  // The closing certificate near contact (sharpen_by_triangle_plane).
   if (subset_size(nearest->subset) == 3 && nearest->nu_norm2 > 0 &&
       out.termination != Termination::beyond_cutoff && out.termination != Termination::contact &&
-      out.nu_length - out.lower_bound > slack) {
+      out.nu_length - out.lower_bound > distance_roundoff(magnitude)) {
     int idx[3], n = 0;
     for (int i = 0; i < 4; ++i)
       if (nearest->subset & (1u << i)) idx[n++] = i;
-    Vec3<S> normal =
-        (simplex.y[idx[1]] - simplex.y[idx[0]]).cross(simplex.y[idx[2]] - simplex.y[idx[0]]);
-    const S length = normal.norm();
-    if (length > 0) {
-      normal /= length;
-      if (normal.dot(nearest->nu) < 0) normal = -normal;
-      k_set.support(-normal, w, on_a, on_b, ia, ib);
-      ++support_calls;
-      const S plane_bound = normal.dot(w);
-      if (plane_bound > out.lower_bound) {
-        out.lower_bound = plane_bound;
-        out.gap = certified_gap(out.gap, nearest->nu_norm2, plane_bound,
-                                roundoff_gap(nearest->nu_norm2, magnitude));
-      }
-    }
+    support_calls += sharpen_by_triangle_plane(k_set, simplex.y[idx[0]], simplex.y[idx[1]],
+                                               simplex.y[idx[2]], *nearest, magnitude, out);
   }
   if (nearest != &out.nearest) out.nearest = *nearest;
   out.iterations = k;
@@ -614,26 +654,12 @@ bool segment_pair_outcome(const K& k_set, S magnitude, S d2_tolerance, S cutoff,
   out.gap = certified_gap(gap, nearest.nu_norm2, lower_bound, roundoff);
   out.lower_bound = lower_bound;
   out.support_calls = 1;
-  // The loop's closing certificate (run_numerical_algorithm): when ν lies inside a triangle of
+  // The loop's closing certificate (sharpen_by_triangle_plane): when ν lies inside a triangle of
   // K's vertices (the segments' nearest points inside both, the usual near-contact case), the
-  // triangle's own normal is K's plane and proves d ≥ n̂·s_K(−n̂) to roundoff, where the plane
-  // normal to a short ν proves little.
-  if (simplex.size() == 3 && nu_length - lower_bound > distance_roundoff(magnitude)) {
-    Vec3<S> normal = (simplex.y[1] - simplex.y[0]).cross(simplex.y[2] - simplex.y[0]);
-    const S length = normal.norm();
-    if (length > 0) {
-      normal /= length;
-      if (normal.dot(nu) < 0) normal = -normal;
-      k_set.support(-normal, w, support_a, support_b, ia, ib);
-      ++out.support_calls;
-      const S plane_bound = normal.dot(w);
-      if (plane_bound > out.lower_bound) {
-        out.lower_bound = plane_bound;
-        out.gap = certified_gap(out.gap, nearest.nu_norm2, plane_bound,
-                                roundoff_gap(nearest.nu_norm2, magnitude));
-      }
-    }
-  }
+  // triangle's own normal is K's plane and proves d ≥ n̂·s_K(−n̂) to roundoff.
+  if (simplex.size() == 3 && nu_length - lower_bound > distance_roundoff(magnitude))
+    out.support_calls += sharpen_by_triangle_plane(k_set, simplex.y[0], simplex.y[1], simplex.y[2],
+                                                   nearest, magnitude, out);
   const S proven = out.lower_bound;
   if (proven > cutoff + distance_roundoff(magnitude))
     out.termination = Termination::beyond_cutoff;
