@@ -832,7 +832,7 @@ void run(ByteReader& in, bool sampled, bool extended) {
   if (flags & 64) options.epsilon = kPaperEpsilon<S>;
   // Flag bit 7 with bit 1 of the first byte: one more byte of options and generators (the
   // outside fuzzer's findings). Two bits, so that every input saved before keeps its meaning.
-  bool placed = false, oracle = sampled;
+  bool placed = false, oracle = sampled, tiny = false;
   if (extended && (flags & 128)) {
     const std::uint8_t ext = in.byte();
     if (ext & 1) options.origin_shift = false;
@@ -856,6 +856,7 @@ void run(ByteReader& in, bool sampled, bool extended) {
     switch ((ext >> 5) & 3) {
       case 1:  // tiny shapes: 2^-50 … 2^-611 in double (1e-15 … 1e-184), 2^-50 … 2^-140 in float
         scale = -(50 + in.byte() * (std::is_same_v<S, float> ? 90 : 561) / 255);
+        tiny = true;
         break;
       case 2:
         options.epsilon = 0;
@@ -877,7 +878,8 @@ void run(ByteReader& in, bool sampled, bool extended) {
               (options.subalgorithm == Subalgorithm::johnson ? " johnson" : "") +
               (options.cold_start == ColdStart::single_point ? " single_point" : "") +
               (std::isfinite(options.distance_cutoff) ? " cutoff" : "") +
-              (a.far || b.far ? " far" : "") + (a.rotation_kinds || b.rotation_kinds ? " R*" : "");
+              (a.far || b.far ? " far" : "") + (a.rotation_kinds || b.rotation_kinds ? " R*" : "") +
+              (tiny ? " tiny" : "") + (options.epsilon == 0 ? " eps0" : "");
   std::vector<V3L> directions;
   for (int i = 0; i < 2; ++i) {
     bool ignored = true;
@@ -971,10 +973,12 @@ void survey_record(Survey& s, const SurveyHit& hit, const std::uint8_t* data, st
   }
   const std::string precision = s.kind.substr(0, s.kind.find(' '));
   const std::string key = "line " + std::to_string(hit.line) + " | " + precision + " | " + verdict;
-  ++s.tags[key + " | " + s.kind];
-  if (s.seen[key]++ > 0) return;
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - s.start).count();
+  if (s.tags[key + " | " + s.kind]++ == 0)  // one line per new combination, for classifying
+    std::fprintf(stderr, "SURVEY first after %ld inputs, %.1f s: %s | %s\n", s.inputs, seconds,
+                 key.c_str(), s.kind.c_str());
+  if (s.seen[key]++ > 0) return;
   const std::string name = s.dir + "/kind-" + std::to_string(s.seen.size());
   if (FILE* f = std::fopen(name.c_str(), "wb")) {
     std::fwrite(data, 1, size, f);
