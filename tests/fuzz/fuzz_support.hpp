@@ -18,9 +18,15 @@
 
 namespace nearpoint::fuzz {
 
+/// Called by `fail` before it aborts, when set: a target's survey mode (fuzz_engine's
+/// NEARPOINT_FUZZ_SURVEY) throws from here to its own entry point, to count broken invariants by
+/// kind and keep fuzzing. Null (the default): every broken invariant is a crash.
+inline void (*on_failure)(const char* file, int line, const std::string& what) = nullptr;
+
 /// A broken invariant: print what and where, then abort, which libFuzzer (and the replay driver)
 /// records as a crash with the input that caused it.
 [[noreturn]] inline void fail(const char* file, int line, const std::string& what) {
+  if (on_failure) on_failure(file, line, what);
   std::fprintf(stderr, "\nFUZZ INVARIANT BROKEN at %s:%d\n  %s\n", file, line, what.c_str());
   std::fflush(stderr);
   std::abort();

@@ -34,9 +34,29 @@ class Engine:
     """Encodes values as fixed point (tag 40: 16-bit mantissa / 4096, times 2^scale in the target):
     a seed's geometry is written at unit scale and magnified by 2^scale, |scale| <= 32."""
 
-    def __init__(self, use_float=False, scale=0, flags=2):
-        self.out = bytearray([1 if use_float else 0, scale & 0xFF, flags])
+    def __init__(self, use_float=False, scale=0, flags=2, ext=None, ext_args=b""):
+        # ext: the extended layout (first byte bit 1 and flags bit 7, then this byte and the
+        # parameters it asks for, `ext_args`): see run() in fuzz_engine.cpp.
+        kind = (1 if use_float else 0) | (2 if ext is not None else 0)
+        self.out = bytearray([kind, scale & 0xFF, flags | (128 if ext is not None else 0)])
+        if ext is not None:
+            self.out.append(ext)
+            self.out += ext_args
         self.scale = scale
+        self.rotation = 0
+
+    def placement(self, rotation=0, far=None, degenerate=None):
+        """A body's placement byte (extended layout only): rotation 0 quaternion, 1 signed
+        permutation, 2/3 those perturbed; far = (k-byte, (int8, int8, int8)): local coordinates
+        offset by (m/128)*2^k, cancelled by the pose; degenerate: the repeat byte."""
+        mode = rotation | (4 if far else 0) | (8 if degenerate is not None else 0)
+        self.out.append(mode)
+        if far:
+            self.out.append(far[0])
+            self.out += bytes(m & 0xFF for m in far[1])
+        if degenerate is not None:
+            self.out.append(degenerate)
+        self.rotation = rotation
 
     def value(self, v):
         m = round(v * 4096)
@@ -51,9 +71,15 @@ class Engine:
         self.out.append(1)  # not raw: |v|
         self.value(v)
 
-    def pose(self, quat=(1, 0, 0, 0), t=(0, 0, 0)):
-        n = max(abs(c) for c in quat) or 1
-        self.out += bytes((round(c / n * 100) & 0xFF) for c in quat)
+    def pose(self, quat=(1, 0, 0, 0), t=(0, 0, 0), perm=0, perturb=None):
+        if self.rotation & 1:
+            self.out.append(perm)  # signed permutation code
+        else:
+            n = max(abs(c) for c in quat) or 1
+            self.out += bytes((round(c / n * 100) & 0xFF) for c in quat)
+        if self.rotation & 2:  # (delta byte, nine int8 entries of M)
+            self.out.append(perturb[0])
+            self.out += bytes(m & 0xFF for m in perturb[1])
         self.out.append(1)  # the common scale
         self.vec(t)
 
@@ -128,6 +154,64 @@ def engine_seeds():
         t = tuple(rng.uniform(-3, 3) for _ in range(3))
         engine_pair(f"paper-family-{n}", (("polytope", a), {}), (), (("polytope", b), {}), (q, t),
                     flags=2 | (64 if i % 2 else 0), use_float=bool(i == 3))
+    # The extended layout: the classes an outside fuzzer with an exact reference found
+    # (/work/shared/findings/engine-2026-12-03/README.md), one seed each.
+    seg = ("segment", (-7.75, -7.9, -0.25), (-3.625, -0.25, -7.9))
+    # A degenerate segment 2^663 (~1e200) from its local origin, cancelled exactly by a
+    # permutation pose, 9 units from a small one (the default options: today's engine answers it;
+    # the fuzzer's mutations turn on Johnson, the single-point start and origin_shift off).
+    e = Engine(flags=2, ext=16)
+    e.placement(rotation=1, far=(128 | 78, (-16, -64, -128)))  # k = 127 + 78*873//127 = 663
+    e.shape("segment", (0, 0, 0), (0, 0, 0)); e.pose(perm=8, t=(0, 0, 0))
+    e.placement(rotation=1)
+    e.shape(*seg); e.pose(perm=8, t=(0.5, 0.5, 0.5))
+    write("engine", "ext-far-cancel-degenerate-segment", e.tail())
+    # origin_shift off at ordinary magnitudes, Johnson's subalgorithm with the single-point start.
+    e = Engine(flags=2 | 16 | 32, ext=1 | 16)
+    e.placement()
+    e.shape("polytope", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 1)])
+    e.pose((0.9, 0.1, 0.2, 0.3), (0, 0, 0))
+    e.placement()
+    e.shape("box", (0.5, 0.5, 0.5)); e.pose((1, 0, 0, 0), (3, 1, 0.5))
+    write("engine", "ext-origin-shift-off", e.tail())
+    # A polytope modelled 2^40 from its origin, placed back by its pose (origin shift on).
+    e = Engine(flags=2, ext=16)
+    e.placement(far=(60, (100, -50, 30)))  # k = 10 + 60//2 = 40
+    e.shape("polytope", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 1)])
+    e.pose((0.9, 0.1, 0.2, 0.3), (0, 0, 0))
+    e.placement()
+    e.shape("box", (0.5, 0.5, 0.5)); e.pose((1, 0, 0, 0), (3, 1, 0.5))
+    write("engine", "ext-far-polytope", e.tail())
+    # A yes/no query (cutoff 0) on separated polytopes: the beyond_cutoff interval.
+    e = Engine(flags=2, ext=2)
+    e.shape("polytope", tetra); e.pose()
+    e.shape("polytope", tetra); e.pose((1, 0, 0, 0.2), (4, 1, 0))
+    write("engine", "ext-beyond-cutoff-0", e.tail())
+    # A small positive cutoff (byte 40/256 of the unit scale).
+    e = Engine(flags=2 | 16, ext=6, ext_args=bytes([40]))
+    e.shape("box", (1, 1, 1)); e.pose()
+    e.shape("segment", (0, 0, 0), (1, 1, 0), radius=0.25); e.pose((1, 0, 0, 0), (2.5, 0, 0))
+    write("engine", "ext-small-cutoff", e.tail())
+    # Float, a point and a degenerate segment 2^23 (~8e6) from its origin, cancelled by a
+    # permutation; the perturbed pose then rotates it a little.
+    e = Engine(use_float=True, flags=2, ext=1 | 16)
+    e.placement(rotation=1)
+    e.shape("point"); e.pose(perm=8)
+    e.placement(rotation=1, far=(128 | 3, (30, -4, 120)), degenerate=1)  # k = 20 + 3 = 23
+    e.shape("segment", (0, 0, 0), (0.5, 0, 0)); e.pose(perm=8, t=(7.5, 7.5, 7.5))
+    write("engine", "ext-float-moderate-offset", e.tail())
+    # A near-orthonormal rotation (perturbed by 2^-23) on B's polytope.
+    e = Engine(flags=2 | 4, ext=16)
+    e.placement()
+    e.shape("box", (1, 0.5, 0.25)); e.pose((0.9, 0.3, 0.1, 0))
+    e.placement(rotation=2)
+    e.shape("polytope", tetra); e.pose(q45z, (1.5, 0.5, 0.25), perturb=(3, (1, 2, 3, -4, 5, -6, 7, -8, 9)))
+    write("engine", "ext-near-orthonormal", e.tail())
+    # Tiny shapes: the scale 2^-(50 + 200*561//255) = 2^-490 (~1e-148).
+    e = Engine(flags=2, ext=32, ext_args=bytes([200]))
+    e.shape("segment", (0, 0, 0), (1, 0, 0)); e.pose()
+    e.shape("polytope", tetra); e.pose((1, 0, 0, 0.3), (0.5, 1.5, 0))
+    write("engine", "ext-tiny-scale", e.tail())
     # Compounds: a gripper of three boxes over a table (examples/scene.json).
     e = Engine(flags=1 | 2)
     e.out.append(3)
