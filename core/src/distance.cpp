@@ -61,14 +61,41 @@ constexpr const char* kTooLarge =
 
 constexpr const char* kNotRepresentable = "the answer is too large to represent in this precision";
 
+/// One shape of a query as the loop sees it: its core geometry, its radius and its pose.
+template <class S, class G>
+struct Placed {
+  const G& geometry;
+  S radius;
+  const Pose<S>& pose;
+};
+
+/// A query's inputs (as Box2D's b2DistanceInput groups them), for two concrete core geometries.
+template <class S, class GA, class GB>
+struct QueryInput {
+  Placed<S, GA> a;
+  Placed<S, GB> b;
+  const DistanceOptions<S>& options;
+  /// ‖R_AᵀR_A − I‖_F² (the pose check computes it anyway): the bound's allowance for it.
+  S defect2_a;
+  /// A length whose rounding placed the shapes before the query saw them (a compound's piece
+  /// poses, composed from its body poses): it enters the working magnitude M (0 for a query on
+  /// the caller's own poses).
+  S placement;
+};
+
 // Writes into `result`, which the caller has just default-constructed (see
 // detail::distance_with_valid_poses). Returns false without touching `result` or `cache` when
 // `may_rescale` and D(K) or the radii lie outside the loop's range: the caller then rescales K
-// (rescaled_query). `diameter_out` receives the D(K) computed here.
+// (rescaled_query). `magnitude_out` receives the working magnitude M computed here.
 template <class S, class GA, class GB>
-bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radius_b,
-           const Pose<S>& pose_b, const DistanceOptions<S>& options, SimplexCache* cache,
-           DistanceResult<S>& result, S defect2_a, bool may_rescale, S& diameter_out) {
+bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<S>& result,
+           bool may_rescale, S& magnitude_out) {
+  const GA& ga = in.a.geometry;
+  const GB& gb = in.b.geometry;
+  const S radius_a = in.a.radius, radius_b = in.b.radius;
+  const Pose<S>&pose_a = in.a.pose, &pose_b = in.b.pose;
+  const DistanceOptions<S>& options = in.options;
+  const S defect2_a = in.defect2_a;
   using SA = detail::Support<GA, S>;
   using SB = detail::Support<GB, S>;
   const SA support_a{ga};
@@ -104,6 +131,10 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
     offset = detail::centroid_offset(pose_a, a_center, pose_b, b_center);
     diameter = extents + offset.norm();
   }
+  // |δ|² underflows below ~1e-154 (double): two points 7e-301 apart had D(K) = 0 and were
+  // answered "at one place". Scaled, the norm is not lost (the query is then rescaled).
+  if (!(diameter > 0) && offset != Vec3<S>::Zero()) [[unlikely]]
+    diameter = extents + offset.stableNorm();
   // The working magnitude M that every roundoff term is a few ulps of (gjk.hpp,
   // distance_roundoff): the one place where the rounding of placing the shapes enters the bound.
   // With the origin shift every point of K is formed relative to the centroids, and the placement
@@ -112,11 +143,11 @@ bool query(const GA& ga, S radius_a, const Pose<S>& pose_a, const GB& gb, S radi
   // back (MinkowskiDifference::difference): it rounds by ulps of z̄_A, of z̄_B and of the
   // translation that places z̄_B in A's frame, so those enter M in full (1-norms: a bound on each
   // component's rounding whatever the rotation).
-  S magnitude = diameter;
+  S magnitude = diameter + in.placement;
   if (!options.origin_shift)
     magnitude += S(2) * (a_center.cwiseAbs().sum() + b_center.cwiseAbs().sum() +
                          translation.cwiseAbs().sum());
-  diameter_out = magnitude;
+  magnitude_out = magnitude;
   const S radii = radius_a + radius_b;
   // One branch decides whether K is in the loop's range (and the radii representable): outside
   // it, tiny shapes would square to subnormals (1e-170 boxes came back "intersecting", bound 0)
@@ -404,18 +435,19 @@ S magnitude(const Ellipsoid<S>& g) {
 }
 
 /// The query for K outside the loop's range (see LoopRange). K is scaled by 2^k: both shapes and
-/// radii, and the poses with the world moved to A's position (p_B − p_A is the only translation
-/// the loop needs; a translation huge against the shapes would overflow when scaled). The loop
+/// radii, the translations (see below) and the placement magnitude. The loop
 /// then sees D(K) near 1; its answer is scaled back, which is exact but for numbers that land in
 /// the subnormal range, whose rounding (≤ 2^-1075 in double) is added to the bound. When the
 /// first scale, chosen from the shapes' size and their centroids' distance, leaves D(K) out of
 /// range (the centroids cancel to much less), it is corrected from the D(K) found, twice at most.
 template <class S, class GA, class GB>
-[[gnu::noinline, gnu::cold]] void rescaled_query(const GA& ga, S radius_a, const Pose<S>& pose_a,
-                                                 const GB& gb, S radius_b, const Pose<S>& pose_b,
-                                                 const DistanceOptions<S>& options,
-                                                 SimplexCache* cache, DistanceResult<S>& result,
-                                                 S defect2_a) {
+[[gnu::noinline, gnu::cold]] void rescaled_query(const QueryInput<S, GA, GB>& in,
+                                                 SimplexCache* cache, DistanceResult<S>& result) {
+  const GA& ga = in.a.geometry;
+  const GB& gb = in.b.geometry;
+  const S radius_a = in.a.radius, radius_b = in.b.radius;
+  const Pose<S>&pose_a = in.a.pose, &pose_b = in.b.pose;
+  const DistanceOptions<S>& options = in.options;
   if (!(radius_a + radius_b <= kLargestLength<S>)) return set_invalid(result, kTooLarge);
   const Vec3<S> center_a = detail::Support<GA, S>{ga}.center();
   const Vec3<S> center_b = detail::Support<GB, S>{gb}.center();
@@ -457,16 +489,22 @@ template <class S, class GA, class GB>
       scaled_a.translation = scale_vector(Vec3<S>(-translation_lo), k);
     }
     scaled_options.distance_cutoff = std::ldexp(options.distance_cutoff, k);
-    S diameter = 0;
-    const bool done = query<S>(scale_geometry<S>(ga, k), scaled_radius_a, scaled_a,
-                               scale_geometry<S>(gb, k), scaled_radius_b, scaled_b, scaled_options,
-                               cache, result, defect2_a, attempt < 2, diameter);
+    S magnitude = 0;
+    const auto scaled_ga = scale_geometry<S>(ga, k);
+    const auto scaled_gb = scale_geometry<S>(gb, k);
+    const QueryInput<S, std::decay_t<decltype(scaled_ga)>, std::decay_t<decltype(scaled_gb)>>
+        scaled{{scaled_ga, scaled_radius_a, scaled_a},
+               {scaled_gb, scaled_radius_b, scaled_b},
+               scaled_options,
+               in.defect2_a,
+               std::ldexp(in.placement, k)};
+    const bool done = query<S>(scaled, cache, result, attempt < 2, magnitude);
     if (done) break;
-    if (!(diameter > 0 && diameter <= kLargestLength<S>)) {
+    if (!(magnitude > 0 && magnitude <= kLargestLength<S>)) {
       attempt = 1;  // zero or non-finite: the next pass decides without rescaling
       continue;
     }
-    k -= std::ilogb(diameter);
+    k -= std::ilogb(magnitude);
   }
   if (result.status == Status::invalid_input) return;
 
@@ -483,8 +521,13 @@ template <class S, class GA, class GB>
   // The verdict then follows the rule of the normal path: "separated" only when the distance
   // exceeds its bound; otherwise too close to tell from touching, which counts as intersecting,
   // with the distance folded into the bound (found by fuzz_engine: float shapes 1e-45 apart
-  // answered "separated" with distance 0).
-  if (result.status == Status::separated && !(result.distance > result.error_bound)) {
+  // answered "separated" with distance 0). Beyond the cutoff the distance is a lower bound: it is
+  // lowered by the rounding (so that it stays one) and separates while it stays above 0.
+  if (result.beyond_cutoff() && result.status == Status::separated) {
+    result.distance = std::max(S(0), result.distance - subnormal_rounding);
+    result.error_bound += subnormal_rounding;
+    if (!(result.distance > 0)) result.status = Status::intersecting;
+  } else if (result.status == Status::separated && !(result.distance > result.error_bound)) {
     result.status = Status::intersecting;
     result.error_bound += result.distance;
     result.distance = 0;
@@ -539,8 +582,8 @@ DistanceResult<S> distance(const Shape<S>& a, const Pose<S>& pose_a, const Shape
 template <class S>
 void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a, const Shape<S>& b,
                                        const Pose<S>& pose_b, const DistanceOptions<S>& options,
-                                       SimplexCache* cache, DistanceResult<S>& result,
-                                       S defect2_a) {
+                                       SimplexCache* cache, DistanceResult<S>& result, S defect2_a,
+                                       S placement) {
   const char* why = invalid_reason(a);
   if (!why) why = invalid_reason(b);
   if (!why && !(options.epsilon >= 0)) why = "options.epsilon must be >= 0";
@@ -552,11 +595,12 @@ void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
   // One dispatch per query; the loop below is specialised for the two concrete shapes.
   std::visit(
       [&](const auto& ga, const auto& gb) {
-        S diameter;
-        if (!query<S>(ga, a.radius, pose_a, gb, b.radius, pose_b, options, cache, result, defect2_a,
-                      true, diameter))
-          rescaled_query<S>(ga, a.radius, pose_a, gb, b.radius, pose_b, options, cache, result,
-                            defect2_a);
+        using GA = std::decay_t<decltype(ga)>;
+        using GB = std::decay_t<decltype(gb)>;
+        const QueryInput<S, GA, GB> in{
+            {ga, a.radius, pose_a}, {gb, b.radius, pose_b}, options, defect2_a, placement};
+        S magnitude;
+        if (!query<S>(in, cache, result, true, magnitude)) rescaled_query<S>(in, cache, result);
       },
       a.geometry, b.geometry);
   // The promise of no non-finite output. Inside the loop's range distances, bounds and d⁻ are
@@ -575,11 +619,11 @@ template const char* detail::invalid_pose_reason(const Pose<float>&);
 template void detail::distance_with_valid_poses(const Shape<double>&, const Pose<double>&,
                                                 const Shape<double>&, const Pose<double>&,
                                                 const DistanceOptions<double>&, SimplexCache*,
-                                                DistanceResult<double>&, double);
+                                                DistanceResult<double>&, double, double);
 template void detail::distance_with_valid_poses(const Shape<float>&, const Pose<float>&,
                                                 const Shape<float>&, const Pose<float>&,
                                                 const DistanceOptions<float>&, SimplexCache*,
-                                                DistanceResult<float>&, float);
+                                                DistanceResult<float>&, float, float);
 template DistanceResult<double> distance(const Shape<double>&, const Pose<double>&,
                                          const Shape<double>&, const Pose<double>&,
                                          const DistanceOptions<double>&, SimplexCache*);

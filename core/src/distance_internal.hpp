@@ -213,9 +213,13 @@ template <class S>
 /// written into `result`, which must be freshly default-constructed: the answer is built where the
 /// caller keeps it (a compound query's best result) instead of being returned and copied.
 /// `defect2_a` is rotation_defect2(pose_a.rotation), which the pose check computes anyway.
+/// `placement` is a length whose few ulps bound how far rounding moved the poses before this call
+/// (a compound's piece poses composed from its body poses; 0 for the caller's own poses): the
+/// bound covers it (see the working magnitude in distance.cpp).
 template <class S>
 void distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a, const Shape<S>& b,
                                const Pose<S>& pose_b, const DistanceOptions<S>& options,
-                               SimplexCache* cache, DistanceResult<S>& result, S defect2_a);
+                               SimplexCache* cache, DistanceResult<S>& result, S defect2_a,
+                               S placement = 0);
 
 }  // namespace nearpoint::detail
