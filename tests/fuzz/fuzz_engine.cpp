@@ -59,17 +59,13 @@ constexpr int kMaxPieces = 3;
 
 // The interval a beyond_cutoff answer's true distance must lie in (NEARPOINT_FUZZ_CUTOFF_INTERVAL,
 // a macro or an environment variable of that name, the latter winning):
-//   0 (default): [distance − error_bound, distance + error_bound], the promise of every accepted
-//     answer, which both definitions below refine;
-//   1: [distance, distance + error_bound]: `distance` a certified LOWER bound above the cutoff,
-//     the engine team's redefinition. Switch the default to 1 when core lands it;
-//   2: [distance − error_bound, distance]: an upper bound, what result.hpp says today.
-// Today's engine answers some cutoff queries with |ν| (a hair above the truth: fails 1) and some
-// with a support plane's bound (a hair below: fails 2), so either one-sided check breaks at the
-// ulp level on most cutoff inputs and would hide every other finding.
+//   1 (default): [distance, distance + error_bound]: `distance` is a certified lower bound above
+//     the cutoff (DistanceResult::distance);
+//   0: [distance − error_bound, distance + error_bound], the promise of every accepted answer;
+//   2: [distance − error_bound, distance]: an upper bound, what the engine promised before.
 enum class CutoffInterval { symmetric = 0, lower_bound = 1, upper_bound = 2 };
 #ifndef NEARPOINT_FUZZ_CUTOFF_INTERVAL
-#define NEARPOINT_FUZZ_CUTOFF_INTERVAL 0
+#define NEARPOINT_FUZZ_CUTOFF_INTERVAL 1
 #endif
 CutoffInterval cutoff_interval() {
   static const CutoffInterval value = [] {
@@ -89,7 +85,7 @@ CutoffInterval cutoff_interval() {
 // do leave them changed on today's engine: off until core decides, then
 // -DNEARPOINT_FUZZ_COMPOUND_CACHE_ON_REFUSAL=1.
 #ifndef NEARPOINT_FUZZ_COMPOUND_CACHE_ON_REFUSAL
-#define NEARPOINT_FUZZ_COMPOUND_CACHE_ON_REFUSAL 0
+#define NEARPOINT_FUZZ_COMPOUND_CACHE_ON_REFUSAL 1
 #endif
 constexpr bool kCompoundRefusalKeepsCaches = NEARPOINT_FUZZ_COMPOUND_CACHE_ON_REFUSAL != 0;
 
