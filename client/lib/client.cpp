@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "convert.hpp"
+#include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint_distance.grpc.pb.h"
 
 namespace nearpoint::client {
@@ -24,64 +25,26 @@ namespace v1 = ::nearpoint::v1;
 // ---- small pieces ----
 
 std::string Status::code_name() const {
-  static const char* const kNames[] = {"OK",
-                                       "CANCELLED",
-                                       "UNKNOWN",
-                                       "INVALID_ARGUMENT",
-                                       "DEADLINE_EXCEEDED",
-                                       "NOT_FOUND",
-                                       "ALREADY_EXISTS",
-                                       "PERMISSION_DENIED",
-                                       "RESOURCE_EXHAUSTED",
-                                       "FAILED_PRECONDITION",
-                                       "ABORTED",
-                                       "OUT_OF_RANGE",
-                                       "UNIMPLEMENTED",
-                                       "INTERNAL",
-                                       "UNAVAILABLE",
-                                       "DATA_LOSS",
-                                       "UNAUTHENTICATED"};
-  if (code >= 0 && code < int(std::size(kNames))) return kNames[code];
-  return "CODE_" + std::to_string(code);
+  return model::status_code_name(code);
 }
 
 std::string Status::describe() const {
   return message.empty() ? code_name() : code_name() + ": " + message;
 }
 
+// The spellings are model/vocabulary.hpp's string literals, so their data() ends in a NUL.
 const char* to_string(PairStatus status) {
-  switch (status) {
-    case PairStatus::separated:
-      return "separated";
-    case PairStatus::intersecting:
-      return "intersecting";
-    case PairStatus::beyond_cutoff:
-      return "beyond_cutoff";
-    case PairStatus::iteration_limit:
-      return "iteration_limit";
-    case PairStatus::engine_error:
-      return "engine_error";
-  }
-  return "engine_error";
+  return model::spelling_of(status).data();
 }
 
 const char* to_string(ReportMode mode) {
-  switch (mode) {
-    case ReportMode::within_cutoff:
-      return "within-cutoff";
-    case ReportMode::nearest_per_object:
-      return "nearest";
-    case ReportMode::global_minimum:
-      return "global";
-    case ReportMode::changed:
-      return "changed";
-    default:
-      return "all";
-  }
+  // A report's mode is never unspecified; an older server's 0 means its reports hold every pair.
+  const std::string_view spelling = model::spelling_of(mode);
+  return (spelling.empty() ? model::spelling_of(ReportMode::all_pairs) : spelling).data();
 }
 
 const char* to_string(Crossing crossing) {
-  return crossing == Crossing::exit ? "exit" : "enter";
+  return model::spelling_of(crossing).data();
 }
 
 model::PoseInput to_pose_input(const Eigen::Quaterniond& rotation,

@@ -3,6 +3,8 @@
 
 #include <type_traits>
 
+#include "nearpoint/model/vocabulary.hpp"
+
 namespace nearpoint::client::detail {
 namespace {
 
@@ -21,21 +23,6 @@ Eigen::Matrix<double, 6, 1> from_proto(const v1::PoseGradient& g) {
   out << g.translation().x(), g.translation().y(), g.translation().z(), g.rotation().x(),
       g.rotation().y(), g.rotation().z();
   return out;
-}
-
-PairStatus from_proto(v1::PairStatus status) {
-  switch (status) {
-    case v1::PAIR_STATUS_SEPARATED:
-      return PairStatus::separated;
-    case v1::PAIR_STATUS_INTERSECTING:
-      return PairStatus::intersecting;
-    case v1::PAIR_STATUS_BEYOND_CUTOFF:
-      return PairStatus::beyond_cutoff;
-    case v1::PAIR_STATUS_ITERATION_LIMIT:
-      return PairStatus::iteration_limit;
-    default:
-      return PairStatus::engine_error;
-  }
 }
 
 }  // namespace
@@ -91,41 +78,14 @@ void to_proto(const Geometry& geometry, v1::Geometry& out) {
 void to_proto(const QueryOptions& options, v1::QueryOptions& out) {
   if (options.epsilon) out.set_epsilon(*options.epsilon);
   if (options.near_points) out.set_near_points(*options.near_points);
-  switch (options.penetration) {
-    case PenetrationMode::none:
-      out.set_penetration(v1::PENETRATION_MODE_NONE);
-      break;
-    case PenetrationMode::bound:
-      out.set_penetration(v1::PENETRATION_MODE_BOUND);
-      break;
-    case PenetrationMode::depth:
-      out.set_penetration(v1::PENETRATION_MODE_DEPTH);
-      break;
-    default:
-      break;
-  }
+  // unspecified (inherit) and unknown have no wire value: left unset.
+  if (const std::int32_t penetration = model::to_wire(options.penetration); penetration != 0)
+    out.set_penetration(v1::PenetrationMode(penetration));
   if (options.gradient) out.set_gradient(*options.gradient);
   if (options.distance_cutoff) out.set_distance_cutoff(*options.distance_cutoff);
   if (options.warm_start) out.set_warm_start(*options.warm_start);
-  switch (options.report_mode) {
-    case ReportMode::all_pairs:
-      out.set_report_mode(v1::REPORT_MODE_ALL_PAIRS);
-      break;
-    case ReportMode::within_cutoff:
-      out.set_report_mode(v1::REPORT_MODE_WITHIN_CUTOFF);
-      break;
-    case ReportMode::nearest_per_object:
-      out.set_report_mode(v1::REPORT_MODE_NEAREST_PER_OBJECT);
-      break;
-    case ReportMode::global_minimum:
-      out.set_report_mode(v1::REPORT_MODE_GLOBAL_MINIMUM);
-      break;
-    case ReportMode::changed:
-      out.set_report_mode(v1::REPORT_MODE_CHANGED);
-      break;
-    default:  // unspecified: inherit; unknown has no wire value
-      break;
-  }
+  if (const std::int32_t mode = model::to_wire(options.report_mode); mode != 0)
+    out.set_report_mode(v1::ReportMode(mode));
   if (options.change_tolerance) out.set_change_tolerance(*options.change_tolerance);
   if (options.max_iterations)
     out.set_max_iterations(
@@ -205,7 +165,7 @@ Report from_proto(const v1::DistanceReport& report) {
     PairDistance& pair = out.pairs.emplace_back();
     pair.object_a = p.object_a();
     pair.object_b = p.object_b();
-    pair.status = from_proto(p.status());
+    pair.status = model::from_wire<PairStatus>(p.status());
     pair.distance = p.distance();
     pair.distance_lower_bound = p.distance_lower_bound();
     pair.error_bound = p.error_bound();
@@ -228,29 +188,15 @@ Report from_proto(const v1::DistanceReport& report) {
   out.coalesced_from_sequence = report.coalesced_from_sequence();
   out.counts = {report.counts().pairs_evaluated(), report.counts().pairs_pruned(),
                 report.counts().pairs_unmoved()};
-  switch (report.report_mode()) {
-    case v1::REPORT_MODE_WITHIN_CUTOFF:
-      out.mode = ReportMode::within_cutoff;
-      break;
-    case v1::REPORT_MODE_NEAREST_PER_OBJECT:
-      out.mode = ReportMode::nearest_per_object;
-      break;
-    case v1::REPORT_MODE_GLOBAL_MINIMUM:
-      out.mode = ReportMode::global_minimum;
-      break;
-    case v1::REPORT_MODE_CHANGED:
-      out.mode = ReportMode::changed;
-      break;
-    default:  // an older server sends 0: its reports hold every pair
-      out.mode = ReportMode::all_pairs;
-      break;
-  }
+  // An older server sends 0: its reports hold every pair.
+  out.mode = model::from_wire<ReportMode>(report.report_mode());
+  if (out.mode == ReportMode::unspecified || out.mode == ReportMode::unknown)
+    out.mode = ReportMode::all_pairs;
   out.events.reserve(std::size_t(report.events_size()));
   for (const v1::ThresholdEvent& e : report.events())
-    out.events.push_back(ThresholdEvent{
-        e.threshold(), e.threshold_index(), e.object_a(), e.object_b(),
-        e.crossing() == v1::THRESHOLD_CROSSING_EXIT ? Crossing::exit : Crossing::enter,
-        e.distance(), e.sequence()});
+    out.events.push_back(ThresholdEvent{e.threshold(), e.threshold_index(), e.object_a(),
+                                        e.object_b(), model::from_wire<Crossing>(e.crossing()),
+                                        e.distance(), e.sequence()});
   return out;
 }
 

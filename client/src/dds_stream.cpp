@@ -13,6 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "nearpoint/model/vocabulary.hpp"
+
 namespace nearpoint::cli {
 namespace {
 
@@ -24,43 +26,6 @@ dds_duration_t to_dds(Clock::duration d) {
                                   std::chrono::duration_cast<std::chrono::nanoseconds>(d).count());
 }
 
-const char* pair_status_name(std::uint8_t status) {
-  switch (status) {
-    case 1:
-      return "separated";
-    case 2:
-      return "intersecting";
-    case 3:
-      return "beyond_cutoff";
-    case 4:
-      return "iteration_limit";
-    case 5:
-      return "engine_error";
-    default:
-      return "unknown";
-  }
-}
-
-/// The wire status of a rejected update (gRPC's codes) by name, as the server logs it.
-const char* error_code_name(std::uint32_t code) {
-  switch (code) {
-    case 3:
-      return "invalid_argument";
-    case 5:
-      return "not_found";
-    case 8:
-      return "resource_exhausted";
-    case 9:
-      return "failed_precondition";
-    case 13:
-      return "internal";
-    case 14:
-      return "unavailable";
-    default:
-      return "unknown";
-  }
-}
-
 Json vec(const nearpoint_msg_dds__Vector3_& v) {
   return Json::array({v.x, v.y, v.z});
 }
@@ -70,7 +35,7 @@ Json report_json(const DistanceReportSample& report) {
   out["sequence"] = report.sequence_number;
   if (report.status != 0) {
     out["status"] = "error";
-    out["code"] = error_code_name(report.status);
+    out["code"] = model::status_code_spelling(report.status);
     out["field"] = report.error_field ? report.error_field : "";
     out["message"] = report.message ? report.message : "";
     return out;
@@ -82,7 +47,7 @@ Json report_json(const DistanceReportSample& report) {
     Json pair;
     pair["object_a"] = p.object_a ? p.object_a : "";
     pair["object_b"] = p.object_b ? p.object_b : "";
-    pair["status"] = pair_status_name(p.status);
+    pair["status"] = model::spelling_of(model::from_dds<model::PairStatus>(p.status));
     pair["distance"] = p.distance;
     pair["distance_lower_bound"] = p.distance_lower_bound;
     pair["error_bound"] = p.error_bound;
@@ -106,13 +71,14 @@ Json report_json(const DistanceReportSample& report) {
     Json events = Json::array();
     for (std::uint32_t i = 0; i < report.events._length; ++i) {
       const nearpoint_msg_dds__ThresholdEvent_& e = report.events._buffer[i];
-      events.push_back({{"threshold", e.threshold ? e.threshold : ""},
-                        {"threshold_index", e.threshold_index},
-                        {"object_a", e.object_a ? e.object_a : ""},
-                        {"object_b", e.object_b ? e.object_b : ""},
-                        {"crossing", e.crossing == 2 ? "exit" : "enter"},
-                        {"distance", e.distance},
-                        {"sequence", e.sequence_number}});
+      events.push_back(
+          {{"threshold", e.threshold ? e.threshold : ""},
+           {"threshold_index", e.threshold_index},
+           {"object_a", e.object_a ? e.object_a : ""},
+           {"object_b", e.object_b ? e.object_b : ""},
+           {"crossing", model::spelling_of(model::from_dds<model::Crossing>(e.crossing))},
+           {"distance", e.distance},
+           {"sequence", e.sequence_number}});
     }
     out["events"] = std::move(events);
   }
@@ -305,7 +271,7 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
       update.options.has_near_points = true;
       update.options.near_points = true;
     }
-    update.options.report_mode = options.report_mode;
+    update.options.report_mode = model::to_dds(options.report_mode);
     if (!std::isnan(options.cutoff)) {
       update.options.has_distance_cutoff = true;
       update.options.distance_cutoff = options.cutoff;
@@ -319,7 +285,9 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
       update.thresholds._length = update.thresholds._maximum = std::uint32_t(thresholds.size());
     }
     update.thresholds._release = false;
-    update.flow_control = options.flow_control;
+    update.flow_control = options.flow_control == model::FlowControl::coalesce
+                              ? model::to_dds(model::FlowControl::coalesce)
+                              : 0;  // unspecified: block
     outstanding.emplace(update.sequence_number, Clock::now());
     return client->publish(update, error);
   };

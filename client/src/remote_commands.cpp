@@ -14,6 +14,7 @@
 
 #include "demo.hpp"
 #include "local_server.hpp"
+#include "nearpoint/model/vocabulary.hpp"
 #include "trajectory.hpp"
 
 namespace nearpoint::cli {
@@ -90,34 +91,25 @@ int resolve_scene(client::Client& client, const std::string& scene, std::ostream
 bool options_from_flags(bool near_points, const std::string& penetration, client::QueryOptions& out,
                         std::ostream& err) {
   if (near_points) out.near_points = true;
-  if (penetration == "none")
-    out.penetration = client::PenetrationMode::none;
-  else if (penetration == "bound")
-    out.penetration = client::PenetrationMode::bound;
-  else if (penetration == "depth")
-    out.penetration = client::PenetrationMode::depth;
-  else if (!penetration.empty()) {
-    err << "nearpoint: --penetration must be none, bound or depth\n";
-    return false;
+  if (!penetration.empty()) {
+    out.penetration = model::from_spelling<model::PenetrationMode>(penetration);
+    if (out.penetration == model::PenetrationMode::unknown) {
+      err << "nearpoint: --penetration must be " << model::spellings<model::PenetrationMode>()
+          << "\n";
+      return false;
+    }
   }
   return true;
 }
 
 bool options_from_mode_flags(const ReportModeFlags& flags, client::QueryOptions& out,
                              std::ostream& err) {
-  if (flags.mode == "all")
-    out.report_mode = client::ReportMode::all_pairs;
-  else if (flags.mode == "within-cutoff")
-    out.report_mode = client::ReportMode::within_cutoff;
-  else if (flags.mode == "nearest")
-    out.report_mode = client::ReportMode::nearest_per_object;
-  else if (flags.mode == "global")
-    out.report_mode = client::ReportMode::global_minimum;
-  else if (flags.mode == "changed")
-    out.report_mode = client::ReportMode::changed;
-  else if (!flags.mode.empty()) {
-    err << "nearpoint: --mode must be all, within-cutoff, nearest, global or changed\n";
-    return false;
+  if (!flags.mode.empty()) {
+    out.report_mode = model::from_spelling<model::ReportMode>(flags.mode);
+    if (out.report_mode == model::ReportMode::unknown) {
+      err << "nearpoint: --mode must be " << model::spellings<model::ReportMode>() << "\n";
+      return false;
+    }
   }
   // The server checks the values and names the field; here only "given or not".
   if (!std::isnan(flags.cutoff)) out.distance_cutoff = flags.cutoff;

@@ -10,6 +10,8 @@
 #include <limits>
 #include <sstream>
 
+#include "nearpoint/model/vocabulary.hpp"
+
 #ifdef NEARPOINT_WITH_YAML
 #include <yaml-cpp/yaml.h>
 #endif
@@ -381,19 +383,9 @@ std::string parse_query_options(const Json& value, const std::string& path,
       // The CLI's names (--mode).
       std::string mode;
       if (error = read_string(part, field, mode); !error.empty()) return error;
-      if (mode == "all")
-        options.report_mode = server::ReportMode::all_pairs;
-      else if (mode == "within-cutoff")
-        options.report_mode = server::ReportMode::within_cutoff;
-      else if (mode == "nearest")
-        options.report_mode = server::ReportMode::nearest_per_object;
-      else if (mode == "global")
-        options.report_mode = server::ReportMode::global_minimum;
-      else if (mode == "changed")
-        options.report_mode = server::ReportMode::changed;
-      else
-        return quoted(field) +
-               " must be \"all\", \"within-cutoff\", \"nearest\", \"global\" or \"changed\"";
+      options.report_mode = model::from_spelling<model::ReportMode>(mode);
+      if (options.report_mode == model::ReportMode::unknown)
+        return quoted(field) + " must be " + model::spellings<model::ReportMode>("\"");
     } else if (key == "near_points" || key == "gradient" || key == "warm_start") {
       if (error = read_bool(part, field, flag); !error.empty()) return error;
       (key == "near_points" ? options.near_points
@@ -402,14 +394,9 @@ std::string parse_query_options(const Json& value, const std::string& path,
     } else if (key == "penetration") {
       std::string mode;
       if (error = read_string(part, field, mode); !error.empty()) return error;
-      if (mode == "none")
-        options.penetration = server::PenetrationMode::none;
-      else if (mode == "bound")
-        options.penetration = server::PenetrationMode::bound;
-      else if (mode == "depth")
-        options.penetration = server::PenetrationMode::depth;
-      else
-        return quoted(field) + " must be \"none\", \"bound\" or \"depth\"";
+      options.penetration = model::from_spelling<model::PenetrationMode>(mode);
+      if (options.penetration == model::PenetrationMode::unknown)
+        return quoted(field) + " must be " + model::spellings<model::PenetrationMode>("\"");
     } else if (key == "max_iterations") {
       if (!part.is_number_unsigned()) return quoted(field) + " must be a positive integer";
       options.max_iterations = part.get<std::uint64_t>();

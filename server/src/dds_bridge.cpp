@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "metrics.hpp"
+#include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/log.hpp"
 #include "nearpoint_dds.hpp"
 #include "validation.hpp"
@@ -74,14 +75,14 @@ PoseUpdateInput to_input(const UpdateSample& sample) {
   const nearpoint_msg_dds__QueryOptions_& options = sample.options;
   if (options.has_epsilon) out.options.epsilon = options.epsilon;
   if (options.has_near_points) out.options.near_points = options.near_points;
-  out.options.penetration = wire::penetration_mode(options.penetration);
+  out.options.penetration = model::from_dds<PenetrationMode>(options.penetration);
   if (options.has_gradient) out.options.gradient = options.gradient;
   if (options.has_distance_cutoff) out.options.distance_cutoff = options.distance_cutoff;
   if (options.has_warm_start) out.options.warm_start = options.warm_start;
   if (options.has_max_iterations) out.options.max_iterations = options.max_iterations;
-  out.options.report_mode = wire::report_mode(options.report_mode);
+  out.options.report_mode = model::from_dds<ReportMode>(options.report_mode);
   if (options.has_change_tolerance) out.options.change_tolerance = options.change_tolerance;
-  out.flow_control = wire::flow_control(sample.flow_control);
+  out.flow_control = model::from_dds<FlowControl>(sample.flow_control);
   out.thresholds.reserve(sample.thresholds._length);
   for (std::uint32_t i = 0; i < sample.thresholds._length; ++i) {
     const nearpoint_msg_dds__Threshold_& in = sample.thresholds._buffer[i];
@@ -475,7 +476,7 @@ struct DdsBridge::Impl {
       PairSample& out = pairs[i];
       out.object_a = borrow(report.scene->objects[in.object_a].id);
       out.object_b = borrow(report.scene->objects[in.object_b].id);
-      out.status = wire::pair_status(in.status);
+      out.status = model::to_dds(in.status);
       out.distance = in.distance;
       out.distance_lower_bound = in.distance_lower_bound;
       out.error_bound = in.error_bound;
@@ -510,7 +511,7 @@ struct DdsBridge::Impl {
     sample.coalesced_from_sequence = report.coalesced_from_sequence;
     sample.counts = {report.counts.pairs_evaluated, report.counts.pairs_pruned,
                      report.counts.pairs_unmoved};
-    sample.report_mode = wire::report_mode_number(report.mode);
+    sample.report_mode = model::to_dds(report.mode);
     std::vector<nearpoint_msg_dds__ThresholdEvent_> events(report.events.size());
     for (std::size_t i = 0; i < report.events.size(); ++i) {
       const ThresholdEvent& in = report.events[i];
@@ -520,7 +521,7 @@ struct DdsBridge::Impl {
       out.threshold_index = in.threshold;
       out.object_a = borrow(report.scene->objects[in.object_a].id);
       out.object_b = borrow(report.scene->objects[in.object_b].id);
-      out.crossing = in.crossing == Crossing::enter ? 1 : 2;
+      out.crossing = model::to_dds(in.crossing);
       out.distance = in.distance;
       out.sequence_number = in.sequence;
     }

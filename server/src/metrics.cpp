@@ -5,6 +5,7 @@
 #include <memory>
 #include <mutex>
 
+#include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/scene_service.hpp"
 
 #if NEARPOINT_HAVE_METRICS
@@ -20,34 +21,6 @@
 #endif
 
 namespace nearpoint::server::metrics {
-
-namespace {
-
-// grpc::StatusCode values by name, so that this file needs no gRPC header (the scene library,
-// which records reports, does not link gRPC).
-const char* grpc_code_name(int code) {
-  static constexpr const char* names[] = {"OK",
-                                          "CANCELLED",
-                                          "UNKNOWN",
-                                          "INVALID_ARGUMENT",
-                                          "DEADLINE_EXCEEDED",
-                                          "NOT_FOUND",
-                                          "ALREADY_EXISTS",
-                                          "PERMISSION_DENIED",
-                                          "RESOURCE_EXHAUSTED",
-                                          "FAILED_PRECONDITION",
-                                          "ABORTED",
-                                          "OUT_OF_RANGE",
-                                          "UNIMPLEMENTED",
-                                          "INTERNAL",
-                                          "UNAVAILABLE",
-                                          "DATA_LOSS",
-                                          "UNAUTHENTICATED"};
-  if (code < 0 || code >= int(std::size(names))) return "UNKNOWN";
-  return names[code];
-}
-
-}  // namespace
 
 Outcome check_metrics_listen(const std::string& listen) {
   const char* flag = "--metrics-listen";
@@ -250,7 +223,7 @@ void record_query(const Error* error) {
 void record_grpc_status(const char* rpc, int code) {
   State* s = state();
   if (!s || code == 0) return;
-  s->grpc_errors.Add({{"rpc", rpc}, {"code", grpc_code_name(code)}}).Increment();
+  s->grpc_errors.Add({{"rpc", rpc}, {"code", model::status_code_name(code)}}).Increment();
 }
 
 void record_dds_sample(bool in) {

@@ -5,14 +5,16 @@
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 
 #include "content_hash.hpp"
+#include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/scene_service.hpp"
 #include "wire_numbers.hpp"
 
 namespace nearpoint::server {
 namespace {
 
-// wire_numbers.hpp writes the proto enums' values as numbers, for the DDS bridge as well; these
-// checks keep it in step with the generated enums and gRPC's codes.
+// wire_numbers.hpp writes the status codes as numbers and model/vocabulary.hpp the API enums'
+// for the DDS bridge as well; these checks keep them in step with grpc::StatusCode and the
+// generated enums.
 constexpr bool same(std::int64_t wire_value, std::int64_t generated) {
   return wire_value == generated;
 }
@@ -26,27 +28,27 @@ static_assert(same(wire::status_code(ErrorCode::failed_precondition),
                    grpc::StatusCode::FAILED_PRECONDITION));
 static_assert(same(wire::status_code(ErrorCode::internal), grpc::StatusCode::INTERNAL));
 static_assert(same(wire::status_code(ErrorCode::unavailable), grpc::StatusCode::UNAVAILABLE));
-static_assert(same(wire::pair_status(PairStatus::separated), v1::PAIR_STATUS_SEPARATED));
-static_assert(same(wire::pair_status(PairStatus::intersecting), v1::PAIR_STATUS_INTERSECTING));
-static_assert(same(wire::pair_status(PairStatus::beyond_cutoff), v1::PAIR_STATUS_BEYOND_CUTOFF));
-static_assert(same(wire::pair_status(PairStatus::iteration_limit),
-                   v1::PAIR_STATUS_ITERATION_LIMIT));
-static_assert(same(wire::pair_status(PairStatus::engine_error), v1::PAIR_STATUS_ENGINE_ERROR));
-static_assert(wire::penetration_mode(v1::PENETRATION_MODE_UNSPECIFIED) ==
-              PenetrationMode::unspecified);
-static_assert(wire::penetration_mode(v1::PENETRATION_MODE_NONE) == PenetrationMode::none);
-static_assert(wire::penetration_mode(v1::PENETRATION_MODE_BOUND) == PenetrationMode::bound);
-static_assert(wire::penetration_mode(v1::PENETRATION_MODE_DEPTH) == PenetrationMode::depth);
-static_assert(wire::report_mode(v1::REPORT_MODE_UNSPECIFIED) == ReportMode::unspecified);
-static_assert(wire::report_mode(v1::REPORT_MODE_ALL_PAIRS) == ReportMode::all_pairs);
-static_assert(wire::report_mode(v1::REPORT_MODE_WITHIN_CUTOFF) == ReportMode::within_cutoff);
-static_assert(wire::report_mode(v1::REPORT_MODE_NEAREST_PER_OBJECT) ==
-              ReportMode::nearest_per_object);
-static_assert(wire::report_mode(v1::REPORT_MODE_GLOBAL_MINIMUM) == ReportMode::global_minimum);
-static_assert(wire::report_mode(v1::REPORT_MODE_CHANGED) == ReportMode::changed);
-static_assert(wire::flow_control(v1::FLOW_CONTROL_UNSPECIFIED) == FlowControl::block);
-static_assert(wire::flow_control(v1::FLOW_CONTROL_BLOCK) == FlowControl::block);
-static_assert(wire::flow_control(v1::FLOW_CONTROL_COALESCE) == FlowControl::coalesce);
+static_assert(same(model::to_wire(PairStatus::separated), v1::PAIR_STATUS_SEPARATED));
+static_assert(same(model::to_wire(PairStatus::intersecting), v1::PAIR_STATUS_INTERSECTING));
+static_assert(same(model::to_wire(PairStatus::beyond_cutoff), v1::PAIR_STATUS_BEYOND_CUTOFF));
+static_assert(same(model::to_wire(PairStatus::iteration_limit), v1::PAIR_STATUS_ITERATION_LIMIT));
+static_assert(same(model::to_wire(PairStatus::engine_error), v1::PAIR_STATUS_ENGINE_ERROR));
+static_assert(same(model::to_wire(PenetrationMode::unspecified), v1::PENETRATION_MODE_UNSPECIFIED));
+static_assert(same(model::to_wire(PenetrationMode::none), v1::PENETRATION_MODE_NONE));
+static_assert(same(model::to_wire(PenetrationMode::bound), v1::PENETRATION_MODE_BOUND));
+static_assert(same(model::to_wire(PenetrationMode::depth), v1::PENETRATION_MODE_DEPTH));
+static_assert(same(model::to_wire(ReportMode::unspecified), v1::REPORT_MODE_UNSPECIFIED));
+static_assert(same(model::to_wire(ReportMode::all_pairs), v1::REPORT_MODE_ALL_PAIRS));
+static_assert(same(model::to_wire(ReportMode::within_cutoff), v1::REPORT_MODE_WITHIN_CUTOFF));
+static_assert(same(model::to_wire(ReportMode::nearest_per_object),
+                   v1::REPORT_MODE_NEAREST_PER_OBJECT));
+static_assert(same(model::to_wire(ReportMode::global_minimum), v1::REPORT_MODE_GLOBAL_MINIMUM));
+static_assert(same(model::to_wire(ReportMode::changed), v1::REPORT_MODE_CHANGED));
+static_assert(model::from_wire<FlowControl>(v1::FLOW_CONTROL_UNSPECIFIED) == FlowControl::block);
+static_assert(same(model::to_wire(FlowControl::block), v1::FLOW_CONTROL_BLOCK));
+static_assert(same(model::to_wire(FlowControl::coalesce), v1::FLOW_CONTROL_COALESCE));
+static_assert(same(model::to_wire(Crossing::enter), v1::THRESHOLD_CROSSING_ENTER));
+static_assert(same(model::to_wire(Crossing::exit), v1::THRESHOLD_CROSSING_EXIT));
 
 Vec3d to_vec(const v1::Vector3& v) {
   return Vec3d(v.x(), v.y(), v.z());
@@ -56,10 +58,6 @@ void set_vec(const Vec3d& v, v1::Vector3& out) {
   out.set_x(v.x());
   out.set_y(v.y());
   out.set_z(v.z());
-}
-
-v1::PairStatus to_proto(PairStatus status) {
-  return v1::PairStatus(wire::pair_status(status));
 }
 
 void set_gradient(const Eigen::Matrix<double, 6, 1>& gradient, v1::PoseGradient& out) {
@@ -137,8 +135,8 @@ QueryOptionsInput to_input(const v1::QueryOptions& options) {
   QueryOptionsInput out;
   if (options.has_epsilon()) out.epsilon = options.epsilon();
   if (options.has_near_points()) out.near_points = options.near_points();
-  out.penetration = wire::penetration_mode(options.penetration());
-  out.report_mode = wire::report_mode(options.report_mode());
+  out.penetration = model::from_wire<PenetrationMode>(options.penetration());
+  out.report_mode = model::from_wire<ReportMode>(options.report_mode());
   if (options.has_gradient()) out.gradient = options.gradient();
   if (options.has_distance_cutoff()) out.distance_cutoff = options.distance_cutoff();
   if (options.has_warm_start()) out.warm_start = options.warm_start();
@@ -211,7 +209,7 @@ PoseUpdateInput to_input(const v1::PoseUpdate& update) {
   out.sequence = update.sequence();
   out.poses = to_pose_inputs(update.poses());
   out.options = to_input(update.options());
-  out.flow_control = wire::flow_control(update.flow_control());
+  out.flow_control = model::from_wire<FlowControl>(update.flow_control());
   out.thresholds.reserve(std::size_t(update.thresholds_size()));
   for (const v1::Threshold& threshold : update.thresholds())
     out.thresholds.push_back(ThresholdInput{threshold.name(), threshold.distance(),
@@ -246,7 +244,7 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
     v1::PairDistance& p = *out.add_pairs();
     p.set_object_a(report.scene->objects[pair.object_a].id);
     p.set_object_b(report.scene->objects[pair.object_b].id);
-    p.set_status(to_proto(pair.status));
+    p.set_status(v1::PairStatus(model::to_wire(pair.status)));
     p.set_distance(pair.distance);
     p.set_distance_lower_bound(pair.distance_lower_bound);
     p.set_error_bound(pair.error_bound);
@@ -283,23 +281,10 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
   counts.set_pairs_evaluated(report.counts.pairs_evaluated);
   counts.set_pairs_pruned(report.counts.pairs_pruned);
   counts.set_pairs_unmoved(report.counts.pairs_unmoved);
-  switch (report.mode) {
-    case ReportMode::within_cutoff:
-      out.set_report_mode(v1::REPORT_MODE_WITHIN_CUTOFF);
-      break;
-    case ReportMode::nearest_per_object:
-      out.set_report_mode(v1::REPORT_MODE_NEAREST_PER_OBJECT);
-      break;
-    case ReportMode::global_minimum:
-      out.set_report_mode(v1::REPORT_MODE_GLOBAL_MINIMUM);
-      break;
-    case ReportMode::changed:
-      out.set_report_mode(v1::REPORT_MODE_CHANGED);
-      break;
-    default:
-      out.set_report_mode(v1::REPORT_MODE_ALL_PAIRS);
-      break;
-  }
+  // A report's mode is never unspecified: that would read as all pairs, which it is then.
+  out.set_report_mode(report.mode == ReportMode::unspecified || report.mode == ReportMode::unknown
+                          ? v1::REPORT_MODE_ALL_PAIRS
+                          : v1::ReportMode(model::to_wire(report.mode)));
   out.mutable_events()->Reserve(int(report.events.size()));
   for (const ThresholdEvent& event : report.events) {
     v1::ThresholdEvent& e = *out.add_events();
@@ -307,8 +292,7 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
     e.set_threshold_index(event.threshold);
     e.set_object_a(report.scene->objects[event.object_a].id);
     e.set_object_b(report.scene->objects[event.object_b].id);
-    e.set_crossing(event.crossing == Crossing::enter ? v1::THRESHOLD_CROSSING_ENTER
-                                                     : v1::THRESHOLD_CROSSING_EXIT);
+    e.set_crossing(v1::ThresholdCrossing(model::to_wire(event.crossing)));
     e.set_distance(event.distance);
     e.set_sequence(event.sequence);
   }

@@ -9,6 +9,7 @@
 #include "evaluation.hpp"
 #include "incremental.hpp"
 #include "metrics.hpp"
+#include "nearpoint/model/vocabulary.hpp"
 #include "report_size.hpp"
 #include "thresholds.hpp"
 #include "validation.hpp"
@@ -62,20 +63,12 @@ std::size_t report_bytes_bound(const SceneDefinition& scene, const ResolvedOptio
   return report_bytes_bound(scene, options.engine, options.report_mode);
 }
 
-/// The mode's name in messages: the proto's and the CLI's.
-const char* mode_name(ReportMode mode) {
-  switch (mode) {
-    case ReportMode::within_cutoff:
-      return "REPORT_MODE_WITHIN_CUTOFF (--mode within-cutoff)";
-    case ReportMode::nearest_per_object:
-      return "REPORT_MODE_NEAREST_PER_OBJECT (--mode nearest)";
-    case ReportMode::global_minimum:
-      return "REPORT_MODE_GLOBAL_MINIMUM (--mode global)";
-    case ReportMode::changed:
-      return "REPORT_MODE_CHANGED (--mode changed; its first report holds every pair)";
-    default:
-      return "REPORT_MODE_ALL_PAIRS (--mode all)";
-  }
+/// The mode's name in messages: the proto's and the CLI's (unspecified reads as all pairs).
+std::string mode_name(ReportMode mode) {
+  const model::Term<ReportMode>* term = model::find_term(mode);
+  if (term == nullptr || term->wire == 0) term = model::find_term(ReportMode::all_pairs);
+  return text(term->name, " (--mode ", term->spelling,
+              mode == ReportMode::changed ? "; its first report holds every pair)" : ")");
 }
 
 /// "near points and gradients", or "" when the options ask for neither of the three extras.

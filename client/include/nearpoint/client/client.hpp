@@ -49,7 +49,7 @@ struct Status {
   std::string message;
 
   bool ok() const { return code == 0; }
-  /// "OK", "INVALID_ARGUMENT", "UNAVAILABLE", …
+  /// "OK", "INVALID_ARGUMENT", "UNAVAILABLE", … ("CODE_<n>" outside gRPC's codes).
   std::string code_name() const;
   /// "CODE_NAME: message".
   std::string describe() const;
@@ -130,7 +130,9 @@ struct ObjectPose {
 
 // ---- answers ----
 
-enum class PairStatus { separated, intersecting, beyond_cutoff, iteration_limit, engine_error };
+using PairStatus = model::PairStatus;
+/// The status as the CLI prints it: separated, intersecting, beyond_cutoff, …
+/// (model/vocabulary.hpp).
 const char* to_string(PairStatus status);
 /// The mode's name as the CLI spells it: all, within-cutoff, nearest, global, changed.
 const char* to_string(ReportMode mode);
@@ -159,7 +161,7 @@ struct PairDistance {
   std::string message;
 };
 
-enum class Crossing { enter, exit };
+using Crossing = model::Crossing;
 /// "enter" or "exit".
 const char* to_string(Crossing crossing);
 
