@@ -17,9 +17,6 @@
 #endif
 
 namespace nearpoint::formats {
-// The scene model's structs, under the spelling this file used when they lived in the server
-// (kept so that this move leaves the parser's lines untouched; nothing here uses the server).
-namespace server = nearpoint::model;
 namespace {
 
 std::string quoted(const std::string& path) {
@@ -74,7 +71,7 @@ std::string read_uint32(const Json& value, const std::string& path, std::uint32_
 }
 
 std::string read_pieces(const Json& value, const std::string& path,
-                        std::vector<server::PieceInput>& out) {
+                        std::vector<model::PieceInput>& out) {
   if (!value.is_array() || value.empty())
     return quoted(path) + " must be a non-empty array of SHAPEs (got " + describe_type(value) + ")";
   for (std::size_t i = 0; i < value.size(); ++i) {
@@ -88,7 +85,7 @@ std::string read_pieces(const Json& value, const std::string& path,
 
 std::string read_mesh(const Json& value, const std::string& path,
                       const std::filesystem::path& base_dir, const MeshLoader& meshes,
-                      std::vector<server::PieceInput>& out) {
+                      std::vector<model::PieceInput>& out) {
   MeshRequest request;
   for (const auto& [key, part] : value.items()) {
     const std::string field = member(path, key);
@@ -167,7 +164,7 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
     if (!geometries.is_object())
       return "\"geometries\" must be an object {\"NAME\": GEOMETRY, ...}";
     for (const auto& [name, geometry] : geometries.items()) {
-      server::GeometryInput input;
+      model::GeometryInput input;
       if (std::string error =
               parse_geometry(geometry, member("geometries", name), base_dir, meshes, input);
           !error.empty())
@@ -183,7 +180,7 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
     const Json& object = objects[i];
     const std::string path = element("objects", i);
     if (!object.is_object()) return quoted(path) + " must be an object";
-    server::ObjectInput input;
+    model::ObjectInput input;
     std::string geometry_name;
     for (const auto& [key, part] : object.items()) {
       const std::string field = member(path, key);
@@ -238,12 +235,12 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
     auto& selection = file.scene.pair_selection;
     std::string error;
     if (pairs.is_string() && pairs.get<std::string>() == "all") {
-      selection.mode = server::PairSelectionInput::Mode::all_pairs;
+      selection.mode = model::PairSelectionInput::Mode::all_pairs;
     } else if (pairs.is_object() && pairs.size() == 1 && pairs.contains("listed")) {
-      selection.mode = server::PairSelectionInput::Mode::listed_pairs;
+      selection.mode = model::PairSelectionInput::Mode::listed_pairs;
       if (!read_pair_list(pairs["listed"], "pairs.listed", selection.pairs, error)) return error;
     } else if (pairs.is_object() && pairs.size() == 1 && pairs.contains("excluded")) {
-      selection.mode = server::PairSelectionInput::Mode::excluded_pairs;
+      selection.mode = model::PairSelectionInput::Mode::excluded_pairs;
       if (!read_pair_list(pairs["excluded"], "pairs.excluded", selection.pairs, error))
         return error;
     } else {
@@ -349,13 +346,13 @@ Json yaml_to_json(const YAML::Node& node, int depth, std::size_t& budget) {
 
 }  // namespace
 
-server::PieceInput to_piece(const ShapeSpec& spec) {
-  server::PieceInput piece;
+model::PieceInput to_piece(const ShapeSpec& spec) {
+  model::PieceInput piece;
   std::visit(
       [&](const auto& geometry) {
         using G = std::decay_t<decltype(geometry)>;
         if constexpr (std::is_same_v<G, std::vector<Vec3<double>>>)
-          piece.shape = server::PolytopeInput{geometry};
+          piece.shape = model::PolytopeInput{geometry};
         else
           piece.shape = geometry;
       },
@@ -367,9 +364,9 @@ server::PieceInput to_piece(const ShapeSpec& spec) {
 }
 
 std::string parse_query_options(const Json& value, const std::string& path,
-                                server::QueryOptionsInput& out) {
+                                model::QueryOptionsInput& out) {
   if (!value.is_object()) return quoted(path) + " must be an object";
-  server::QueryOptionsInput options;
+  model::QueryOptionsInput options;
   for (const auto& [key, part] : value.items()) {
     const std::string field = member(path, key);
     std::string error;
@@ -412,9 +409,9 @@ std::string parse_query_options(const Json& value, const std::string& path,
 
 std::string parse_geometry(const Json& value, const std::string& path,
                            const std::filesystem::path& base_dir, const MeshLoader& meshes,
-                           server::GeometryInput& out) {
+                           model::GeometryInput& out) {
   try {
-    server::GeometryInput geometry;
+    model::GeometryInput geometry;
     std::string error;
     if (value.is_array()) {
       error = read_pieces(value, path, geometry.pieces);

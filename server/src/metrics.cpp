@@ -193,7 +193,7 @@ void record_pairs(const PairTally& tally) {
       tally.iteration_sum);
 }
 
-void record_report(bool query, const ReportTiming& timing, const ReportCounts& counts,
+void record_report(bool query, const model::ReportTiming& timing, const model::ReportCounts& counts,
                    std::uint32_t coalesced_updates) {
   State* s = state();
   if (!s) return;
@@ -273,7 +273,7 @@ bool enabled() {
   return false;
 }
 void record_pairs(const PairTally&) {}
-void record_report(bool, const ReportTiming&, const ReportCounts&, std::uint32_t) {}
+void record_report(bool, const model::ReportTiming&, const model::ReportCounts&, std::uint32_t) {}
 void record_update(const Error*) {}
 void record_query(const Error*) {}
 void record_grpc_status(const char*, int) {}

@@ -28,33 +28,39 @@ static_assert(same(wire::status_code(ErrorCode::failed_precondition),
                    grpc::StatusCode::FAILED_PRECONDITION));
 static_assert(same(wire::status_code(ErrorCode::internal), grpc::StatusCode::INTERNAL));
 static_assert(same(wire::status_code(ErrorCode::unavailable), grpc::StatusCode::UNAVAILABLE));
-static_assert(same(model::to_wire(PairStatus::separated), v1::PAIR_STATUS_SEPARATED));
-static_assert(same(model::to_wire(PairStatus::intersecting), v1::PAIR_STATUS_INTERSECTING));
-static_assert(same(model::to_wire(PairStatus::beyond_cutoff), v1::PAIR_STATUS_BEYOND_CUTOFF));
-static_assert(same(model::to_wire(PairStatus::iteration_limit), v1::PAIR_STATUS_ITERATION_LIMIT));
-static_assert(same(model::to_wire(PairStatus::engine_error), v1::PAIR_STATUS_ENGINE_ERROR));
-static_assert(same(model::to_wire(PenetrationMode::unspecified), v1::PENETRATION_MODE_UNSPECIFIED));
-static_assert(same(model::to_wire(PenetrationMode::none), v1::PENETRATION_MODE_NONE));
-static_assert(same(model::to_wire(PenetrationMode::bound), v1::PENETRATION_MODE_BOUND));
-static_assert(same(model::to_wire(PenetrationMode::depth), v1::PENETRATION_MODE_DEPTH));
-static_assert(same(model::to_wire(ReportMode::unspecified), v1::REPORT_MODE_UNSPECIFIED));
-static_assert(same(model::to_wire(ReportMode::all_pairs), v1::REPORT_MODE_ALL_PAIRS));
-static_assert(same(model::to_wire(ReportMode::within_cutoff), v1::REPORT_MODE_WITHIN_CUTOFF));
-static_assert(same(model::to_wire(ReportMode::nearest_per_object),
+static_assert(same(model::to_wire(model::PairStatus::separated), v1::PAIR_STATUS_SEPARATED));
+static_assert(same(model::to_wire(model::PairStatus::intersecting), v1::PAIR_STATUS_INTERSECTING));
+static_assert(same(model::to_wire(model::PairStatus::beyond_cutoff),
+                   v1::PAIR_STATUS_BEYOND_CUTOFF));
+static_assert(same(model::to_wire(model::PairStatus::iteration_limit),
+                   v1::PAIR_STATUS_ITERATION_LIMIT));
+static_assert(same(model::to_wire(model::PairStatus::engine_error), v1::PAIR_STATUS_ENGINE_ERROR));
+static_assert(same(model::to_wire(model::PenetrationMode::unspecified),
+                   v1::PENETRATION_MODE_UNSPECIFIED));
+static_assert(same(model::to_wire(model::PenetrationMode::none), v1::PENETRATION_MODE_NONE));
+static_assert(same(model::to_wire(model::PenetrationMode::bound), v1::PENETRATION_MODE_BOUND));
+static_assert(same(model::to_wire(model::PenetrationMode::depth), v1::PENETRATION_MODE_DEPTH));
+static_assert(same(model::to_wire(model::ReportMode::unspecified), v1::REPORT_MODE_UNSPECIFIED));
+static_assert(same(model::to_wire(model::ReportMode::all_pairs), v1::REPORT_MODE_ALL_PAIRS));
+static_assert(same(model::to_wire(model::ReportMode::within_cutoff),
+                   v1::REPORT_MODE_WITHIN_CUTOFF));
+static_assert(same(model::to_wire(model::ReportMode::nearest_per_object),
                    v1::REPORT_MODE_NEAREST_PER_OBJECT));
-static_assert(same(model::to_wire(ReportMode::global_minimum), v1::REPORT_MODE_GLOBAL_MINIMUM));
-static_assert(same(model::to_wire(ReportMode::changed), v1::REPORT_MODE_CHANGED));
-static_assert(model::from_wire<FlowControl>(v1::FLOW_CONTROL_UNSPECIFIED) == FlowControl::block);
-static_assert(same(model::to_wire(FlowControl::block), v1::FLOW_CONTROL_BLOCK));
-static_assert(same(model::to_wire(FlowControl::coalesce), v1::FLOW_CONTROL_COALESCE));
-static_assert(same(model::to_wire(Crossing::enter), v1::THRESHOLD_CROSSING_ENTER));
-static_assert(same(model::to_wire(Crossing::exit), v1::THRESHOLD_CROSSING_EXIT));
+static_assert(same(model::to_wire(model::ReportMode::global_minimum),
+                   v1::REPORT_MODE_GLOBAL_MINIMUM));
+static_assert(same(model::to_wire(model::ReportMode::changed), v1::REPORT_MODE_CHANGED));
+static_assert(model::from_wire<model::FlowControl>(v1::FLOW_CONTROL_UNSPECIFIED) ==
+              model::FlowControl::block);
+static_assert(same(model::to_wire(model::FlowControl::block), v1::FLOW_CONTROL_BLOCK));
+static_assert(same(model::to_wire(model::FlowControl::coalesce), v1::FLOW_CONTROL_COALESCE));
+static_assert(same(model::to_wire(model::Crossing::enter), v1::THRESHOLD_CROSSING_ENTER));
+static_assert(same(model::to_wire(model::Crossing::exit), v1::THRESHOLD_CROSSING_EXIT));
 
-Vec3d to_vec(const v1::Vector3& v) {
-  return Vec3d(v.x(), v.y(), v.z());
+model::Vec3d to_vec(const v1::Vector3& v) {
+  return model::Vec3d(v.x(), v.y(), v.z());
 }
 
-void set_vec(const Vec3d& v, v1::Vector3& out) {
+void set_vec(const model::Vec3d& v, v1::Vector3& out) {
   out.set_x(v.x());
   out.set_y(v.y());
   out.set_z(v.z());
@@ -65,9 +71,9 @@ void set_gradient(const Eigen::Matrix<double, 6, 1>& gradient, v1::PoseGradient&
   set_vec(gradient.tail<3>(), *out.mutable_rotation());
 }
 
-std::vector<ObjectPoseInput> to_pose_inputs(
+std::vector<model::ObjectPoseInput> to_pose_inputs(
     const google::protobuf::RepeatedPtrField<v1::ObjectPose>& poses) {
-  std::vector<ObjectPoseInput> out;
+  std::vector<model::ObjectPoseInput> out;
   out.reserve(std::size_t(poses.size()));
   for (const v1::ObjectPose& pose : poses) out.push_back({pose.object_id(), to_input(pose.pose())});
   return out;
@@ -79,8 +85,8 @@ grpc::Status to_grpc_status(const Error& error) {
   return grpc::Status(grpc::StatusCode(wire::status_code(error.code)), error.describe());
 }
 
-PoseInput to_input(const v1::Pose& pose) {
-  PoseInput out;  // the identity unless given
+model::PoseInput to_input(const v1::Pose& pose) {
+  model::PoseInput out;  // the identity unless given
   if (pose.has_rotation()) {
     const v1::Quaternion& q = pose.rotation();
     out.rotation_wxyz = {q.w(), q.x(), q.y(), q.z()};
@@ -89,17 +95,17 @@ PoseInput to_input(const v1::Pose& pose) {
   return out;
 }
 
-GeometryInput to_input(const v1::Geometry& geometry) {
-  GeometryInput out;
+model::GeometryInput to_input(const v1::Geometry& geometry) {
+  model::GeometryInput out;
   out.name = geometry.name();
   out.pieces.reserve(std::size_t(geometry.pieces_size()));
   for (const v1::Piece& piece : geometry.pieces()) {
-    PieceInput& in = out.pieces.emplace_back();
+    model::PieceInput& in = out.pieces.emplace_back();
     in.radius = piece.radius();
     in.offset = to_input(piece.offset());
     switch (piece.shape_case()) {
       case v1::Piece::kPolytope: {
-        PolytopeInput polytope;
+        model::PolytopeInput polytope;
         polytope.vertices.reserve(std::size_t(piece.polytope().vertices_size()));
         for (const v1::Vector3& v : piece.polytope().vertices())
           polytope.vertices.push_back(to_vec(v));
@@ -131,12 +137,12 @@ GeometryInput to_input(const v1::Geometry& geometry) {
   return out;
 }
 
-QueryOptionsInput to_input(const v1::QueryOptions& options) {
-  QueryOptionsInput out;
+model::QueryOptionsInput to_input(const v1::QueryOptions& options) {
+  model::QueryOptionsInput out;
   if (options.has_epsilon()) out.epsilon = options.epsilon();
   if (options.has_near_points()) out.near_points = options.near_points();
-  out.penetration = model::from_wire<PenetrationMode>(options.penetration());
-  out.report_mode = model::from_wire<ReportMode>(options.report_mode());
+  out.penetration = model::from_wire<model::PenetrationMode>(options.penetration());
+  out.report_mode = model::from_wire<model::ReportMode>(options.report_mode());
   if (options.has_gradient()) out.gradient = options.gradient();
   if (options.has_distance_cutoff()) out.distance_cutoff = options.distance_cutoff();
   if (options.has_warm_start()) out.warm_start = options.warm_start();
@@ -145,13 +151,13 @@ QueryOptionsInput to_input(const v1::QueryOptions& options) {
   return out;
 }
 
-SceneInput to_input(const v1::CreateSceneRequest& request) {
-  SceneInput out;
+model::SceneInput to_input(const v1::CreateSceneRequest& request) {
+  model::SceneInput out;
   out.name = request.name();
   out.requested_id = request.scene_id();
   out.objects.reserve(std::size_t(request.objects_size()));
   for (const v1::SceneObject& object : request.objects()) {
-    ObjectInput& in = out.objects.emplace_back();
+    model::ObjectInput& in = out.objects.emplace_back();
     in.id = object.id();
     in.geometry_id = object.geometry_id();
     in.pose = to_input(object.pose());
@@ -165,16 +171,16 @@ SceneInput to_input(const v1::CreateSceneRequest& request) {
   const v1::PairList* list = nullptr;
   switch (selection.selection_case()) {
     case v1::PairSelection::kListedPairs:
-      out.pair_selection.mode = PairSelectionInput::Mode::listed_pairs;
+      out.pair_selection.mode = model::PairSelectionInput::Mode::listed_pairs;
       list = &selection.listed_pairs();
       break;
     case v1::PairSelection::kExcludedPairs:
-      out.pair_selection.mode = PairSelectionInput::Mode::excluded_pairs;
+      out.pair_selection.mode = model::PairSelectionInput::Mode::excluded_pairs;
       list = &selection.excluded_pairs();
       break;
     case v1::PairSelection::kAllPairs:
     case v1::PairSelection::SELECTION_NOT_SET:
-      out.pair_selection.mode = PairSelectionInput::Mode::all_pairs;
+      out.pair_selection.mode = model::PairSelectionInput::Mode::all_pairs;
       break;
   }
   if (list)
@@ -183,9 +189,9 @@ SceneInput to_input(const v1::CreateSceneRequest& request) {
   out.default_options = to_input(request.default_options());
   out.thresholds.reserve(std::size_t(request.thresholds_size()));
   for (const v1::Threshold& threshold : request.thresholds())
-    out.thresholds.push_back(ThresholdInput{threshold.name(), threshold.distance(),
-                                            threshold.hysteresis(), threshold.object_a(),
-                                            threshold.object_b(), threshold.groups()});
+    out.thresholds.push_back(model::ThresholdInput{threshold.name(), threshold.distance(),
+                                                   threshold.hysteresis(), threshold.object_a(),
+                                                   threshold.object_b(), threshold.groups()});
   for (const auto& [key, geometry] : request.geometries())
     out.geometries.emplace(key, to_input(geometry));
   // The whole request, bit for bit, in a canonical order (maps sorted): the same request again
@@ -203,23 +209,23 @@ SceneInput to_input(const v1::CreateSceneRequest& request) {
   return out;
 }
 
-PoseUpdateInput to_input(const v1::PoseUpdate& update) {
-  PoseUpdateInput out;
+model::PoseUpdateInput to_input(const v1::PoseUpdate& update) {
+  model::PoseUpdateInput out;
   out.scene_id = update.scene_id();
   out.sequence = update.sequence();
   out.poses = to_pose_inputs(update.poses());
   out.options = to_input(update.options());
-  out.flow_control = model::from_wire<FlowControl>(update.flow_control());
+  out.flow_control = model::from_wire<model::FlowControl>(update.flow_control());
   out.thresholds.reserve(std::size_t(update.thresholds_size()));
   for (const v1::Threshold& threshold : update.thresholds())
-    out.thresholds.push_back(ThresholdInput{threshold.name(), threshold.distance(),
-                                            threshold.hysteresis(), threshold.object_a(),
-                                            threshold.object_b(), threshold.groups()});
+    out.thresholds.push_back(model::ThresholdInput{threshold.name(), threshold.distance(),
+                                                   threshold.hysteresis(), threshold.object_a(),
+                                                   threshold.object_b(), threshold.groups()});
   return out;
 }
 
-QueryInput to_input(const v1::QueryRequest& request) {
-  QueryInput out;
+model::QueryInput to_input(const v1::QueryRequest& request) {
+  model::QueryInput out;
   out.scene_id = request.scene_id();
   out.poses = to_pose_inputs(request.poses());
   out.options = to_input(request.options());
@@ -227,7 +233,7 @@ QueryInput to_input(const v1::QueryRequest& request) {
   return out;
 }
 
-void to_proto(const GeometryInfo& info, v1::GeometryInfo& out) {
+void to_proto(const model::GeometryInfo& info, v1::GeometryInfo& out) {
   out.set_geometry_id(info.geometry_id);
   out.set_name(info.name);
   out.set_piece_count(std::uint32_t(info.piece_count));
@@ -240,7 +246,7 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
   out.Clear();
   out.set_sequence(report.sequence);
   out.mutable_pairs()->Reserve(int(report.pairs.size()));
-  for (const PairReport& pair : report.pairs) {
+  for (const model::PairReport& pair : report.pairs) {
     v1::PairDistance& p = *out.add_pairs();
     p.set_object_a(report.scene->objects[pair.object_a].id);
     p.set_object_b(report.scene->objects[pair.object_b].id);
@@ -282,11 +288,12 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
   counts.set_pairs_pruned(report.counts.pairs_pruned);
   counts.set_pairs_unmoved(report.counts.pairs_unmoved);
   // A report's mode is never unspecified: that would read as all pairs, which it is then.
-  out.set_report_mode(report.mode == ReportMode::unspecified || report.mode == ReportMode::unknown
+  out.set_report_mode(report.mode == model::ReportMode::unspecified ||
+                              report.mode == model::ReportMode::unknown
                           ? v1::REPORT_MODE_ALL_PAIRS
                           : v1::ReportMode(model::to_wire(report.mode)));
   out.mutable_events()->Reserve(int(report.events.size()));
-  for (const ThresholdEvent& event : report.events) {
+  for (const model::ThresholdEvent& event : report.events) {
     v1::ThresholdEvent& e = *out.add_events();
     if (report.threshold_names) e.set_threshold((*report.threshold_names)[event.threshold]);
     e.set_threshold_index(event.threshold);

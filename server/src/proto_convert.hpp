@@ -7,7 +7,7 @@
 #include <grpcpp/support/status.h>
 
 #include "nearpoint/server/errors.hpp"
-#include "nearpoint/server/scene_types.hpp"
+#include "nearpoint/server/report.hpp"
 #include "nearpoint_diagnostics.pb.h"
 #include "nearpoint_distance.pb.h"
 #include "nearpoint_geometry.pb.h"
@@ -19,14 +19,14 @@ namespace nearpoint::server {
 /// message ("field: what is wrong"), limits are RESOURCE_EXHAUSTED.
 grpc::Status to_grpc_status(const Error& error);
 
-PoseInput to_input(const v1::Pose& pose);
-GeometryInput to_input(const v1::Geometry& geometry);
-QueryOptionsInput to_input(const v1::QueryOptions& options);
-SceneInput to_input(const v1::CreateSceneRequest& request);
-PoseUpdateInput to_input(const v1::PoseUpdate& update);
-QueryInput to_input(const v1::QueryRequest& request);
+model::PoseInput to_input(const v1::Pose& pose);
+model::GeometryInput to_input(const v1::Geometry& geometry);
+model::QueryOptionsInput to_input(const v1::QueryOptions& options);
+model::SceneInput to_input(const v1::CreateSceneRequest& request);
+model::PoseUpdateInput to_input(const v1::PoseUpdate& update);
+model::QueryInput to_input(const v1::QueryRequest& request);
 
-void to_proto(const GeometryInfo& info, v1::GeometryInfo& out);
+void to_proto(const model::GeometryInfo& info, v1::GeometryInfo& out);
 void to_proto(const Report& report, v1::DistanceReport& out);
 /// The report of a rejected update: its sequence number and why.
 void to_proto(const Error& error, std::uint64_t sequence, v1::DistanceReport& out);

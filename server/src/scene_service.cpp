@@ -26,8 +26,8 @@ constexpr std::size_t kVisitsPerTask = 4096;
 constexpr std::size_t kVisitsPerPrimitive = 8;
 
 /// The vertex visits of one support call on each piece pair of (a, b), summed.
-std::size_t pair_cost(const GeometryInfo& a, const GeometryInfo& b) {
-  auto effective = [](const GeometryInfo& g) {
+std::size_t pair_cost(const model::GeometryInfo& a, const model::GeometryInfo& b) {
+  auto effective = [](const model::GeometryInfo& g) {
     return g.vertex_count + kVisitsPerPrimitive * g.piece_count;
   };
   return b.piece_count * effective(a) + a.piece_count * effective(b);
@@ -39,20 +39,20 @@ std::size_t pair_cost(const GeometryInfo& a, const GeometryInfo& b) {
 /// (global minimum). A within-cutoff report under a finite cutoff has no bound from the scene:
 /// it holds what is near (counted as the envelope here; the transport checks it when sending).
 std::size_t report_bytes_bound(const SceneDefinition& scene, const DistanceOptions<double>& options,
-                               ReportMode mode) {
+                               model::ReportMode mode) {
   const std::size_t extra =
       report_size::pair_options(options.near_points, options.penetration_bound, options.gradient);
   const std::size_t longest_entry =
       report_size::kPairEntryOverhead + report_size::kPairFixed +
       report_size::pair_ids(scene.longest_object_id, scene.longest_object_id) + extra;
   switch (mode) {
-    case ReportMode::nearest_per_object:
+    case model::ReportMode::nearest_per_object:
       return report_size::kReportEnvelope +
              std::min(scene.pairs.size(), scene.objects.size()) * longest_entry;
-    case ReportMode::global_minimum:
+    case model::ReportMode::global_minimum:
       return report_size::kReportEnvelope +
              std::min<std::size_t>(scene.pairs.size(), 1) * longest_entry;
-    case ReportMode::within_cutoff:
+    case model::ReportMode::within_cutoff:
       if (std::isfinite(options.distance_cutoff)) return report_size::kReportEnvelope;
       [[fallthrough]];
     default:
@@ -64,11 +64,11 @@ std::size_t report_bytes_bound(const SceneDefinition& scene, const ResolvedOptio
 }
 
 /// The mode's name in messages: the proto's and the CLI's (unspecified reads as all pairs).
-std::string mode_name(ReportMode mode) {
-  const model::Term<ReportMode>* term = model::find_term(mode);
-  if (term == nullptr || term->wire == 0) term = model::find_term(ReportMode::all_pairs);
+std::string mode_name(model::ReportMode mode) {
+  const model::Term<model::ReportMode>* term = model::find_term(mode);
+  if (term == nullptr || term->wire == 0) term = model::find_term(model::ReportMode::all_pairs);
   return text(term->name, " (--mode ", term->spelling,
-              mode == ReportMode::changed ? "; its first report holds every pair)" : ")");
+              mode == model::ReportMode::changed ? "; its first report holds every pair)" : ")");
 }
 
 /// "near points and gradients", or "" when the options ask for neither of the three extras.
@@ -106,7 +106,7 @@ std::optional<Error> check_report_bytes(const SceneDefinition& scene,
              " bytes the server sends in one message (--max-message-bytes): watch fewer "
              "pairs, or ask for fewer outputs"));
   const DistanceOptions<double>& engine = options.engine;
-  const std::size_t all_bound = report_bytes_bound(scene, engine, ReportMode::all_pairs);
+  const std::size_t all_bound = report_bytes_bound(scene, engine, model::ReportMode::all_pairs);
   const std::size_t pairs = std::max<std::size_t>(1, scene.pairs.size());
   const std::size_t per_pair =
       std::max<std::size_t>(1, (all_bound - report_size::kReportEnvelope) / pairs);
@@ -114,13 +114,15 @@ std::optional<Error> check_report_bytes(const SceneDefinition& scene,
       limit > report_size::kReportEnvelope ? (limit - report_size::kReportEnvelope) / per_pair : 0;
   // The modes whose reports would fit, with these outputs.
   std::string fit;
-  for (const ReportMode mode : {ReportMode::nearest_per_object, ReportMode::global_minimum}) {
+  for (const model::ReportMode mode :
+       {model::ReportMode::nearest_per_object, model::ReportMode::global_minimum}) {
     const std::size_t mode_bound = report_bytes_bound(scene, engine, mode);
     if (mode_bound <= limit && mode != options.report_mode)
       fit += text(fit.empty() ? "" : ", ", mode_name(mode), " (up to ", mode_bound, " bytes)");
   }
-  if (options.report_mode != ReportMode::within_cutoff || !std::isfinite(engine.distance_cutoff))
-    fit += text(fit.empty() ? "" : ", ", mode_name(ReportMode::within_cutoff),
+  if (options.report_mode != model::ReportMode::within_cutoff ||
+      !std::isfinite(engine.distance_cutoff))
+    fit += text(fit.empty() ? "" : ", ", mode_name(model::ReportMode::within_cutoff),
                 " with a finite distance_cutoff (as large as the pairs within it)");
   const std::string with = extras(engine);
   const std::string what =
@@ -147,7 +149,7 @@ std::optional<Error> check_report_bytes(const SceneDefinition& scene,
 void replay_steps(const SceneDefinition& scene, IncrementalState& state,
                   const std::vector<WatchStep>& steps, const ResolvedOptions& options,
                   std::span<SimplexCache> caches, std::vector<std::uint32_t>& touched,
-                  std::vector<ThresholdEvent>& events) {
+                  std::vector<model::ThresholdEvent>& events) {
   const WatchSet& watches = *state.watches;
   std::vector<Pose<double>> poses;
   if (state.valid) {
@@ -157,7 +159,7 @@ void replay_steps(const SceneDefinition& scene, IncrementalState& state,
     for (const SceneObject& object : scene.objects) poses.push_back(object.initial_pose);
   }
   std::vector<std::uint32_t> pairs;
-  PairReport result;
+  model::PairReport result;
   for (const WatchStep& step : steps) {
     pairs.clear();
     for (const auto& [object, pose] : step.moves) {
@@ -186,7 +188,7 @@ void replay_steps(const SceneDefinition& scene, IncrementalState& state,
 void check_evaluation(const SceneDefinition& scene, IncrementalState& state,
                       const std::vector<std::uint32_t>& evaluated,
                       const std::vector<std::uint32_t>& replayed, std::uint64_t sequence,
-                      std::vector<ThresholdEvent>& events) {
+                      std::vector<model::ThresholdEvent>& events) {
   const WatchSet& watches = *state.watches;
   auto check = [&](std::uint32_t p) {
     if (!watches.watched(p)) return;
@@ -341,7 +343,7 @@ void SceneService::run(std::shared_ptr<Job> job) {
     }
     collect_report(*job.scene, state, job.options, !job.keep_state, job.report.pairs);
     const Clock::time_point end = Clock::now();
-    ReportTiming& timing = job.report.timing;
+    model::ReportTiming& timing = job.report.timing;
     timing.server_us = microseconds(end - job.received);
     timing.queue_us = microseconds(job.started - job.received);
     timing.evaluation_us = microseconds(end - job.started);
@@ -390,7 +392,8 @@ Expected<std::shared_ptr<const StoredGeometry>> SceneService::store_geometry(
   return std::shared_ptr<const StoredGeometry>(std::move(geometry));
 }
 
-Expected<GeometryInfo> SceneService::register_geometry(const GeometryInput& geometry) {
+Expected<model::GeometryInfo> SceneService::register_geometry(
+    const model::GeometryInput& geometry) {
   Expected<std::shared_ptr<StoredGeometry>> built = build_geometry(geometry, limits_);
   if (!built) return built.error();
   built.value()->info.geometry_id = geometry_content_id(geometry);
@@ -408,8 +411,8 @@ Outcome SceneService::remove_geometry(const std::string& geometry_id) {
   return {};
 }
 
-std::vector<GeometryInfo> SceneService::list_geometries() const {
-  std::vector<GeometryInfo> out;
+std::vector<model::GeometryInfo> SceneService::list_geometries() const {
+  std::vector<model::GeometryInfo> out;
   {
     std::shared_lock lock(geometries_mutex_);
     out.reserve(geometries_.size());
@@ -427,7 +430,7 @@ std::vector<GeometryInfo> SceneService::list_geometries() const {
 
 // ---- scenes ----
 
-Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
+Expected<model::SceneInfo> SceneService::create_scene(const model::SceneInput& input) {
   if (auto error = check_name(input.name, "name")) return *error;
   if (!input.requested_id.empty())
     if (auto error = check_id(input.requested_id, "scene_id")) return *error;
@@ -463,7 +466,7 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
   scene->fingerprint = input.fingerprint;
   scene->objects.reserve(input.objects.size());
   for (std::size_t i = 0; i < input.objects.size(); ++i) {
-    const ObjectInput& object = input.objects[i];
+    const model::ObjectInput& object = input.objects[i];
     const std::string field = text("objects[", i, ']');
     if (auto error = check_id(object.id, field + ".id")) return *error;
     if (const auto [it, inserted] = scene->index_by_id.emplace(object.id, std::uint32_t(i));
@@ -547,8 +550,8 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
     return (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
   };
 
-  const PairSelectionInput& selection = input.pair_selection;
-  if (selection.mode == PairSelectionInput::Mode::listed_pairs) {
+  const model::PairSelectionInput& selection = input.pair_selection;
+  if (selection.mode == model::PairSelectionInput::Mode::listed_pairs) {
     std::unordered_set<std::uint64_t> seen;
     for (std::size_t k = 0; k < selection.pairs.size(); ++k) {
       const std::string field = text("pair_selection.listed_pairs.pairs[", k, ']');
@@ -561,7 +564,7 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
     }
   } else {
     std::unordered_set<std::uint64_t> excluded;
-    if (selection.mode == PairSelectionInput::Mode::excluded_pairs) {
+    if (selection.mode == model::PairSelectionInput::Mode::excluded_pairs) {
       for (std::size_t k = 0; k < selection.pairs.size(); ++k) {
         auto pair =
             resolve_pair(selection.pairs[k], text("pair_selection.excluded_pairs.pairs[", k, ']'));
@@ -611,7 +614,7 @@ Expected<SceneInfo> SceneService::create_scene(const SceneInput& input) {
     scene->default_watches = std::move(watches.value());
   }
 
-  SceneInfo info{"", scene->pairs.size(), {}};
+  model::SceneInfo info{"", scene->pairs.size(), {}};
   for (auto& [key, geometry] : inline_geometries) {
     info.geometry_ids.emplace(key, geometry->info.geometry_id);
     Expected<std::shared_ptr<const StoredGeometry>> stored =
@@ -674,7 +677,7 @@ std::shared_ptr<Scene> SceneService::find_scene(const std::string& scene_id) con
 
 Expected<std::vector<Pose<double>>> SceneService::apply_poses(
     const SceneDefinition& scene, std::vector<Pose<double>> poses,
-    const std::vector<ObjectPoseInput>& updates, const char* field) const {
+    const std::vector<model::ObjectPoseInput>& updates, const char* field) const {
   std::vector<char> seen(scene.objects.size(), 0);
   for (std::size_t j = 0; j < updates.size(); ++j) {
     const std::string entry = text(field, '[', j, ']');
@@ -693,7 +696,7 @@ Expected<std::vector<Pose<double>>> SceneService::apply_poses(
   return poses;
 }
 
-Outcome SceneService::query(const QueryInput& query, Clock::time_point received,
+Outcome SceneService::query(const model::QueryInput& query, Clock::time_point received,
                             ReportCallback done) {
   if (auto error = check_id(query.scene_id, "scene_id")) return *error;
   std::shared_ptr<Scene> scene = find_scene(query.scene_id);
@@ -757,7 +760,7 @@ PoseStream::~PoseStream() {
   service_.open_streams_.fetch_sub(1);
 }
 
-Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
+Expected<PreparedUpdate> PoseStream::prepare(const model::PoseUpdateInput& update,
                                              Clock::time_point received) {
   std::shared_ptr<Scene> scene = scene_;
   if (!scene || !update.scene_id.empty())
@@ -774,7 +777,7 @@ Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
   const SceneDefinition& definition = *scene->definition();
   if (scene->deleted())
     return not_found("scene_id", text("scene ", quoted(definition.id), " was deleted"));
-  if (!scene_ && update.flow_control == FlowControl::unknown)
+  if (!scene_ && update.flow_control == model::FlowControl::unknown)
     return invalid_argument("flow_control", "unknown FlowControl value");
   if (has_sequence_ && update.sequence <= last_sequence_)
     return invalid_argument("sequence", text("must increase over the stream: got ", update.sequence,
@@ -828,7 +831,7 @@ Expected<PreparedUpdate> PoseStream::prepare(const PoseUpdateInput& update,
   prepared.received = received;
   if (watches) {
     prepared.step.sequence = update.sequence;
-    for (const ObjectPoseInput& pose : update.poses) {
+    for (const model::ObjectPoseInput& pose : update.poses) {
       const auto object = std::uint32_t(definition.find_object(pose.object_id));
       if (watches->watched_object[object])
         prepared.step.moves.emplace_back(object, prepared.poses[object]);
