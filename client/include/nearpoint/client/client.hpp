@@ -179,9 +179,7 @@ struct ThresholdEvent {
 };
 
 /// Server-side timing, microseconds (see nearpoint.v1.ReportTiming).
-struct ReportTiming {
-  double server_us = 0, queue_us = 0, evaluation_us = 0, geometry_us = 0;
-};
+using ReportTiming = model::ReportTiming;
 
 /// The answer to one update or query.
 struct Report {
