@@ -42,6 +42,9 @@ struct StoredGeometry {
   std::uint64_t registration = 0;
 };
 
+/// A scene request's inline geometries by key, validated but not yet stored.
+using InlineGeometries = std::unordered_map<std::string, std::shared_ptr<StoredGeometry>>;
+
 /// Options after inheritance and validation: what the engine is run with.
 struct ResolvedOptions {
   DistanceOptions<double> engine;
@@ -272,6 +275,13 @@ class SceneService {
   /// or RESOURCE_EXHAUSTED at --max-geometries. `field` names it in that error.
   Expected<std::shared_ptr<const StoredGeometry>> store_geometry(
       std::shared_ptr<StoredGeometry> geometry, const std::string& field);
+  /// The stored geometry `geometry_id`, or nullptr.
+  std::shared_ptr<const StoredGeometry> find_geometry(const std::string& geometry_id) const;
+  /// The last step of create_scene: stores the scene's inline geometries, then the scene under
+  /// its requested id (or the next free "scene-N"), unless the id is taken.
+  Expected<model::SceneInfo> commit_scene(std::shared_ptr<SceneDefinition> scene,
+                                          const model::SceneInput& input,
+                                          const InlineGeometries& inline_geometries);
 
   mutable std::shared_mutex scenes_mutex_;
   std::unordered_map<std::string, std::shared_ptr<Scene>> scenes_;
