@@ -4,6 +4,9 @@
 // evaluations and unary queries) and pose_stream.cpp.
 #include "nearpoint/server/scene_service.hpp"
 
+#include "nearpoint/model/vocabulary.hpp"
+#include "wire_numbers.hpp"
+
 namespace nearpoint::server {
 
 SceneService::SceneService(const ServiceLimits& limits, std::size_t workers)
@@ -11,24 +14,8 @@ SceneService::SceneService(const ServiceLimits& limits, std::size_t workers)
 
 SceneService::~SceneService() = default;
 
-const char* to_string(ErrorCode code) {
-  switch (code) {
-    case ErrorCode::invalid_argument:
-      return "invalid_argument";
-    case ErrorCode::not_found:
-      return "not_found";
-    case ErrorCode::resource_exhausted:
-      return "resource_exhausted";
-    case ErrorCode::failed_precondition:
-      return "failed_precondition";
-    case ErrorCode::unavailable:
-      return "unavailable";
-    case ErrorCode::already_exists:
-      return "already_exists";
-    case ErrorCode::internal:
-      return "internal";
-  }
-  return "internal";
+std::string to_string(ErrorCode code) {
+  return model::status_code_spelling(wire::status_code(code));
 }
 
 std::string quoted(std::string_view value, std::size_t max_bytes) {
