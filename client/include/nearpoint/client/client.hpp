@@ -12,9 +12,9 @@
 // Errors are values: every call returns a Status or an Expected<T> carrying the gRPC status code
 // (by name) and the server's message, which names the offending field. Nothing throws.
 //
-// Geometries and scenes are described with the scene API's plain structs (scene_types.hpp: the
-// same structs the server and the file formats use, Eigen vectors inside); poses at this API are
-// Eigen::Isometry3d or an Eigen::Quaterniond with an Eigen::Vector3d.
+// Geometries and scenes are described with the scene API's plain structs (model/scene_types.hpp:
+// the same structs the server and the file formats use, Eigen vectors inside); poses at this API
+// are Eigen::Isometry3d or an Eigen::Quaterniond with an Eigen::Vector3d.
 //
 // Thread safety: a Client may be used from any number of threads at once. A Session may be pushed
 // to from any thread (pushes are serialised, and numbered in the order they are serialised), and
@@ -90,8 +90,8 @@ class [[nodiscard]] Expected {
   std::variant<T, Status> state_;
 };
 
-// The request side: the scene API's plain structs (see scene_types.hpp and the .proto files for
-// every field's unit and frame).
+// The request side: the scene API's plain structs (see model/scene_types.hpp and the .proto files
+// for every field's unit and frame).
 using Geometry = model::GeometryInput;
 using Piece = model::PieceInput;
 using GeometryInfo = model::GeometryInfo;
