@@ -216,6 +216,33 @@ def plot_large(by, sizes, series, save):
     save(fig, "large_time_vs_vertices.png")
 
 
+def stability_cell(r, v):
+    """One (case, variant) cell of the stability page: the error and its bound, iterations, exit,
+    time and verdict; or why the variant did not run (`r` is None: no row for it)."""
+    if r is None:
+        return "—"
+    if r["outcome"] == "not accepted":
+        return "not accepted"
+    if r["outcome"] != "ran":
+        return f"**{r['outcome']}**"
+    if math.isnan(num(r["error"])) and v[0] == "ccd_intersect":
+        cell = "intersecting" if r["intersecting"] == "1" else "separated"
+    else:
+        cell = err(r["error"])
+    if not math.isnan(num(r["error_bound"])):
+        cell += f" ≤ {err(r['error_bound'])}" if r["bound_holds"] == "yes" else f" **> bound {err(r['error_bound'])}**"
+    extra = []
+    if int(r["iterations"]) >= 0:
+        extra.append(f"{r['iterations']} it")
+    if r["exit"] != "-":
+        extra.append(r["exit"])
+    if not math.isnan(num(r["time_us"])):
+        extra.append(f"{num(r['time_us']):.3g} µs")
+    if r["verdict"] != "ok":
+        extra.append(f"**{r['verdict']}**" if r["verdict"] in ("WRONG", "NaN") else r["verdict"])
+    return cell + (" · " + ", ".join(extra) if extra else "")
+
+
 class Report:
     def __init__(self, results, summary):
         self.dir = results
@@ -253,6 +280,30 @@ class Report:
         if declined:
             md.append("Not measured: " + "; ".join(declined) + ".\n\n")
 
+        md += self.paper_tables(by)
+        self.paper_targets(by)
+        pp = {(r["impl"], r["case"], int(r["pair"])): r for r in pairs}
+        self.paper_pairs_page(pp, pairs)
+        groups_md, wins, total = self.paper_groups(pp, pairs)
+        with open(self.path("paper_groups.md"), "w") as f:
+            f.write(groups_md)
+        if total:
+            self.targets.append((f"at or below the fastest of {' and '.join(LABEL[p] for p in FAST_PEERS)} "
+                                 f"in every (pair, case) group ({LABEL[NEARPOINT_DEFAULT]})",
+                                 f"{wins} of {total} groups", wins == total))
+
+        plot_fig4(pairs, meta, self.save)
+        md.append(f"\n![time vs M]({self.link('fig4_time_vs_M.png')})\n")
+        md.append(f"\n![ns per vertex]({self.link('fig4_ns_per_vertex.png')})\n")
+        md.append(f"\nPer (pair, case) group against the fastest peers: "
+                  f"[{self.link('paper_groups.md')}]({self.link('paper_groups.md')}).\n")
+        md.append(f"\nPer pair: [{self.link('paper_pairs.md')}]({self.link('paper_pairs.md')}); "
+                  f"raw: `paper_cases.csv`, `paper_pairs.csv`.\n")
+        return "".join(md)
+
+    def paper_tables(self, by):
+        """The pooled tables: times, speed ratios, accuracy, the yes/no query, the spread."""
+        md = []
         md.append("**Distance queries: median / p99 ns per query**\n")
         rows = []
         for i in DISTANCE_IMPLS:
@@ -302,8 +353,11 @@ class Report:
                 f"{ns(by[(i, c)]['round_median_min'])}–{ns(by[(i, c)]['round_median_max'])} "
                 f"({num(by[(i, c)]['spread_pct']):.1f}%)" for c in CASES])
         md.append(table(["implementation"] + CASES, rows))
+        return md
 
-        # Issue 25's targets: pooled, ≥ 1.5× the faster of openGJK and coal (tol 1e-12) in each
+    def paper_targets(self, by):
+        """Issue 25's targets on the pooled figures (added to self.targets)."""
+        # Pooled, ≥ 1.5× the faster of openGJK and coal (tol 1e-12) in each
         # case, with the accuracy kept (the 5× FCL + libccd target is retired).
         for np_impl in ["nearpoint_johnson", "nearpoint_signed_volumes"]:
             fast = [p for p in FAST_PEERS if num(by.get((p, "all"), {}).get("median_ns")) == num(by.get((p, "all"), {}).get("median_ns"))]
@@ -332,12 +386,12 @@ class Report:
             self.targets.append((f"yes/no query ≥ 2× faster than ccdGJKIntersect in each case "
                                  f"({LABEL[np_impl]})", measured, met))
 
-        # Per pair tables.
+    def paper_pairs_page(self, pp, pairs):
+        """paper_pairs.md: per pair and case, every implementation's median and nearpoint's details."""
         pm = ["# Section VII, per pair\n",
               "Median ns per query for each of the 20 pairs (sorted by M = M_A + M_B), then "
               "nearpoint Johnson's ns per vertex, mean iterations and the max error of nearpoint "
               "Johnson and FCL + libccd. Written by bench/tools/report.py from paper_pairs.csv.\n"]
-        pp = {(r["impl"], r["case"], int(r["pair"])): r for r in pairs}
         for c in CASES:
             pm.append(f"\n## {c}\n")
             keys = sorted({int(r["pair"]) for r in pairs}, key=lambda p: int(pp[("nearpoint_johnson", c, p)]["M"]))
@@ -353,23 +407,6 @@ class Report:
                             + ["Johnson ns/vertex", "Johnson iterations", "Johnson max error", "FCL libccd max error"], rows))
         with open(self.path("paper_pairs.md"), "w") as f:
             f.write("\n".join(pm))
-
-        groups_md, wins, total = self.paper_groups(pp, pairs)
-        with open(self.path("paper_groups.md"), "w") as f:
-            f.write(groups_md)
-        if total:
-            self.targets.append((f"at or below the fastest of {' and '.join(LABEL[p] for p in FAST_PEERS)} "
-                                 f"in every (pair, case) group ({LABEL[NEARPOINT_DEFAULT]})",
-                                 f"{wins} of {total} groups", wins == total))
-
-        plot_fig4(pairs, meta, self.save)
-        md.append(f"\n![time vs M]({self.link('fig4_time_vs_M.png')})\n")
-        md.append(f"\n![ns per vertex]({self.link('fig4_ns_per_vertex.png')})\n")
-        md.append(f"\nPer (pair, case) group against the fastest peers: "
-                  f"[{self.link('paper_groups.md')}]({self.link('paper_groups.md')}).\n")
-        md.append(f"\nPer pair: [{self.link('paper_pairs.md')}]({self.link('paper_pairs.md')}); "
-                  f"raw: `paper_cases.csv`, `paper_pairs.csv`.\n")
-        return "".join(md)
 
     def paper_groups(self, pp, pairs):
         """The 60 (pair, case) groups: nearpoint's median against the fastest peer's."""
@@ -685,31 +722,7 @@ class Report:
                 rs = {(r["impl"], r["precision"]): r for r in sel if r["case"] == c}
                 first = next(iter(rs.values()))
                 row = [c.split("/", 1)[1], f"{num(first['truth_distance']):.3g}"]
-                for v in variants:
-                    r = rs.get(v)
-                    if r is None:
-                        row.append("—")
-                    elif r["outcome"] == "not accepted":
-                        row.append("not accepted")
-                    elif r["outcome"] != "ran":
-                        row.append(f"**{r['outcome']}**")
-                    else:
-                        if math.isnan(num(r["error"])) and v[0] == "ccd_intersect":
-                            cell = "intersecting" if r["intersecting"] == "1" else "separated"
-                        else:
-                            cell = err(r["error"])
-                        if not math.isnan(num(r["error_bound"])):
-                            cell += f" ≤ {err(r['error_bound'])}" if r["bound_holds"] == "yes" else f" **> bound {err(r['error_bound'])}**"
-                        extra = []
-                        if int(r["iterations"]) >= 0:
-                            extra.append(f"{r['iterations']} it")
-                        if r["exit"] != "-":
-                            extra.append(r["exit"])
-                        if not math.isnan(num(r["time_us"])):
-                            extra.append(f"{num(r['time_us']):.3g} µs")
-                        if r["verdict"] != "ok":
-                            extra.append(f"**{r['verdict']}**" if r["verdict"] in ("WRONG", "NaN") else r["verdict"])
-                        row.append(cell + (" · " + ", ".join(extra) if extra else ""))
+                row += [stability_cell(rs.get(v), v) for v in variants]
                 rows.append(row)
             sm.append("\n" + table(["case", "truth"] + [vlabel(v) for v in variants], rows))
         with open(self.path("stability.md"), "w") as f:
