@@ -1,7 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // Transitional: the scene model's types under nearpoint::server:: (the same types, not copies),
-// for the fuzz harnesses in tests/fuzz, which still spell them server::…. Product code names them
-// model::…; remove this header once tests/fuzz does too.
+// for the fuzz harnesses in tests/fuzz and the service benchmarks in bench/service, which still
+// spell them server::…. The server, the other tests (both built with
+// NEARPOINT_SERVER_NO_MODEL_NAMES) and every other layer name them model::…; remove this header
+// once those two do too.
 #pragma once
 
 #include "nearpoint/model/scene_types.hpp"
