@@ -78,9 +78,12 @@ if(TARGET nearpoint_proto AND TARGET nearpoint_client)
   set_target_properties(nearpoint_proto PROPERTIES EXPORT_NAME proto)
   set_target_properties(nearpoint_client PROPERTIES EXPORT_NAME client)
   set_target_properties(nearpoint_model PROPERTIES EXPORT_NAME model)
+  # Linked privately by the client (the model ↔ protobuf conversion): exported for its link line.
+  set_target_properties(nearpoint_proto_convert PROPERTIES EXPORT_NAME proto_convert)
   target_include_directories(nearpoint_proto
     PUBLIC $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/nearpoint/proto>)
-  install(TARGETS nearpoint_model nearpoint_proto nearpoint_client EXPORT nearpoint-client-targets
+  install(TARGETS nearpoint_model nearpoint_proto nearpoint_proto_convert nearpoint_client
+          EXPORT nearpoint-client-targets
           ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev
           INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
   install(DIRECTORY ${PROJECT_BINARY_DIR}/proto/
@@ -105,7 +108,8 @@ endif()
 # The package's licence, for consumers that collect them: nearpoint_LICENSE in
 # nearpoint-config.cmake, and the NEARPOINT_LICENSE property on every exported target.
 set(NEARPOINT_LICENSE "Apache-2.0")
-foreach(_nearpoint_target nearpoint_core nearpoint_hull nearpoint_model nearpoint_proto nearpoint_client)
+foreach(_nearpoint_target nearpoint_core nearpoint_hull nearpoint_model nearpoint_proto
+                          nearpoint_proto_convert nearpoint_client)
   if(TARGET ${_nearpoint_target})
     set_property(TARGET ${_nearpoint_target} PROPERTY NEARPOINT_LICENSE ${NEARPOINT_LICENSE})
     set_property(TARGET ${_nearpoint_target} APPEND PROPERTY EXPORT_PROPERTIES NEARPOINT_LICENSE)

@@ -94,6 +94,155 @@ def table(header, rows):
     return "\n".join(out) + "\n"
 
 
+# ------------------------------------------------------------------------------------------
+# The figures: each draws from rows a section computed, and saves through `save(fig, name)`.
+
+
+def plot_fig4(pairs, meta, save):
+    """Fig. 4: time against M, one panel per case; and ns per vertex."""
+    for name, column, ylabel in [("fig4_time_vs_M.png", "median_ns", "median ns per query"),
+                                 ("fig4_ns_per_vertex.png", "ns_per_vertex", "median ns per vertex (M)")]:
+        fig, axes = plt.subplots(1, 3, figsize=(15, 4.6), sharey=True)
+        for ax, c in zip(axes, CASES):
+            for i in DISTANCE_IMPLS + ["ccd_intersect", "nearpoint_johnson_yesno"]:
+                pts = sorted((int(r["M"]), num(r[column])) for r in pairs if r["impl"] == i and r["case"] == c)
+                pts = [(m, y) for m, y in pts if not math.isnan(y)]
+                if not pts:
+                    continue
+                xs, ys = [m for m, _ in pts], [y for _, y in pts]
+                hollow = i in YESNO_IMPLS
+                ax.scatter(xs, ys, s=16, color=COLOR[i], alpha=0.85, label=LABEL[i],
+                           facecolors="none" if hollow else COLOR[i])
+                # Least-squares line a + b·M: the paper's "cost ≈ linear in M" shape.
+                n = len(xs)
+                mx, my = sum(xs) / n, sum(ys) / n
+                sxx = sum((x - mx) ** 2 for x in xs)
+                if sxx > 0 and column == "median_ns":  # a line in M fits time, not time / M
+                    b = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx
+                    a = my - b * mx
+                    ax.plot([0, max(xs)], [a, a + b * max(xs)], "--" if hollow else "-",
+                            color=COLOR[i], lw=1, alpha=0.7)
+            ax.set_title(f"{c}")
+            ax.set_xlabel("M = M_A + M_B (vertices)")
+            ax.grid(alpha=0.3)
+        axes[0].set_ylabel(ylabel)
+        axes[0].set_ylim(bottom=0)
+        axes[2].legend(fontsize=8)
+        fig.suptitle("Section VII experiment (Fig. 4's shape): each point is one pair's median over "
+                     f"{meta['poses_per_case']} poses × {meta['rounds']} rounds"
+                     + ("; lines: least-squares fit in M" if column == "median_ns" else ""))
+        save(fig, name)
+
+
+def plot_table1_distances(curve, save):
+    """The distances along the Table I path (the paper's Fig. 6)."""
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for k in range(1, 6):
+        pts = [r for r in curve if int(r["obstacle"]) == k]
+        s = [num(r["s"]) for r in pts]
+        d = [num(r["distance"]) if num(r["distance"]) > 0 else -num(r["penetration_bound"]) for r in pts]
+        ax.plot(s, d, label=f"d{k}: {pts[0]['name']}")
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xlabel("s")
+    ax.set_ylabel("distance (negative: −d⁻, the penetration lower bound)")
+    ax.set_title("Section VIII scene: distances along the path (the paper's Fig. 6), T = 1000")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    save(fig, "table1_distances.png")
+
+
+def plot_error_time(rows_in, impls, c, save):
+    """Max and median error against time for case `c`, one line per knob."""
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.8), sharex=True)
+    for ax, column, title in [(axes[0], "max_error", "max"), (axes[1], "median_error", "median")]:
+        for i in impls:
+            for knob, style in [("epsilon", "-"), ("distance_tolerance", "-"),
+                                ("equal_vertex_threshold", "-"), ("max_iterations", ":")]:
+                pts = [r for r in rows_in if r["impl"] == i and r["case"] == c and r["knob"] == knob
+                       and not math.isnan(num(r["median_ns"]))]
+                if not pts:
+                    continue
+                pts.sort(key=lambda r: -num(r["value"]) if knob != "max_iterations" else num(r["value"]))
+                x = [num(r["median_ns"]) for r in pts]
+                y = [max(num(r[column]), ERROR_FLOOR) for r in pts]
+                label = LABEL[i] + (" (iteration cap)" if knob == "max_iterations" else "")
+                ax.plot(x, y, style, marker="o", ms=3, color=COLOR[i], label=label)
+        ax.set_yscale("log")
+        ax.set_xlabel("median ns per query")
+        ax.set_ylabel(f"{title} |d − d_exact| (0 drawn at {ERROR_FLOOR:g})")
+        ax.set_title(f"{c}: {title} error against time")
+        ax.grid(alpha=0.3, which="both")
+    axes[0].legend(fontsize=7)
+    save(fig, f"error_time_{c}.png")
+
+
+def plot_error_bound(pts, violations, save):
+    """nearpoint's reported error bound against the true error, every sampled example."""
+    fig, ax = plt.subplots(figsize=(6.5, 6))
+    for i, marker in [("nearpoint_johnson", "o"), ("nearpoint_signed_volumes", "x")]:
+        sel = [r for r in pts if r["impl"] == i]
+        ax.scatter([max(num(r["error"]), ERROR_FLOOR) for r in sel],
+                   [max(num(r["error_bound"]), ERROR_FLOOR) for r in sel], s=10, alpha=0.45,
+                   color=COLOR[i], marker=marker, label=LABEL[i],
+                   facecolors="none" if marker == "o" else None)
+    lo, hi = ERROR_FLOOR / 2, 10
+    ax.plot([lo, hi], [lo, hi], "k--", lw=0.8, label="bound = error")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(lo, hi)
+    ax.set_ylim(lo, hi)
+    ax.set_xlabel(f"true error |d − d_exact| (0 drawn at {ERROR_FLOOR:g})")
+    ax.set_ylabel("reported error bound")
+    ax.set_title(f"error bound against true error\n(all ε and cap settings; {violations} violations)")
+    ax.legend(fontsize=8, loc="upper left")
+    ax.grid(alpha=0.3, which="both")
+    save(fig, "error_bound.png")
+
+
+def plot_large(by, sizes, series, save):
+    """Large polytopes: median time against vertex count, one line per series."""
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for i, m in series:
+        pts = [(n, num(by[(n, i, m)]["median_ns"])) for n in sizes if (n, i, m) in by]
+        ax.plot([p[0] for p in pts], [p[1] for p in pts], "-" if m == "cold" else "--", marker="o", ms=4,
+                color=COLOR[i], label=f"{LABEL[i]} {m}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("points per hull (N)")
+    ax.set_ylabel("median ns per query")
+    ax.set_title("Large polytopes: time against vertex count")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    save(fig, "large_time_vs_vertices.png")
+
+
+def stability_cell(r, v):
+    """One (case, variant) cell of the stability page: the error and its bound, iterations, exit,
+    time and verdict; or why the variant did not run (`r` is None: no row for it)."""
+    if r is None:
+        return "—"
+    if r["outcome"] == "not accepted":
+        return "not accepted"
+    if r["outcome"] != "ran":
+        return f"**{r['outcome']}**"
+    if math.isnan(num(r["error"])) and v[0] == "ccd_intersect":
+        cell = "intersecting" if r["intersecting"] == "1" else "separated"
+    else:
+        cell = err(r["error"])
+    if not math.isnan(num(r["error_bound"])):
+        cell += f" ≤ {err(r['error_bound'])}" if r["bound_holds"] == "yes" else f" **> bound {err(r['error_bound'])}**"
+    extra = []
+    if int(r["iterations"]) >= 0:
+        extra.append(f"{r['iterations']} it")
+    if r["exit"] != "-":
+        extra.append(r["exit"])
+    if not math.isnan(num(r["time_us"])):
+        extra.append(f"{num(r['time_us']):.3g} µs")
+    if r["verdict"] != "ok":
+        extra.append(f"**{r['verdict']}**" if r["verdict"] in ("WRONG", "NaN") else r["verdict"])
+    return cell + (" · " + ", ".join(extra) if extra else "")
+
+
 class Report:
     def __init__(self, results, summary):
         self.dir = results
@@ -131,6 +280,30 @@ class Report:
         if declined:
             md.append("Not measured: " + "; ".join(declined) + ".\n\n")
 
+        md += self.paper_tables(by)
+        self.paper_targets(by)
+        pp = {(r["impl"], r["case"], int(r["pair"])): r for r in pairs}
+        self.paper_pairs_page(pp, pairs)
+        groups_md, wins, total = self.paper_groups(pp, pairs)
+        with open(self.path("paper_groups.md"), "w") as f:
+            f.write(groups_md)
+        if total:
+            self.targets.append((f"at or below the fastest of {' and '.join(LABEL[p] for p in FAST_PEERS)} "
+                                 f"in every (pair, case) group ({LABEL[NEARPOINT_DEFAULT]})",
+                                 f"{wins} of {total} groups", wins == total))
+
+        plot_fig4(pairs, meta, self.save)
+        md.append(f"\n![time vs M]({self.link('fig4_time_vs_M.png')})\n")
+        md.append(f"\n![ns per vertex]({self.link('fig4_ns_per_vertex.png')})\n")
+        md.append(f"\nPer (pair, case) group against the fastest peers: "
+                  f"[{self.link('paper_groups.md')}]({self.link('paper_groups.md')}).\n")
+        md.append(f"\nPer pair: [{self.link('paper_pairs.md')}]({self.link('paper_pairs.md')}); "
+                  f"raw: `paper_cases.csv`, `paper_pairs.csv`.\n")
+        return "".join(md)
+
+    def paper_tables(self, by):
+        """The pooled tables: times, speed ratios, accuracy, the yes/no query, the spread."""
+        md = []
         md.append("**Distance queries: median / p99 ns per query**\n")
         rows = []
         for i in DISTANCE_IMPLS:
@@ -180,8 +353,11 @@ class Report:
                 f"{ns(by[(i, c)]['round_median_min'])}–{ns(by[(i, c)]['round_median_max'])} "
                 f"({num(by[(i, c)]['spread_pct']):.1f}%)" for c in CASES])
         md.append(table(["implementation"] + CASES, rows))
+        return md
 
-        # Issue 25's targets: pooled, ≥ 1.5× the faster of openGJK and coal (tol 1e-12) in each
+    def paper_targets(self, by):
+        """Issue 25's targets on the pooled figures (added to self.targets)."""
+        # Pooled, ≥ 1.5× the faster of openGJK and coal (tol 1e-12) in each
         # case, with the accuracy kept (the 5× FCL + libccd target is retired).
         for np_impl in ["nearpoint_johnson", "nearpoint_signed_volumes"]:
             fast = [p for p in FAST_PEERS if num(by.get((p, "all"), {}).get("median_ns")) == num(by.get((p, "all"), {}).get("median_ns"))]
@@ -210,12 +386,12 @@ class Report:
             self.targets.append((f"yes/no query ≥ 2× faster than ccdGJKIntersect in each case "
                                  f"({LABEL[np_impl]})", measured, met))
 
-        # Per pair tables.
+    def paper_pairs_page(self, pp, pairs):
+        """paper_pairs.md: per pair and case, every implementation's median and nearpoint's details."""
         pm = ["# Section VII, per pair\n",
               "Median ns per query for each of the 20 pairs (sorted by M = M_A + M_B), then "
               "nearpoint Johnson's ns per vertex, mean iterations and the max error of nearpoint "
               "Johnson and FCL + libccd. Written by bench/tools/report.py from paper_pairs.csv.\n"]
-        pp = {(r["impl"], r["case"], int(r["pair"])): r for r in pairs}
         for c in CASES:
             pm.append(f"\n## {c}\n")
             keys = sorted({int(r["pair"]) for r in pairs}, key=lambda p: int(pp[("nearpoint_johnson", c, p)]["M"]))
@@ -231,55 +407,6 @@ class Report:
                             + ["Johnson ns/vertex", "Johnson iterations", "Johnson max error", "FCL libccd max error"], rows))
         with open(self.path("paper_pairs.md"), "w") as f:
             f.write("\n".join(pm))
-
-        groups_md, wins, total = self.paper_groups(pp, pairs)
-        with open(self.path("paper_groups.md"), "w") as f:
-            f.write(groups_md)
-        if total:
-            self.targets.append((f"at or below the fastest of {' and '.join(LABEL[p] for p in FAST_PEERS)} "
-                                 f"in every (pair, case) group ({LABEL[NEARPOINT_DEFAULT]})",
-                                 f"{wins} of {total} groups", wins == total))
-
-        # Fig. 4: time against M, one panel per case; and ns per vertex.
-        for name, column, ylabel in [("fig4_time_vs_M.png", "median_ns", "median ns per query"),
-                                     ("fig4_ns_per_vertex.png", "ns_per_vertex", "median ns per vertex (M)")]:
-            fig, axes = plt.subplots(1, 3, figsize=(15, 4.6), sharey=True)
-            for ax, c in zip(axes, CASES):
-                for i in DISTANCE_IMPLS + ["ccd_intersect", "nearpoint_johnson_yesno"]:
-                    pts = sorted((int(r["M"]), num(r[column])) for r in pairs if r["impl"] == i and r["case"] == c)
-                    pts = [(m, y) for m, y in pts if not math.isnan(y)]
-                    if not pts:
-                        continue
-                    xs, ys = [m for m, _ in pts], [y for _, y in pts]
-                    hollow = i in YESNO_IMPLS
-                    ax.scatter(xs, ys, s=16, color=COLOR[i], alpha=0.85, label=LABEL[i],
-                               facecolors="none" if hollow else COLOR[i])
-                    # Least-squares line a + b·M: the paper's "cost ≈ linear in M" shape.
-                    n = len(xs)
-                    mx, my = sum(xs) / n, sum(ys) / n
-                    sxx = sum((x - mx) ** 2 for x in xs)
-                    if sxx > 0 and column == "median_ns":  # a line in M fits time, not time / M
-                        b = sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx
-                        a = my - b * mx
-                        ax.plot([0, max(xs)], [a, a + b * max(xs)], "--" if hollow else "-",
-                                color=COLOR[i], lw=1, alpha=0.7)
-                ax.set_title(f"{c}")
-                ax.set_xlabel("M = M_A + M_B (vertices)")
-                ax.grid(alpha=0.3)
-            axes[0].set_ylabel(ylabel)
-            axes[0].set_ylim(bottom=0)
-            axes[2].legend(fontsize=8)
-            fig.suptitle("Section VII experiment (Fig. 4's shape): each point is one pair's median over "
-                         f"{meta['poses_per_case']} poses × {meta['rounds']} rounds"
-                         + ("; lines: least-squares fit in M" if column == "median_ns" else ""))
-            self.save(fig, name)
-        md.append(f"\n![time vs M]({self.link('fig4_time_vs_M.png')})\n")
-        md.append(f"\n![ns per vertex]({self.link('fig4_ns_per_vertex.png')})\n")
-        md.append(f"\nPer (pair, case) group against the fastest peers: "
-                  f"[{self.link('paper_groups.md')}]({self.link('paper_groups.md')}).\n")
-        md.append(f"\nPer pair: [{self.link('paper_pairs.md')}]({self.link('paper_pairs.md')}); "
-                  f"raw: `paper_cases.csv`, `paper_pairs.csv`.\n")
-        return "".join(md)
 
     def paper_groups(self, pp, pairs):
         """The 60 (pair, case) groups: nearpoint's median against the fastest peer's."""
@@ -414,20 +541,7 @@ class Report:
                                      f"T = 1000 (nearpoint {label})",
                                      f"{q:.2f}× (operation ceiling {ceiling:.2f}×)", q >= 4))
 
-        curve = read(self.path("table1_distances.csv"))
-        fig, ax = plt.subplots(figsize=(9, 4.5))
-        for k in range(1, 6):
-            pts = [r for r in curve if int(r["obstacle"]) == k]
-            s = [num(r["s"]) for r in pts]
-            d = [num(r["distance"]) if num(r["distance"]) > 0 else -num(r["penetration_bound"]) for r in pts]
-            ax.plot(s, d, label=f"d{k}: {pts[0]['name']}")
-        ax.axhline(0, color="k", lw=0.8)
-        ax.set_xlabel("s")
-        ax.set_ylabel("distance (negative: −d⁻, the penetration lower bound)")
-        ax.set_title("Section VIII scene: distances along the path (the paper's Fig. 6), T = 1000")
-        ax.legend(fontsize=8)
-        ax.grid(alpha=0.3)
-        self.save(fig, "table1_distances.png")
+        plot_table1_distances(read(self.path("table1_distances.csv")), self.save)
         md.append(f"\n![distances along the path]({self.link('table1_distances.png')})\n")
         return "".join(md)
 
@@ -478,49 +592,11 @@ class Report:
                       "and are not counted as verdicts.\n")
 
         for c in CASES:
-            fig, axes = plt.subplots(1, 2, figsize=(13, 4.8), sharex=True)
-            for ax, column, title in [(axes[0], "max_error", "max"), (axes[1], "median_error", "median")]:
-                for i in impls:
-                    for knob, style in [("epsilon", "-"), ("distance_tolerance", "-"),
-                                        ("equal_vertex_threshold", "-"), ("max_iterations", ":")]:
-                        pts = [r for r in rows_in if r["impl"] == i and r["case"] == c and r["knob"] == knob
-                               and not math.isnan(num(r["median_ns"]))]
-                        if not pts:
-                            continue
-                        pts.sort(key=lambda r: -num(r["value"]) if knob != "max_iterations" else num(r["value"]))
-                        x = [num(r["median_ns"]) for r in pts]
-                        y = [max(num(r[column]), ERROR_FLOOR) for r in pts]
-                        label = LABEL[i] + (" (iteration cap)" if knob == "max_iterations" else "")
-                        ax.plot(x, y, style, marker="o", ms=3, color=COLOR[i], label=label)
-                ax.set_yscale("log")
-                ax.set_xlabel("median ns per query")
-                ax.set_ylabel(f"{title} |d − d_exact| (0 drawn at {ERROR_FLOOR:g})")
-                ax.set_title(f"{c}: {title} error against time")
-                ax.grid(alpha=0.3, which="both")
-            axes[0].legend(fontsize=7)
-            self.save(fig, f"error_time_{c}.png")
+            plot_error_time(rows_in, impls, c, self.save)
             md.append(f"\n![error against time, {c}]({self.link(f'error_time_{c}.png')})\n")
 
         pts = read(self.path("error_bound_points.csv"))
-        fig, ax = plt.subplots(figsize=(6.5, 6))
-        for i, marker in [("nearpoint_johnson", "o"), ("nearpoint_signed_volumes", "x")]:
-            sel = [r for r in pts if r["impl"] == i]
-            ax.scatter([max(num(r["error"]), ERROR_FLOOR) for r in sel],
-                       [max(num(r["error_bound"]), ERROR_FLOOR) for r in sel], s=10, alpha=0.45,
-                       color=COLOR[i], marker=marker, label=LABEL[i],
-                       facecolors="none" if marker == "o" else None)
-        lo, hi = ERROR_FLOOR / 2, 10
-        ax.plot([lo, hi], [lo, hi], "k--", lw=0.8, label="bound = error")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlim(lo, hi)
-        ax.set_ylim(lo, hi)
-        ax.set_xlabel(f"true error |d − d_exact| (0 drawn at {ERROR_FLOOR:g})")
-        ax.set_ylabel("reported error bound")
-        ax.set_title(f"error bound against true error\n(all ε and cap settings; {violations} violations)")
-        ax.legend(fontsize=8, loc="upper left")
-        ax.grid(alpha=0.3, which="both")
-        self.save(fig, "error_bound.png")
+        plot_error_bound(pts, violations, self.save)
         md.append(f"\n![error bound against true error]({self.link('error_bound.png')})\n")
         md.append("\nThe plot shows a sample per (setting, case): the 10 largest errors, the 10 "
                   "tightest bounds and 30 spread examples; the violation count covers every example.\n")
@@ -562,19 +638,7 @@ class Report:
                 t = num(by[(1000, impl, "cold")]["median_ns"])
                 self.targets.append((f"1000-vertex hull pairs < 1.5 µs cold ({LABEL[impl]}, hull "
                                      "climbing, median over the path)", f"{t / 1000:.2f} µs", t < 1500))
-        fig, ax = plt.subplots(figsize=(8, 5))
-        for i, m in series:
-            pts = [(n, num(by[(n, i, m)]["median_ns"])) for n in sizes if (n, i, m) in by]
-            ax.plot([p[0] for p in pts], [p[1] for p in pts], "-" if m == "cold" else "--", marker="o", ms=4,
-                    color=COLOR[i], label=f"{LABEL[i]} {m}")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("points per hull (N)")
-        ax.set_ylabel("median ns per query")
-        ax.set_title("Large polytopes: time against vertex count")
-        ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=8)
-        self.save(fig, "large_time_vs_vertices.png")
+        plot_large(by, sizes, series, self.save)
         md.append(f"\n![large polytopes]({self.link('large_time_vs_vertices.png')})\n")
         return "".join(md)
 
@@ -658,31 +722,7 @@ class Report:
                 rs = {(r["impl"], r["precision"]): r for r in sel if r["case"] == c}
                 first = next(iter(rs.values()))
                 row = [c.split("/", 1)[1], f"{num(first['truth_distance']):.3g}"]
-                for v in variants:
-                    r = rs.get(v)
-                    if r is None:
-                        row.append("—")
-                    elif r["outcome"] == "not accepted":
-                        row.append("not accepted")
-                    elif r["outcome"] != "ran":
-                        row.append(f"**{r['outcome']}**")
-                    else:
-                        if math.isnan(num(r["error"])) and v[0] == "ccd_intersect":
-                            cell = "intersecting" if r["intersecting"] == "1" else "separated"
-                        else:
-                            cell = err(r["error"])
-                        if not math.isnan(num(r["error_bound"])):
-                            cell += f" ≤ {err(r['error_bound'])}" if r["bound_holds"] == "yes" else f" **> bound {err(r['error_bound'])}**"
-                        extra = []
-                        if int(r["iterations"]) >= 0:
-                            extra.append(f"{r['iterations']} it")
-                        if r["exit"] != "-":
-                            extra.append(r["exit"])
-                        if not math.isnan(num(r["time_us"])):
-                            extra.append(f"{num(r['time_us']):.3g} µs")
-                        if r["verdict"] != "ok":
-                            extra.append(f"**{r['verdict']}**" if r["verdict"] in ("WRONG", "NaN") else r["verdict"])
-                        row.append(cell + (" · " + ", ".join(extra) if extra else ""))
+                row += [stability_cell(rs.get(v), v) for v in variants]
                 rows.append(row)
             sm.append("\n" + table(["case", "truth"] + [vlabel(v) for v in variants], rows))
         with open(self.path("stability.md"), "w") as f:

@@ -1,21 +1,21 @@
 // SPDX-License-Identifier: Apache-2.0
-// The client's plain structs ↔ nearpoint.v1 protobuf messages (mechanical; the server validates).
+// The client's own structs ↔ nearpoint.v1 messages: an Eigen pose and the report of an update,
+// whose pairs name their objects. The scene model's structs convert through
+// nearpoint_proto_convert, shared with the server.
 #pragma once
 
 #include "nearpoint/client/client.hpp"
+#include "nearpoint/proto/convert.hpp"
 #include "nearpoint_distance.pb.h"
 
 namespace nearpoint::client::detail {
 
 namespace v1 = ::nearpoint::v1;
 
-void to_proto(const model::PoseInput& pose, v1::Pose& out);
+using proto::from_proto;
+using proto::to_proto;
+
 void to_proto(const ObjectPose& pose, v1::ObjectPose& out);
-void to_proto(const Geometry& geometry, v1::Geometry& out);
-void to_proto(const QueryOptions& options, v1::QueryOptions& out);
-void to_proto(const Threshold& threshold, v1::Threshold& out);
-void to_proto(const Scene& scene, v1::CreateSceneRequest& out);
-GeometryInfo from_proto(const v1::GeometryInfo& info);
 Report from_proto(const v1::DistanceReport& report);
 
 }  // namespace nearpoint::client::detail

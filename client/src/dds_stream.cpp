@@ -13,6 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "nearpoint/model/vocabulary.hpp"
+
 namespace nearpoint::cli {
 namespace {
 
@@ -24,43 +26,6 @@ dds_duration_t to_dds(Clock::duration d) {
                                   std::chrono::duration_cast<std::chrono::nanoseconds>(d).count());
 }
 
-const char* pair_status_name(std::uint8_t status) {
-  switch (status) {
-    case 1:
-      return "separated";
-    case 2:
-      return "intersecting";
-    case 3:
-      return "beyond_cutoff";
-    case 4:
-      return "iteration_limit";
-    case 5:
-      return "engine_error";
-    default:
-      return "unknown";
-  }
-}
-
-/// The wire status of a rejected update (gRPC's codes) by name, as the server logs it.
-const char* error_code_name(std::uint32_t code) {
-  switch (code) {
-    case 3:
-      return "invalid_argument";
-    case 5:
-      return "not_found";
-    case 8:
-      return "resource_exhausted";
-    case 9:
-      return "failed_precondition";
-    case 13:
-      return "internal";
-    case 14:
-      return "unavailable";
-    default:
-      return "unknown";
-  }
-}
-
 Json vec(const nearpoint_msg_dds__Vector3_& v) {
   return Json::array({v.x, v.y, v.z});
 }
@@ -70,7 +35,7 @@ Json report_json(const DistanceReportSample& report) {
   out["sequence"] = report.sequence_number;
   if (report.status != 0) {
     out["status"] = "error";
-    out["code"] = error_code_name(report.status);
+    out["code"] = model::status_code_spelling(report.status);
     out["field"] = report.error_field ? report.error_field : "";
     out["message"] = report.message ? report.message : "";
     return out;
@@ -82,7 +47,7 @@ Json report_json(const DistanceReportSample& report) {
     Json pair;
     pair["object_a"] = p.object_a ? p.object_a : "";
     pair["object_b"] = p.object_b ? p.object_b : "";
-    pair["status"] = pair_status_name(p.status);
+    pair["status"] = model::spelling_of(model::from_dds<model::PairStatus>(p.status));
     pair["distance"] = p.distance;
     pair["distance_lower_bound"] = p.distance_lower_bound;
     pair["error_bound"] = p.error_bound;
@@ -106,13 +71,14 @@ Json report_json(const DistanceReportSample& report) {
     Json events = Json::array();
     for (std::uint32_t i = 0; i < report.events._length; ++i) {
       const nearpoint_msg_dds__ThresholdEvent_& e = report.events._buffer[i];
-      events.push_back({{"threshold", e.threshold ? e.threshold : ""},
-                        {"threshold_index", e.threshold_index},
-                        {"object_a", e.object_a ? e.object_a : ""},
-                        {"object_b", e.object_b ? e.object_b : ""},
-                        {"crossing", e.crossing == 2 ? "exit" : "enter"},
-                        {"distance", e.distance},
-                        {"sequence", e.sequence_number}});
+      events.push_back(
+          {{"threshold", e.threshold ? e.threshold : ""},
+           {"threshold_index", e.threshold_index},
+           {"object_a", e.object_a ? e.object_a : ""},
+           {"object_b", e.object_b ? e.object_b : ""},
+           {"crossing", model::spelling_of(model::from_dds<model::Crossing>(e.crossing))},
+           {"distance", e.distance},
+           {"sequence", e.sequence_number}});
     }
     out["events"] = std::move(events);
   }
@@ -245,91 +211,93 @@ int DdsPoseClient::take_reports(std::chrono::milliseconds timeout,
   }
 }
 
-// ---- nearpoint stream --dds ----
+// ---- nearpoint stream --dds: parse → run → print ----
 
-int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options, std::ostream& out,
-                   std::ostream& err) {
-  const char* prefix = "nearpoint stream --dds: ";
-  if (options.scene_id.empty()) {
-    err << prefix << "--scene is required (the scene id on the server)\n";
-    return kStreamCannotRun;
-  }
-  std::string error;
-  std::unique_ptr<DdsPoseClient> client = DdsPoseClient::create(options.dds, error);
-  if (!client) {
-    err << prefix << error << '\n';
-    return kStreamCannotRun;
-  }
-  if (!client->wait_matched(options.match_timeout, error)) {
-    err << prefix << error << '\n';
-    return kStreamCannotRun;
-  }
-  const std::string client_id =
-      options.client_id.empty() ? "nearpoint-cli-" + std::to_string(getpid()) : options.client_id;
-  const std::size_t window = std::max<std::size_t>(1, options.window);
-  const std::size_t total = trajectory.steps.size();
+namespace {
 
-  // Sent and not yet answered, in sequence order, with the time each was published.
-  std::map<std::uint64_t, Clock::time_point> outstanding;
-  std::vector<double> round_trips_us;
-  std::uint64_t next = 0;  // index of the next step to publish
-  std::uint64_t last_ok_sequence = 0;
-  std::size_t reports = 0, rejected = 0, coalesced = 0, problems = 0;
+constexpr const char* kPrefix = "nearpoint stream --dds: ";
 
-  // The sample borrows these; rebuilt per update.
-  std::vector<nearpoint_msg_dds__ObjectPose_> poses;
-  std::vector<nearpoint_msg_dds__Threshold_> thresholds;
-  for (const model::ThresholdInput& t : options.thresholds)
-    thresholds.push_back({const_cast<char*>(t.name.c_str()), t.distance, t.hysteresis,
-                          const_cast<char*>(t.object_a.c_str()),
-                          const_cast<char*>(t.object_b.c_str()), t.groups});
-  auto publish_step = [&](std::uint64_t index) {
-    const TrajectoryStep& step = trajectory.steps[index];
-    poses.assign(step.poses.size(), {});
+/// Builds each step's PoseUpdate_ from the trajectory and the options. The sample borrows the
+/// publisher's buffers: valid until the next call.
+class StepPublisher {
+ public:
+  StepPublisher(const Trajectory& trajectory, const DdsStreamOptions& options)
+      : trajectory_(trajectory),
+        options_(options),
+        client_id_(options.client_id.empty() ? "nearpoint-cli-" + std::to_string(getpid())
+                                             : options.client_id) {
+    for (const model::ThresholdInput& t : options.thresholds)
+      thresholds_.push_back({const_cast<char*>(t.name.c_str()), t.distance, t.hysteresis,
+                             const_cast<char*>(t.object_a.c_str()),
+                             const_cast<char*>(t.object_b.c_str()), t.groups});
+  }
+
+  /// The update of step `index` (sequence number index + 1; thresholds with the first).
+  PoseUpdateSample sample(std::uint64_t index) {
+    const TrajectoryStep& step = trajectory_.steps[index];
+    poses_.assign(step.poses.size(), {});
     for (std::size_t i = 0; i < step.poses.size(); ++i) {
       const ObjectPose& in = step.poses[i];
-      nearpoint_msg_dds__ObjectPose_& pose = poses[i];
+      nearpoint_msg_dds__ObjectPose_& pose = poses_[i];
       pose.object_id = const_cast<char*>(in.object_id.c_str());
       pose.pose.rotation = {in.rotation_wxyz[0], in.rotation_wxyz[1], in.rotation_wxyz[2],
                             in.rotation_wxyz[3]};
       pose.pose.translation = {in.translation[0], in.translation[1], in.translation[2]};
     }
     PoseUpdateSample update{};
-    update.scene_id = const_cast<char*>(options.scene_id.c_str());
-    update.client_id = const_cast<char*>(client_id.c_str());
+    update.scene_id = const_cast<char*>(options_.scene_id.c_str());
+    update.client_id = const_cast<char*>(client_id_.c_str());
     update.sequence_number = index + 1;
-    update.poses._buffer = poses.data();
-    update.poses._length = update.poses._maximum = std::uint32_t(poses.size());
+    update.poses._buffer = poses_.data();
+    update.poses._length = update.poses._maximum = std::uint32_t(poses_.size());
     update.poses._release = false;
-    if (options.near_points) {
+    if (options_.near_points) {
       update.options.has_near_points = true;
       update.options.near_points = true;
     }
-    update.options.report_mode = options.report_mode;
-    if (!std::isnan(options.cutoff)) {
+    update.options.report_mode = model::to_dds(options_.report_mode);
+    if (!std::isnan(options_.cutoff)) {
       update.options.has_distance_cutoff = true;
-      update.options.distance_cutoff = options.cutoff;
+      update.options.distance_cutoff = options_.cutoff;
     }
-    if (!std::isnan(options.change_tolerance)) {
+    if (!std::isnan(options_.change_tolerance)) {
       update.options.has_change_tolerance = true;
-      update.options.change_tolerance = options.change_tolerance;
+      update.options.change_tolerance = options_.change_tolerance;
     }
     if (index == 0) {
-      update.thresholds._buffer = thresholds.data();
-      update.thresholds._length = update.thresholds._maximum = std::uint32_t(thresholds.size());
+      update.thresholds._buffer = thresholds_.data();
+      update.thresholds._length = update.thresholds._maximum = std::uint32_t(thresholds_.size());
     }
     update.thresholds._release = false;
-    update.flow_control = options.flow_control;
-    outstanding.emplace(update.sequence_number, Clock::now());
-    return client->publish(update, error);
-  };
+    update.flow_control = options_.flow_control == model::FlowControl::coalesce
+                              ? model::to_dds(model::FlowControl::coalesce)
+                              : 0;  // unspecified: block
+    return update;
+  }
 
-  auto on_report = [&](const DistanceReportSample& report) {
+ private:
+  const Trajectory& trajectory_;
+  const DdsStreamOptions& options_;
+  const std::string client_id_;
+  std::vector<nearpoint_msg_dds__ObjectPose_> poses_;
+  std::vector<nearpoint_msg_dds__Threshold_> thresholds_;
+};
+
+/// The updates in flight and what their reports showed: every report is checked against them
+/// (answers only what is awaited, in order, merged updates accounted for) and printed as a line.
+struct ReportCheck {
+  /// Sent and not yet answered, in sequence order, with the time each was published.
+  std::map<std::uint64_t, Clock::time_point> outstanding;
+  std::vector<double> round_trips_us;
+  std::uint64_t last_ok_sequence = 0;
+  std::size_t reports = 0, rejected = 0, coalesced = 0, problems = 0;
+
+  void take(const DistanceReportSample& report, std::ostream& out, std::ostream& err) {
     const std::uint64_t sequence = report.sequence_number;
     Json line = report_json(report);
     const auto found = outstanding.find(sequence);
     if (found == outstanding.end()) {
-      err << prefix << "report for sequence " << sequence
+      err << kPrefix << "report for sequence " << sequence
           << ", which is not awaiting an answer (a duplicate, or never sent)\n";
       ++problems;
     } else {
@@ -341,60 +309,97 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
         outstanding.erase(found);
       } else {
         round_trips_us.push_back(us);
-        if (sequence <= last_ok_sequence) {
-          err << prefix << "report " << sequence << " arrived after report " << last_ok_sequence
-              << " (out of order)\n";
-          ++problems;
-        }
-        last_ok_sequence = std::max(last_ok_sequence, sequence);
-        // Every earlier update still unanswered must have been merged into this one.
-        const std::uint64_t merged_from =
-            report.coalesced_updates > 0 ? report.coalesced_from_sequence : sequence;
-        for (auto it = outstanding.begin(); it != outstanding.end() && it->first < sequence;) {
-          if (it->first >= merged_from) {
-            ++coalesced;
-          } else {
-            err << prefix << "no report for sequence " << it->first << " before report " << sequence
-                << " (missing)\n";
-            ++problems;
-          }
-          it = outstanding.erase(it);
-        }
-        outstanding.erase(sequence);
+        answered(report, sequence, err);
       }
     }
     ++reports;
     out << line.dump() << '\n';
-  };
+  }
 
-  while (next < total || !outstanding.empty()) {
-    while (next < total && outstanding.size() < window) {
-      if (!publish_step(next)) {
-        err << prefix << error << '\n';
+ private:
+  /// A report of `sequence`, which answers every earlier update still outstanding: those must
+  /// have been merged into it.
+  void answered(const DistanceReportSample& report, std::uint64_t sequence, std::ostream& err) {
+    if (sequence <= last_ok_sequence) {
+      err << kPrefix << "report " << sequence << " arrived after report " << last_ok_sequence
+          << " (out of order)\n";
+      ++problems;
+    }
+    last_ok_sequence = std::max(last_ok_sequence, sequence);
+    const std::uint64_t merged_from =
+        report.coalesced_updates > 0 ? report.coalesced_from_sequence : sequence;
+    for (auto it = outstanding.begin(); it != outstanding.end() && it->first < sequence;) {
+      if (it->first >= merged_from) {
+        ++coalesced;
+      } else {
+        err << kPrefix << "no report for sequence " << it->first << " before report " << sequence
+            << " (missing)\n";
+        ++problems;
+      }
+      it = outstanding.erase(it);
+    }
+    outstanding.erase(sequence);
+  }
+};
+
+}  // namespace
+
+int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options, std::ostream& out,
+                   std::ostream& err) {
+  if (options.scene_id.empty()) {
+    err << kPrefix << "--scene is required (the scene id on the server)\n";
+    return kStreamCannotRun;
+  }
+  std::string error;
+  std::unique_ptr<DdsPoseClient> client = DdsPoseClient::create(options.dds, error);
+  if (!client) {
+    err << kPrefix << error << '\n';
+    return kStreamCannotRun;
+  }
+  if (!client->wait_matched(options.match_timeout, error)) {
+    err << kPrefix << error << '\n';
+    return kStreamCannotRun;
+  }
+  const std::size_t window = std::max<std::size_t>(1, options.window);
+  const std::size_t total = trajectory.steps.size();
+
+  // Run: publish up to `window` steps ahead of the reports, check each report as it arrives.
+  StepPublisher publisher(trajectory, options);
+  ReportCheck check;
+  auto on_report = [&](const DistanceReportSample& report) { check.take(report, out, err); };
+  std::uint64_t next = 0;  // index of the next step to publish
+  while (next < total || !check.outstanding.empty()) {
+    while (next < total && check.outstanding.size() < window) {
+      const PoseUpdateSample update = publisher.sample(next);
+      check.outstanding.emplace(update.sequence_number, Clock::now());
+      if (!client->publish(update, error)) {
+        err << kPrefix << error << '\n';
         return kStreamCannotRun;
       }
       ++next;
     }
     const int got = client->take_reports(options.report_timeout, on_report, error);
     if (got < 0) {
-      err << prefix << error << '\n';
+      err << kPrefix << error << '\n';
       return kStreamCannotRun;
     }
     if (got == 0) {
-      err << prefix << "no report within " << options.report_timeout.count()
+      err << kPrefix << "no report within " << options.report_timeout.count()
           << " ms; unanswered sequence numbers:";
-      for (const auto& [sequence, sent] : outstanding) err << ' ' << sequence;
+      for (const auto& [sequence, sent] : check.outstanding) err << ' ' << sequence;
       err << '\n';
-      problems += outstanding.size();
+      check.problems += check.outstanding.size();
       break;
     }
   }
+
+  // Print: the totals.
   out.flush();
-  err << prefix << total << " updates, " << reports << " reports (" << rejected << " rejected, "
-      << coalesced << " merged into later reports), " << problems << " problems; round trip p50 "
-      << percentile(round_trips_us, 0.5) << " us, p99 " << percentile(round_trips_us, 0.99)
-      << " us\n";
-  return problems == 0 && rejected == 0 ? kStreamOk : kStreamIncomplete;
+  err << kPrefix << total << " updates, " << check.reports << " reports (" << check.rejected
+      << " rejected, " << check.coalesced << " merged into later reports), " << check.problems
+      << " problems; round trip p50 " << percentile(check.round_trips_us, 0.5) << " us, p99 "
+      << percentile(check.round_trips_us, 0.99) << " us\n";
+  return check.problems == 0 && check.rejected == 0 ? kStreamOk : kStreamIncomplete;
 }
 
 }  // namespace nearpoint::cli

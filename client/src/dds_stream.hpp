@@ -76,12 +76,12 @@ struct DdsStreamOptions {
   /// Updates published before their reports arrive; 1 = lock step (each update waits for its
   /// report, so round-trip times are meaningful).
   std::size_t window = 1;
-  /// PoseUpdate_.flow_control: 0 block, 2 coalesce.
-  std::uint8_t flow_control = 0;
+  /// PoseUpdate_.flow_control: block (sent as 0, unspecified, which means block) or coalesce.
+  model::FlowControl flow_control = model::FlowControl::block;
   bool near_points = false;
-  /// QueryOptions_.report_mode (0 inherit … 5 changed), distance_cutoff and change_tolerance
+  /// QueryOptions_.report_mode (unspecified: inherit), distance_cutoff and change_tolerance
   /// (NaN: not sent, inherit).
-  std::uint8_t report_mode = 0;
+  model::ReportMode report_mode = model::ReportMode::unspecified;
   double cutoff = std::numeric_limits<double>::quiet_NaN();
   double change_tolerance = std::numeric_limits<double>::quiet_NaN();
   /// Sent with the first update (PoseUpdate_.thresholds).

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "nearpoint/distance.hpp"
+#include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/options.hpp"
 
 namespace nearpoint::cli {
@@ -18,12 +19,10 @@ struct LineError {
   std::string message;
 };
 
-enum class Penetration { none, bound, depth };
-
 // What one line asks for, beyond the shapes.
 struct LineOptions {
   DistanceOptions<double> engine;  // the engine's defaults (options.hpp) unless the line says
-  Penetration penetration = Penetration::none;
+  model::PenetrationMode penetration = model::PenetrationMode::none;
   bool warm = false;
 };
 
@@ -81,21 +80,16 @@ LineOptions parse_options(const Json& options) {
                     describe_type(options["warm"]) + ")"};
   if (options.contains("penetration")) {
     const Json& penetration = options["penetration"];
-    const std::string expected = R"("options.penetration" must be "none", "bound" or "depth")";
+    const std::string expected =
+        R"("options.penetration" must be )" + model::spellings<model::PenetrationMode>("\"");
     if (!penetration.is_string())
       throw LineError{expected + " (got " + describe_type(penetration) + ")"};
     const std::string& name = penetration.get_ref<const std::string&>();
-    if (name == "none") {
-      out.penetration = Penetration::none;
-    } else if (name == "bound") {
-      out.penetration = Penetration::bound;
-    } else if (name == "depth") {
-      out.penetration = Penetration::depth;
-    } else {
+    out.penetration = model::from_spelling<model::PenetrationMode>(name);
+    if (out.penetration == model::PenetrationMode::unknown)
       throw LineError{expected + " (got " + user_key(name) + ")"};
-    }
   }
-  out.engine.penetration_bound = out.penetration == Penetration::bound;
+  out.engine.penetration_bound = out.penetration == model::PenetrationMode::bound;
   return out;
 }
 
@@ -171,7 +165,7 @@ Json DistanceSession::answer_json(std::string_view text, long line_number) {
         line.contains("options") ? parse_options(line["options"]) : LineOptions{};
     const PlacedShape a = parse_placed_shape(line, "a");
     const PlacedShape b = parse_placed_shape(line, "b");
-    if (options.penetration == Penetration::depth)
+    if (options.penetration == model::PenetrationMode::depth)
       throw LineError{R"("options.penetration": "depth" (the exact penetration depth by EPA) is )"
                       R"(not available yet; use "bound" for a certified lower bound on it)"};
 
@@ -204,7 +198,7 @@ Json DistanceSession::answer_json(std::string_view text, long line_number) {
     out["error_bound"] = r.error_bound + 0.0;
     out["iterations"] = r.iterations;
     out["warm_started"] = r.warm_started;
-    if (options.penetration == Penetration::bound && r.status == Status::intersecting &&
+    if (options.penetration == model::PenetrationMode::bound && r.status == Status::intersecting &&
         r.has_penetration_bound)
       out["penetration_bound"] = r.penetration_bound + 0.0;
     if (r.status == Status::iteration_limit)

@@ -21,6 +21,7 @@
 #include "demo.hpp"
 #include "remote_commands.hpp"
 #endif
+#include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/options.hpp"
 #if NEARPOINT_HAVE_DDS
 #include "dds_stream.hpp"
@@ -164,7 +165,7 @@ void add_dds_stream_options(CLI::App& command, DdsStreamArguments& args) {
                   "--dds: block (every update its own report) or coalesce (merge updates that "
                   "arrive while the server is busy)")
       ->capture_default_str()
-      ->check(CLI::IsMember({"block", "coalesce"}));
+      ->check(CLI::IsMember(nearpoint::model::spelling_list<nearpoint::model::FlowControl>()));
   command
       .add_option("--match-timeout-ms", args.match_timeout_ms,
                   "--dds: how long to wait for the server to be matched on the topics")
@@ -190,7 +191,8 @@ int run_dds_stream_command(DdsStreamArguments& args, const std::string& scene,
   args.options.scene_id = scene;
   args.options.window = window;
   args.options.near_points = near_points;
-  args.options.flow_control = args.flow_control == "coalesce" ? 2 : 0;
+  args.options.flow_control =
+      nearpoint::model::from_spelling<nearpoint::model::FlowControl>(args.flow_control);
   args.options.match_timeout = std::chrono::milliseconds(args.match_timeout_ms);
   args.options.report_timeout = std::chrono::milliseconds(args.report_timeout_ms);
   return nearpoint::cli::run_dds_stream(trajectory, args.options, std::cout, std::cerr);
@@ -327,7 +329,7 @@ void add_report_mode_options(CLI::App& command, nearpoint::cli::ReportModeFlags&
                   "Which pairs each report holds: all | within-cutoff | nearest (each object's "
                   "nearest pair) | global (the one nearest pair) | changed (pairs whose status or "
                   "distance changed since the previous report); default: the scene's")
-      ->check(CLI::IsMember({"all", "within-cutoff", "nearest", "global", "changed"}));
+      ->check(CLI::IsMember(nearpoint::model::spelling_list<nearpoint::model::ReportMode>()));
   command.add_option("--cutoff", flags.cutoff,
                      "distance_cutoff, metres: pairs proven farther are BEYOND_CUTOFF (and left "
                      "out by within-cutoff, nearest and global)");
@@ -419,12 +421,9 @@ Examples:
     if (*use_dds) {
       // The same --mode, --cutoff, --change-tolerance and --threshold as over gRPC.
       const std::string& mode = options->report.mode;
-      dds->options.report_mode = mode == "all"             ? 1
-                                 : mode == "within-cutoff" ? 2
-                                 : mode == "nearest"       ? 3
-                                 : mode == "global"        ? 4
-                                 : mode == "changed"       ? 5
-                                                           : 0;
+      dds->options.report_mode =
+          mode.empty() ? nearpoint::model::ReportMode::unspecified
+                       : nearpoint::model::from_spelling<nearpoint::model::ReportMode>(mode);
       dds->options.cutoff = options->report.cutoff;
       dds->options.change_tolerance = options->report.change_tolerance;
       for (const std::string& spec : options->thresholds) {

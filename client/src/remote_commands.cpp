@@ -14,6 +14,7 @@
 
 #include "demo.hpp"
 #include "local_server.hpp"
+#include "nearpoint/model/vocabulary.hpp"
 #include "trajectory.hpp"
 
 namespace nearpoint::cli {
@@ -90,34 +91,25 @@ int resolve_scene(client::Client& client, const std::string& scene, std::ostream
 bool options_from_flags(bool near_points, const std::string& penetration, client::QueryOptions& out,
                         std::ostream& err) {
   if (near_points) out.near_points = true;
-  if (penetration == "none")
-    out.penetration = client::PenetrationMode::none;
-  else if (penetration == "bound")
-    out.penetration = client::PenetrationMode::bound;
-  else if (penetration == "depth")
-    out.penetration = client::PenetrationMode::depth;
-  else if (!penetration.empty()) {
-    err << "nearpoint: --penetration must be none, bound or depth\n";
-    return false;
+  if (!penetration.empty()) {
+    out.penetration = model::from_spelling<model::PenetrationMode>(penetration);
+    if (out.penetration == model::PenetrationMode::unknown) {
+      err << "nearpoint: --penetration must be " << model::spellings<model::PenetrationMode>()
+          << "\n";
+      return false;
+    }
   }
   return true;
 }
 
 bool options_from_mode_flags(const ReportModeFlags& flags, client::QueryOptions& out,
                              std::ostream& err) {
-  if (flags.mode == "all")
-    out.report_mode = client::ReportMode::all_pairs;
-  else if (flags.mode == "within-cutoff")
-    out.report_mode = client::ReportMode::within_cutoff;
-  else if (flags.mode == "nearest")
-    out.report_mode = client::ReportMode::nearest_per_object;
-  else if (flags.mode == "global")
-    out.report_mode = client::ReportMode::global_minimum;
-  else if (flags.mode == "changed")
-    out.report_mode = client::ReportMode::changed;
-  else if (!flags.mode.empty()) {
-    err << "nearpoint: --mode must be all, within-cutoff, nearest, global or changed\n";
-    return false;
+  if (!flags.mode.empty()) {
+    out.report_mode = model::from_spelling<model::ReportMode>(flags.mode);
+    if (out.report_mode == model::ReportMode::unknown) {
+      err << "nearpoint: --mode must be " << model::spellings<model::ReportMode>() << "\n";
+      return false;
+    }
   }
   // The server checks the values and names the field; here only "given or not".
   if (!std::isnan(flags.cutoff)) out.distance_cutoff = flags.cutoff;
@@ -303,64 +295,34 @@ int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostrea
   return 0;
 }
 
-// ---- stream ----
+// ---- stream: parse → run → print ----
 
-int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostream& err) {
-  Trajectory trajectory;
-  if (std::string error; !load_trajectory(options.trajectory, trajectory, error)) {
-    err << "nearpoint stream: " << error << "\n";
-    return kExitBadInput;
-  }
-  client::SessionOptions session_options;
-  if (!options_from_flags(options.near_points, options.penetration, session_options.options, err) ||
-      !options_from_mode_flags(options.report, session_options.options, err))
-    return kExitBadInput;
-  for (const std::string& spec : options.thresholds) {
-    std::string error;
-    if (!parse_threshold_argument(spec, session_options.thresholds.emplace_back(), error)) {
-      err << "nearpoint stream: " << error << "\n";
-      return kExitBadInput;
-    }
-  }
-  auto client = connect(options.remote, err);
-  if (!client) return kExitBadInput;
-  std::string scene_id;
-  if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) return code;
+namespace {
 
+/// What `nearpoint stream` gathers from its reports for the summary.
+struct StreamTally {
   struct PairSummary {
     double min_distance = std::numeric_limits<double>::infinity();
     double min_time = 0;
     std::size_t intersecting_steps = 0;
     double first_hit = -1;
   };
-  std::mutex mutex;
   std::map<std::pair<std::string, std::string>, PairSummary> pairs;
   std::vector<std::pair<std::string, std::string>> pair_order;
   std::vector<double> latencies_us;
   std::vector<client::ThresholdEvent> events;
   std::size_t reports = 0, errors = 0;
-  Clock::time_point last_progress = Clock::now();
-  const auto started = Clock::now();
   std::string first_error;
 
-  session_options.max_in_flight = std::max<std::size_t>(1, options.window);
-  session_options.on_report = [&](const client::Report& report) {
-    std::lock_guard lock(mutex);
+  /// Counts the report of the update at trajectory time `time`; false for an error report.
+  bool add(const client::Report& report, double time) {
     ++reports;
-    const double time = report.sequence >= 1 && report.sequence <= trajectory.steps.size()
-                            ? trajectory.steps[report.sequence - 1].time
-                            : 0;
-    if (options.remote.json) {
-      Json json = to_json(report);
-      json["t"] = time;
-      out << json.dump() << "\n";
-    }
     if (!report.error.ok()) {
       ++errors;
       if (first_error.empty())
         first_error = "update " + std::to_string(report.sequence) + " (t = " + number(time) +
                       "): " + report.error.describe();
-      return;
+      return false;
     }
     latencies_us.push_back(
         std::chrono::duration<double, std::micro>(report.received - report.sent).count());
@@ -378,11 +340,99 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
         if (s.intersecting_steps++ == 0) s.first_hit = time;
       }
     }
+    return true;
+  }
+};
+
+/// The trajectory time of update `sequence` (0 when there is no such step).
+double step_time(const Trajectory& trajectory, std::uint64_t sequence) {
+  return sequence >= 1 && sequence <= trajectory.steps.size() ? trajectory.steps[sequence - 1].time
+                                                              : 0;
+}
+
+/// Parse: the trajectory and the session's options from the flags; false once `err` says why.
+bool parse_stream(const StreamCommandOptions& options, Trajectory& trajectory,
+                  client::SessionOptions& session_options, std::ostream& err) {
+  if (std::string error; !load_trajectory(options.trajectory, trajectory, error)) {
+    err << "nearpoint stream: " << error << "\n";
+    return false;
+  }
+  if (!options_from_flags(options.near_points, options.penetration, session_options.options, err) ||
+      !options_from_mode_flags(options.report, session_options.options, err))
+    return false;
+  for (const std::string& spec : options.thresholds) {
+    std::string error;
+    if (!parse_threshold_argument(spec, session_options.thresholds.emplace_back(), error)) {
+      err << "nearpoint stream: " << error << "\n";
+      return false;
+    }
+  }
+  session_options.max_in_flight = std::max<std::size_t>(1, options.window);
+  return true;
+}
+
+/// Print: the run's totals, each pair's closest approach and intersections, and the threshold
+/// events (when the stream watched any).
+void print_stream_summary(StreamTally& tally, const Trajectory& trajectory,
+                          const std::string& scene_id, double wall, std::uint64_t reconnects,
+                          bool watched, std::ostream& out) {
+  out << "scene " << scene_id << ": " << tally.reports << " reports for " << trajectory.steps.size()
+      << " updates in " << number(wall, 3) << " s";
+  if (reconnects > 0) out << " (" << reconnects << " reconnects)";
+  out << "; round trip p50 " << number(percentile(tally.latencies_us, 0.5), 4) << " µs, p99 "
+      << number(percentile(tally.latencies_us, 0.99), 4) << " µs\n";
+  out << std::left << std::setw(24) << "pair" << std::setw(16) << "min distance" << std::setw(12)
+      << "at t"
+      << "intersecting\n";
+  for (const auto& key : tally.pair_order) {
+    const StreamTally::PairSummary& s = tally.pairs.at(key);
+    out << std::left << std::setw(24) << (key.first + " - " + key.second) << std::setw(16)
+        << number(s.min_distance) << std::setw(12) << number(s.min_time);
+    if (s.intersecting_steps == 0)
+      out << "never\n";
+    else
+      out << s.intersecting_steps << " steps, first at t = " << number(s.first_hit) << "\n";
+  }
+  if (!watched) return;
+  out << tally.events.size() << " threshold events\n";
+  for (const client::ThresholdEvent& e : tally.events) {
+    out << "  t = " << std::left << std::setw(10) << number(step_time(trajectory, e.sequence))
+        << (e.crossing == client::Crossing::enter ? "ENTER " : "EXIT  ")
+        << (e.threshold.empty() ? "#" + std::to_string(e.threshold_index) : e.threshold) << "  "
+        << e.object_a << " - " << e.object_b << " at " << number(e.distance) << " m\n";
+  }
+}
+
+}  // namespace
+
+int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostream& err) {
+  Trajectory trajectory;
+  client::SessionOptions session_options;
+  if (!parse_stream(options, trajectory, session_options, err)) return kExitBadInput;
+  auto client = connect(options.remote, err);
+  if (!client) return kExitBadInput;
+  std::string scene_id;
+  if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) return code;
+
+  // Run: every step pushed (the window bounds what is in flight), each report tallied as it comes.
+  std::mutex mutex;
+  StreamTally tally;
+  Clock::time_point last_progress = Clock::now();
+  const auto started = Clock::now();
+  session_options.on_report = [&](const client::Report& report) {
+    std::lock_guard lock(mutex);
+    const double time = step_time(trajectory, report.sequence);
+    if (options.remote.json) {
+      Json json = to_json(report);
+      json["t"] = time;
+      out << json.dump() << "\n";
+    }
+    if (!tally.add(report, time)) return;
     if (!options.remote.json && options.progress_every > 0 &&
         std::chrono::duration<double>(report.received - last_progress).count() >=
             options.progress_every) {
       last_progress = report.received;
-      err << "\r  " << reports << "/" << trajectory.steps.size() << " reports" << std::flush;
+      err << "\r  " << tally.reports << "/" << trajectory.steps.size() << " reports" << std::flush;
     }
   };
   auto session = client->open_session(scene_id, session_options);
@@ -401,97 +451,75 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
   }
   const client::Status closed = (*session)->close(Clock::now() + options.remote.timeout);
   const double wall = std::chrono::duration<double>(Clock::now() - started).count();
+
   std::lock_guard lock(mutex);
   if (!options.remote.json) {
     if (options.progress_every > 0) err << "\r" << std::string(40, ' ') << "\r";
-    out << "scene " << scene_id << ": " << reports << " reports for " << trajectory.steps.size()
-        << " updates in " << number(wall, 3) << " s";
-    if ((*session)->reconnects() > 0) out << " (" << (*session)->reconnects() << " reconnects)";
-    out << "; round trip p50 " << number(percentile(latencies_us, 0.5), 4) << " µs, p99 "
-        << number(percentile(latencies_us, 0.99), 4) << " µs\n";
-    out << std::left << std::setw(24) << "pair" << std::setw(16) << "min distance" << std::setw(12)
-        << "at t"
-        << "intersecting\n";
-    for (const auto& key : pair_order) {
-      const PairSummary& s = pairs[key];
-      out << std::left << std::setw(24) << (key.first + " - " + key.second) << std::setw(16)
-          << number(s.min_distance) << std::setw(12) << number(s.min_time);
-      if (s.intersecting_steps == 0)
-        out << "never\n";
-      else
-        out << s.intersecting_steps << " steps, first at t = " << number(s.first_hit) << "\n";
-    }
-    if (!session_options.thresholds.empty()) {
-      out << events.size() << " threshold events\n";
-      for (const client::ThresholdEvent& e : events) {
-        const double t = e.sequence >= 1 && e.sequence <= trajectory.steps.size()
-                             ? trajectory.steps[e.sequence - 1].time
-                             : 0;
-        out << "  t = " << std::left << std::setw(10) << number(t)
-            << (e.crossing == client::Crossing::enter ? "ENTER " : "EXIT  ")
-            << (e.threshold.empty() ? "#" + std::to_string(e.threshold_index) : e.threshold) << "  "
-            << e.object_a << " - " << e.object_b << " at " << number(e.distance) << " m\n";
-      }
-    }
+    print_stream_summary(tally, trajectory, scene_id, wall, (*session)->reconnects(),
+                         !session_options.thresholds.empty(), out);
   }
-  if (!first_error.empty())
-    err << "nearpoint stream: " << errors << " updates rejected; the first: " << first_error
-        << "\n";
+  if (!tally.first_error.empty())
+    err << "nearpoint stream: " << tally.errors
+        << " updates rejected; the first: " << tally.first_error << "\n";
   if (!closed.ok()) {
     err << "nearpoint stream: " << closed.describe() << "\n";
     return exit_code_for(closed);
   }
-  return errors == 0 ? 0 : kExitServerError;
+  return tally.errors == 0 ? 0 : kExitServerError;
 }
 
-// ---- load ----
+// ---- load: parse → run → print ----
 
-int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream& err) {
+namespace {
+
+/// What the load's streams measured.
+struct LoadResult {
+  std::vector<double> latencies_us;
+  std::size_t errors = 0;
+  std::string first_error;
+  double elapsed_s = 0;
+};
+
+/// Parse: the flags' bounds and the path the streams replay (the trajectory's steps, or the demo
+/// scene's 1001 poses); false once `err` says why.
+bool parse_load(const LoadCommandOptions& options,
+                std::vector<std::vector<client::ObjectPose>>& path, std::ostream& err) {
   if (options.streams < 1 || options.streams > 256 || !(options.duration_s > 0) ||
       options.duration_s > 600) {
     err << "nearpoint load: --streams must be in [1, 256] and --duration in (0, 600] s\n";
-    return kExitBadInput;
+    return false;
   }
   if (options.scene.empty() != options.trajectory.empty()) {
     err << "nearpoint load: give both SCENE and TRAJECTORY, or neither (the demo scene)\n";
-    return kExitBadInput;
+    return false;
   }
-  std::vector<std::vector<client::ObjectPose>> path;
-  if (!options.trajectory.empty()) {
-    Trajectory trajectory;
-    if (std::string error; !load_trajectory(options.trajectory, trajectory, error)) {
-      err << "nearpoint load: " << error << "\n";
-      return kExitBadInput;
-    }
-    for (const TrajectoryStep& step : trajectory.steps) {
-      std::vector<client::ObjectPose> poses;
-      for (const ObjectPose& pose : step.poses) poses.push_back(to_object_pose(pose));
-      path.push_back(std::move(poses));
-    }
-    if (path.empty()) {
-      err << "nearpoint load: the trajectory has no steps\n";
-      return kExitBadInput;
-    }
-  } else {
+  if (options.trajectory.empty()) {
     constexpr int kSteps = 1000;
     for (int t = 0; t <= kSteps; ++t) path.push_back({demo_pose(double(t) / kSteps)});
+    return true;
   }
-
-  auto client = connect(options.remote, err);
-  if (!client) return kExitBadInput;
-  std::string scene_id;
-  if (options.scene.empty()) {
-    auto created = create_demo_scene(*client);
-    if (!created) {
-      err << "nearpoint load: " << options.remote.target << ": " << created.status().describe()
-          << "\n";
-      return exit_code_for(created.status());
-    }
-    scene_id = *created;
-  } else if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) {
-    return code;
+  Trajectory trajectory;
+  if (std::string error; !load_trajectory(options.trajectory, trajectory, error)) {
+    err << "nearpoint load: " << error << "\n";
+    return false;
   }
+  for (const TrajectoryStep& step : trajectory.steps) {
+    std::vector<client::ObjectPose> poses;
+    for (const ObjectPose& pose : step.poses) poses.push_back(to_object_pose(pose));
+    path.push_back(std::move(poses));
+  }
+  if (path.empty()) {
+    err << "nearpoint load: the trajectory has no steps\n";
+    return false;
+  }
+  return true;
+}
 
+/// Run: `options.streams` sessions on `scene_id`, each pushing `path` round and round (from its
+/// own starting point) for the duration, with a progress line on `err` meanwhile.
+LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
+                            const std::vector<std::vector<client::ObjectPose>>& path,
+                            const LoadCommandOptions& options, std::ostream& err) {
   std::mutex mutex;
   std::vector<double> latencies_us;
   std::atomic<std::size_t> done{0}, errors{0};
@@ -517,7 +545,7 @@ int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream&
             std::chrono::duration<double, std::micro>(report.received - report.sent).count());
         done.fetch_add(1, std::memory_order_relaxed);
       };
-      auto session = client->open_session(scene_id, session_options);
+      auto session = client.open_session(scene_id, session_options);
       if (!session) {
         errors.fetch_add(1);
         std::lock_guard lock(mutex);
@@ -558,7 +586,18 @@ int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream&
     err << "\n";
   }
   for (std::thread& t : threads) t.join();
-  const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  LoadResult result;
+  result.elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
+  result.latencies_us = std::move(latencies_us);
+  result.errors = errors.load();
+  result.first_error = std::move(first_error);
+  return result;
+}
+
+/// Print: the rate and the round-trip latency percentiles, as text or one JSON object.
+void print_load_summary(LoadResult& result, const std::string& scene_id,
+                        const LoadCommandOptions& options, std::ostream& out) {
+  std::vector<double>& latencies_us = result.latencies_us;
   const std::size_t count = latencies_us.size();
   const double p50 = percentile(latencies_us, 0.5), p90 = percentile(latencies_us, 0.9),
                p99 = percentile(latencies_us, 0.99);
@@ -568,23 +607,47 @@ int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream&
     out << Json{{"scene_id", scene_id},
                 {"streams", options.streams},
                 {"window", options.window},
-                {"duration_s", elapsed},
+                {"duration_s", result.elapsed_s},
                 {"reports", count},
-                {"errors", errors.load()},
+                {"errors", result.errors},
                 {"updates_per_s", rate},
                 {"latency_us", {{"p50", p50}, {"p90", p90}, {"p99", p99}, {"max", max}}}}
                .dump()
         << "\n";
-  } else {
-    out << "scene " << scene_id << ": " << options.streams << " streams × " << options.window
-        << " in flight for " << number(options.duration_s, 3) << " s: " << count << " reports, "
-        << number(rate, 5) << " updates/s\n"
-        << "round-trip latency (push to report): p50 " << number(p50, 4) << " µs, p90 "
-        << number(p90, 4) << " µs, p99 " << number(p99, 4) << " µs, max " << number(max, 4)
-        << " µs\n";
+    return;
   }
-  if (errors.load() > 0) {
-    err << "nearpoint load: " << errors.load() << " errors; the first: " << first_error << "\n";
+  out << "scene " << scene_id << ": " << options.streams << " streams × " << options.window
+      << " in flight for " << number(options.duration_s, 3) << " s: " << count << " reports, "
+      << number(rate, 5) << " updates/s\n"
+      << "round-trip latency (push to report): p50 " << number(p50, 4) << " µs, p90 "
+      << number(p90, 4) << " µs, p99 " << number(p99, 4) << " µs, max " << number(max, 4)
+      << " µs\n";
+}
+
+}  // namespace
+
+int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream& err) {
+  std::vector<std::vector<client::ObjectPose>> path;
+  if (!parse_load(options, path, err)) return kExitBadInput;
+  auto client = connect(options.remote, err);
+  if (!client) return kExitBadInput;
+  std::string scene_id;
+  if (options.scene.empty()) {
+    auto created = create_demo_scene(*client);
+    if (!created) {
+      err << "nearpoint load: " << options.remote.target << ": " << created.status().describe()
+          << "\n";
+      return exit_code_for(created.status());
+    }
+    scene_id = *created;
+  } else if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) {
+    return code;
+  }
+  LoadResult result = run_load_streams(*client, scene_id, path, options, err);
+  print_load_summary(result, scene_id, options, out);
+  if (result.errors > 0) {
+    err << "nearpoint load: " << result.errors << " errors; the first: " << result.first_error
+        << "\n";
     return kExitServerError;
   }
   return 0;

@@ -10,14 +10,13 @@
 #include <limits>
 #include <sstream>
 
+#include "nearpoint/model/vocabulary.hpp"
+
 #ifdef NEARPOINT_WITH_YAML
 #include <yaml-cpp/yaml.h>
 #endif
 
 namespace nearpoint::formats {
-// The scene model's structs, under the spelling this file used when they lived in the server
-// (kept so that this move leaves the parser's lines untouched; nothing here uses the server).
-namespace server = nearpoint::model;
 namespace {
 
 std::string quoted(const std::string& path) {
@@ -72,7 +71,7 @@ std::string read_uint32(const Json& value, const std::string& path, std::uint32_
 }
 
 std::string read_pieces(const Json& value, const std::string& path,
-                        std::vector<server::PieceInput>& out) {
+                        std::vector<model::PieceInput>& out) {
   if (!value.is_array() || value.empty())
     return quoted(path) + " must be a non-empty array of SHAPEs (got " + describe_type(value) + ")";
   for (std::size_t i = 0; i < value.size(); ++i) {
@@ -86,7 +85,7 @@ std::string read_pieces(const Json& value, const std::string& path,
 
 std::string read_mesh(const Json& value, const std::string& path,
                       const std::filesystem::path& base_dir, const MeshLoader& meshes,
-                      std::vector<server::PieceInput>& out) {
+                      std::vector<model::PieceInput>& out) {
   MeshRequest request;
   for (const auto& [key, part] : value.items()) {
     const std::string field = member(path, key);
@@ -165,7 +164,7 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
     if (!geometries.is_object())
       return "\"geometries\" must be an object {\"NAME\": GEOMETRY, ...}";
     for (const auto& [name, geometry] : geometries.items()) {
-      server::GeometryInput input;
+      model::GeometryInput input;
       if (std::string error =
               parse_geometry(geometry, member("geometries", name), base_dir, meshes, input);
           !error.empty())
@@ -181,7 +180,7 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
     const Json& object = objects[i];
     const std::string path = element("objects", i);
     if (!object.is_object()) return quoted(path) + " must be an object";
-    server::ObjectInput input;
+    model::ObjectInput input;
     std::string geometry_name;
     for (const auto& [key, part] : object.items()) {
       const std::string field = member(path, key);
@@ -236,12 +235,12 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
     auto& selection = file.scene.pair_selection;
     std::string error;
     if (pairs.is_string() && pairs.get<std::string>() == "all") {
-      selection.mode = server::PairSelectionInput::Mode::all_pairs;
+      selection.mode = model::PairSelectionInput::Mode::all_pairs;
     } else if (pairs.is_object() && pairs.size() == 1 && pairs.contains("listed")) {
-      selection.mode = server::PairSelectionInput::Mode::listed_pairs;
+      selection.mode = model::PairSelectionInput::Mode::listed_pairs;
       if (!read_pair_list(pairs["listed"], "pairs.listed", selection.pairs, error)) return error;
     } else if (pairs.is_object() && pairs.size() == 1 && pairs.contains("excluded")) {
-      selection.mode = server::PairSelectionInput::Mode::excluded_pairs;
+      selection.mode = model::PairSelectionInput::Mode::excluded_pairs;
       if (!read_pair_list(pairs["excluded"], "pairs.excluded", selection.pairs, error))
         return error;
     } else {
@@ -347,13 +346,13 @@ Json yaml_to_json(const YAML::Node& node, int depth, std::size_t& budget) {
 
 }  // namespace
 
-server::PieceInput to_piece(const ShapeSpec& spec) {
-  server::PieceInput piece;
+model::PieceInput to_piece(const ShapeSpec& spec) {
+  model::PieceInput piece;
   std::visit(
       [&](const auto& geometry) {
         using G = std::decay_t<decltype(geometry)>;
         if constexpr (std::is_same_v<G, std::vector<Vec3<double>>>)
-          piece.shape = server::PolytopeInput{geometry};
+          piece.shape = model::PolytopeInput{geometry};
         else
           piece.shape = geometry;
       },
@@ -365,9 +364,9 @@ server::PieceInput to_piece(const ShapeSpec& spec) {
 }
 
 std::string parse_query_options(const Json& value, const std::string& path,
-                                server::QueryOptionsInput& out) {
+                                model::QueryOptionsInput& out) {
   if (!value.is_object()) return quoted(path) + " must be an object";
-  server::QueryOptionsInput options;
+  model::QueryOptionsInput options;
   for (const auto& [key, part] : value.items()) {
     const std::string field = member(path, key);
     std::string error;
@@ -381,19 +380,9 @@ std::string parse_query_options(const Json& value, const std::string& path,
       // The CLI's names (--mode).
       std::string mode;
       if (error = read_string(part, field, mode); !error.empty()) return error;
-      if (mode == "all")
-        options.report_mode = server::ReportMode::all_pairs;
-      else if (mode == "within-cutoff")
-        options.report_mode = server::ReportMode::within_cutoff;
-      else if (mode == "nearest")
-        options.report_mode = server::ReportMode::nearest_per_object;
-      else if (mode == "global")
-        options.report_mode = server::ReportMode::global_minimum;
-      else if (mode == "changed")
-        options.report_mode = server::ReportMode::changed;
-      else
-        return quoted(field) +
-               " must be \"all\", \"within-cutoff\", \"nearest\", \"global\" or \"changed\"";
+      options.report_mode = model::from_spelling<model::ReportMode>(mode);
+      if (options.report_mode == model::ReportMode::unknown)
+        return quoted(field) + " must be " + model::spellings<model::ReportMode>("\"");
     } else if (key == "near_points" || key == "gradient" || key == "warm_start") {
       if (error = read_bool(part, field, flag); !error.empty()) return error;
       (key == "near_points" ? options.near_points
@@ -402,14 +391,9 @@ std::string parse_query_options(const Json& value, const std::string& path,
     } else if (key == "penetration") {
       std::string mode;
       if (error = read_string(part, field, mode); !error.empty()) return error;
-      if (mode == "none")
-        options.penetration = server::PenetrationMode::none;
-      else if (mode == "bound")
-        options.penetration = server::PenetrationMode::bound;
-      else if (mode == "depth")
-        options.penetration = server::PenetrationMode::depth;
-      else
-        return quoted(field) + " must be \"none\", \"bound\" or \"depth\"";
+      options.penetration = model::from_spelling<model::PenetrationMode>(mode);
+      if (options.penetration == model::PenetrationMode::unknown)
+        return quoted(field) + " must be " + model::spellings<model::PenetrationMode>("\"");
     } else if (key == "max_iterations") {
       if (!part.is_number_unsigned()) return quoted(field) + " must be a positive integer";
       options.max_iterations = part.get<std::uint64_t>();
@@ -425,9 +409,9 @@ std::string parse_query_options(const Json& value, const std::string& path,
 
 std::string parse_geometry(const Json& value, const std::string& path,
                            const std::filesystem::path& base_dir, const MeshLoader& meshes,
-                           server::GeometryInput& out) {
+                           model::GeometryInput& out) {
   try {
-    server::GeometryInput geometry;
+    model::GeometryInput geometry;
     std::string error;
     if (value.is_array()) {
       error = read_pieces(value, path, geometry.pieces);

@@ -14,7 +14,7 @@ Aabb world_box(const StoredGeometry& geometry, const Pose<double>& pose, double 
   box.hi.setConstant(-std::numeric_limits<double>::infinity());
   double magnitude = pose.translation.cwiseAbs().maxCoeff();
   for (std::size_t i = 0; i < compound.size(); ++i) {
-    const Vec3d center = pose.apply(compound.sphere_center(i));
+    const model::Vec3d center = pose.apply(compound.sphere_center(i));
     const double radius = compound.sphere_radius(i);
     box.lo = box.lo.cwiseMin((center.array() - radius).matrix());
     box.hi = box.hi.cwiseMax((center.array() + radius).matrix());
@@ -30,7 +30,7 @@ Aabb world_box(const StoredGeometry& geometry, const Pose<double>& pose, double 
 }
 
 double box_gap(const Aabb& a, const Aabb& b) {
-  const Vec3d gaps = (b.lo - a.hi).cwiseMax(a.lo - b.hi).cwiseMax(0.0);
+  const model::Vec3d gaps = (b.lo - a.hi).cwiseMax(a.lo - b.hi).cwiseMax(0.0);
   return gaps.norm();
 }
 

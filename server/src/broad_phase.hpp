@@ -18,8 +18,8 @@ namespace nearpoint::server {
 
 /// An axis-aligned box, world frame, metres.
 struct Aabb {
-  Vec3d lo = Vec3d::Zero();
-  Vec3d hi = Vec3d::Zero();
+  model::Vec3d lo = model::Vec3d::Zero();
+  model::Vec3d hi = model::Vec3d::Zero();
 };
 
 /// A box around `geometry` at `pose`: the union of the boxes of its pieces' bounding spheres,

@@ -30,7 +30,7 @@ class Canonical {
     hash_.update(bytes, 8);
   }
   void f64(double value) { u64(std::bit_cast<std::uint64_t>(value)); }
-  void vec(const Vec3d& v) {
+  void vec(const model::Vec3d& v) {
     f64(v.x());
     f64(v.y());
     f64(v.z());
@@ -39,7 +39,7 @@ class Canonical {
     u64(s.size());
     hash_.update(s);
   }
-  void pose(const PoseInput& pose) {
+  void pose(const model::PoseInput& pose) {
     for (const double q : pose.rotation_wxyz) f64(q);
     vec(pose.translation);
   }
@@ -126,20 +126,20 @@ std::string hex_prefix(const std::array<std::uint8_t, 32>& digest, std::size_t b
   return out;
 }
 
-std::string geometry_content_id(const GeometryInput& geometry) {
+std::string geometry_content_id(const model::GeometryInput& geometry) {
   Sha256 hash;
   Canonical out(hash);
   out.str("nearpoint.geometry.v1");  // the layout's version: a new layout gives new ids
   out.str(geometry.name);
   out.u64(geometry.pieces.size());
-  for (const PieceInput& piece : geometry.pieces) {
+  for (const model::PieceInput& piece : geometry.pieces) {
     out.u64(piece.shape.index());
     std::visit(
         [&](const auto& shape) {
           using T = std::decay_t<decltype(shape)>;
-          if constexpr (std::is_same_v<T, PolytopeInput>) {
+          if constexpr (std::is_same_v<T, model::PolytopeInput>) {
             out.u64(shape.vertices.size());
-            for (const Vec3d& v : shape.vertices) out.vec(v);
+            for (const model::Vec3d& v : shape.vertices) out.vec(v);
           } else if constexpr (std::is_same_v<T, Segment<double>>) {
             out.vec(shape.a);
             out.vec(shape.b);

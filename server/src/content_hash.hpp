@@ -11,7 +11,7 @@
 #include <string>
 #include <string_view>
 
-#include "nearpoint/server/scene_types.hpp"
+#include "nearpoint/server/report.hpp"
 
 namespace nearpoint::server {
 
@@ -38,6 +38,6 @@ std::string hex_prefix(const std::array<std::uint8_t, 32>& digest, std::size_t b
 /// "geom-" and 32 hex digits: 128 bits of the SHA-256 of the geometry as received (name, pieces
 /// in order, each shape's kind and numbers bit for bit, radius, offset). Equal inputs give equal
 /// ids; any difference, however small, gives another.
-std::string geometry_content_id(const GeometryInput& geometry);
+std::string geometry_content_id(const model::GeometryInput& geometry);
 
 }  // namespace nearpoint::server

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "metrics.hpp"
+#include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/log.hpp"
 #include "nearpoint_dds.hpp"
 #include "validation.hpp"
@@ -47,46 +48,46 @@ std::string own(const char* text) {
   return text ? std::string(text) : std::string();
 }
 
-nearpoint_msg_dds__Vector3_ to_sample(const Vec3d& v) {
+nearpoint_msg_dds__Vector3_ to_sample(const model::Vec3d& v) {
   return {v.x(), v.y(), v.z()};
 }
 
 nearpoint_msg_dds__PoseGradient_ to_sample(const Eigen::Matrix<double, 6, 1>& gradient) {
-  return {to_sample(Vec3d(gradient.head<3>())), to_sample(Vec3d(gradient.tail<3>()))};
+  return {to_sample(model::Vec3d(gradient.head<3>())), to_sample(model::Vec3d(gradient.tail<3>()))};
 }
 
 /// The sample as the scene API's input. Mechanical, like proto_convert: the scene API validates,
 /// so both transports reject the same inputs with the same messages.
-PoseUpdateInput to_input(const UpdateSample& sample) {
-  PoseUpdateInput out;
+model::PoseUpdateInput to_input(const UpdateSample& sample) {
+  model::PoseUpdateInput out;
   out.scene_id = own(sample.scene_id);
   out.sequence = sample.sequence_number;
   out.poses.reserve(sample.poses._length);
   for (std::uint32_t i = 0; i < sample.poses._length; ++i) {
     const nearpoint_msg_dds__ObjectPose_& in = sample.poses._buffer[i];
-    ObjectPoseInput& pose = out.poses.emplace_back();
+    model::ObjectPoseInput& pose = out.poses.emplace_back();
     pose.object_id = own(in.object_id);
     const nearpoint_msg_dds__Quaternion_& q = in.pose.rotation;
     pose.pose.rotation_wxyz = {q.w, q.x, q.y, q.z};
     const nearpoint_msg_dds__Vector3_& t = in.pose.translation;
-    pose.pose.translation = Vec3d(t.x, t.y, t.z);
+    pose.pose.translation = model::Vec3d(t.x, t.y, t.z);
   }
   const nearpoint_msg_dds__QueryOptions_& options = sample.options;
   if (options.has_epsilon) out.options.epsilon = options.epsilon;
   if (options.has_near_points) out.options.near_points = options.near_points;
-  out.options.penetration = wire::penetration_mode(options.penetration);
+  out.options.penetration = model::from_dds<model::PenetrationMode>(options.penetration);
   if (options.has_gradient) out.options.gradient = options.gradient;
   if (options.has_distance_cutoff) out.options.distance_cutoff = options.distance_cutoff;
   if (options.has_warm_start) out.options.warm_start = options.warm_start;
   if (options.has_max_iterations) out.options.max_iterations = options.max_iterations;
-  out.options.report_mode = wire::report_mode(options.report_mode);
+  out.options.report_mode = model::from_dds<model::ReportMode>(options.report_mode);
   if (options.has_change_tolerance) out.options.change_tolerance = options.change_tolerance;
-  out.flow_control = wire::flow_control(sample.flow_control);
+  out.flow_control = model::from_dds<model::FlowControl>(sample.flow_control);
   out.thresholds.reserve(sample.thresholds._length);
   for (std::uint32_t i = 0; i < sample.thresholds._length; ++i) {
     const nearpoint_msg_dds__Threshold_& in = sample.thresholds._buffer[i];
-    out.thresholds.push_back(ThresholdInput{own(in.name), in.distance, in.hysteresis,
-                                            own(in.object_a), own(in.object_b), in.groups});
+    out.thresholds.push_back(model::ThresholdInput{own(in.name), in.distance, in.hysteresis,
+                                                   own(in.object_a), own(in.object_b), in.groups});
   }
   return out;
 }
@@ -334,7 +335,7 @@ struct DdsBridge::Impl {
   std::optional<PendingError> accept(const UpdateSample& sample,
                                      dds_instance_handle_t publication) {
     const Clock::time_point received = Clock::now();
-    PoseUpdateInput input = to_input(sample);
+    model::PoseUpdateInput input = to_input(sample);
     std::string client_id = own(sample.client_id);
     std::lock_guard lock(mutex);
     ++stats.updates_taken;
@@ -413,7 +414,7 @@ struct DdsBridge::Impl {
     // one waiting (its poses already include the older one's) and takes its place at the back,
     // and its report says so.
     const std::size_t limit =
-        stream.stream->flow_control() == FlowControl::coalesce ? 1 : max_waiting;
+        stream.stream->flow_control() == model::FlowControl::coalesce ? 1 : max_waiting;
     if (stream.waiting_updates >= limit) {
       const auto older = std::find_if(stream.waiting.rbegin(), stream.waiting.rend(),
                                       [](const Waiting& w) { return !w.error; });
@@ -471,11 +472,11 @@ struct DdsBridge::Impl {
   void on_report(StreamState& stream, const Report& report) {
     std::vector<PairSample> pairs(report.pairs.size());
     for (std::size_t i = 0; i < report.pairs.size(); ++i) {
-      const PairReport& in = report.pairs[i];
+      const model::PairReport& in = report.pairs[i];
       PairSample& out = pairs[i];
       out.object_a = borrow(report.scene->objects[in.object_a].id);
       out.object_b = borrow(report.scene->objects[in.object_b].id);
-      out.status = wire::pair_status(in.status);
+      out.status = model::to_dds(in.status);
       out.distance = in.distance;
       out.distance_lower_bound = in.distance_lower_bound;
       out.error_bound = in.error_bound;
@@ -510,17 +511,17 @@ struct DdsBridge::Impl {
     sample.coalesced_from_sequence = report.coalesced_from_sequence;
     sample.counts = {report.counts.pairs_evaluated, report.counts.pairs_pruned,
                      report.counts.pairs_unmoved};
-    sample.report_mode = wire::report_mode_number(report.mode);
+    sample.report_mode = model::to_dds(report.mode);
     std::vector<nearpoint_msg_dds__ThresholdEvent_> events(report.events.size());
     for (std::size_t i = 0; i < report.events.size(); ++i) {
-      const ThresholdEvent& in = report.events[i];
+      const model::ThresholdEvent& in = report.events[i];
       nearpoint_msg_dds__ThresholdEvent_& out = events[i];
       out.threshold = borrow(
           report.threshold_names ? (*report.threshold_names)[in.threshold].c_str() : nullptr);
       out.threshold_index = in.threshold;
       out.object_a = borrow(report.scene->objects[in.object_a].id);
       out.object_b = borrow(report.scene->objects[in.object_b].id);
-      out.crossing = in.crossing == Crossing::enter ? 1 : 2;
+      out.crossing = model::to_dds(in.crossing);
       out.distance = in.distance;
       out.sequence_number = in.sequence;
     }

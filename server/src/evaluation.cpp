@@ -12,16 +12,18 @@ namespace {
 /// r_B, d(A ⊕ r_A, B ⊕ r_B) = (d − r_A − r_B)⁺ (the paper's eq. 5–8), and the signed distance
 /// drops by the same p = r_A + r_B.
 void apply_padding(const SceneDefinition& scene, const ScenePair& pair,
-                   const ResolvedOptions& options, PairReport& out) {
+                   const ResolvedOptions& options, model::PairReport& out) {
   const double p = pair.padding;
   out.distance_lower_bound = std::max(0.0, out.distance_lower_bound - p);
-  if (out.status == PairStatus::beyond_cutoff || out.status == PairStatus::engine_error) return;
+  if (out.status == model::PairStatus::beyond_cutoff ||
+      out.status == model::PairStatus::engine_error)
+    return;
   const double d = out.distance;
-  if (out.status == PairStatus::iteration_limit) {
+  if (out.status == model::PairStatus::iteration_limit) {
     out.distance = std::max(0.0, d - p);
     return;
   }
-  if (out.status == PairStatus::separated && d > p) {
+  if (out.status == model::PairStatus::separated && d > p) {
     out.distance = d - p;
     if (out.has_near_points) {
       // On the padded surfaces: each point moves towards the other by its object's padding.
@@ -35,8 +37,8 @@ void apply_padding(const SceneDefinition& scene, const ScenePair& pair,
     return;
   }
   // The padded objects intersect (touching included).
-  const bool cores_apart = out.status == PairStatus::separated;
-  out.status = PairStatus::intersecting;
+  const bool cores_apart = out.status == model::PairStatus::separated;
+  out.status = model::PairStatus::intersecting;
   out.distance = 0;
   out.distance_lower_bound = 0;
   out.has_gradient = false;  // gradients are reported for separated pairs only
@@ -50,8 +52,8 @@ void apply_padding(const SceneDefinition& scene, const ScenePair& pair,
 
 void evaluate_pair(const SceneDefinition& scene, const ScenePair& pair,
                    const std::vector<Pose<double>>& poses, const ResolvedOptions& options,
-                   std::span<SimplexCache> caches, PairReport& out) {
-  out = PairReport{};
+                   std::span<SimplexCache> caches, model::PairReport& out) {
+  out = model::PairReport{};
   out.object_a = pair.object_a;
   out.object_b = pair.object_b;
   const StoredGeometry& geometry_a = *scene.objects[pair.object_a].geometry;
@@ -75,24 +77,25 @@ void evaluate_pair(const SceneDefinition& scene, const ScenePair& pair,
   out.error_bound = nearest.error_bound;
   switch (nearest.status) {
     case Status::invalid_input:
-      out.status = PairStatus::engine_error;
+      out.status = model::PairStatus::engine_error;
       out.engine_message = nearest.message ? nearest.message : "invalid input";
       return;
     case Status::iteration_limit:
-      out.status = PairStatus::iteration_limit;
+      out.status = model::PairStatus::iteration_limit;
       break;
     case Status::intersecting:
-      out.status = PairStatus::intersecting;
+      out.status = model::PairStatus::intersecting;
       break;
     case Status::separated:
-      out.status = nearest.beyond_cutoff() ? PairStatus::beyond_cutoff : PairStatus::separated;
+      out.status =
+          nearest.beyond_cutoff() ? model::PairStatus::beyond_cutoff : model::PairStatus::separated;
       break;
   }
   // Beyond the cutoff the engine's distance is itself the certified lower bound.
   out.distance_lower_bound = nearest.beyond_cutoff()
                                  ? nearest.distance
                                  : std::max(0.0, nearest.distance - nearest.error_bound);
-  if (out.status == PairStatus::beyond_cutoff) {  // only the lower bound is meaningful
+  if (out.status == model::PairStatus::beyond_cutoff) {  // only the lower bound is meaningful
     // With several piece pairs the engine's `nearest` is one of them, whose bound need not hold
     // for the others (a piece its bounding spheres put beyond the cutoff may still be nearer
     // than it): the cutoff, which every piece pair was proven beyond, is the bound for them all.

@@ -13,6 +13,6 @@ namespace nearpoint::server {
 /// `caches` is the pair's warm-start slice (read and updated), or empty for a cold start.
 void evaluate_pair(const SceneDefinition& scene, const ScenePair& pair,
                    const std::vector<Pose<double>>& poses, const ResolvedOptions& options,
-                   std::span<SimplexCache> caches, PairReport& out);
+                   std::span<SimplexCache> caches, model::PairReport& out);
 
 }  // namespace nearpoint::server

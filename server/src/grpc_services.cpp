@@ -199,7 +199,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
       return;
     }
     ++updates_read_;
-    const PoseUpdateInput update = to_input(parsed_);
+    const model::PoseUpdateInput update = to_input(parsed_);
     last_sequence_ = update.sequence;
     Expected<PreparedUpdate> prepared = stream_->prepare(update, Clock::now());
     metrics::record_update(prepared ? nullptr : &prepared.error());
@@ -217,7 +217,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
       v1::DistanceReport report;
       to_proto(error, update.sequence, report);
       pending_.emplace_back(std::move(report));
-    } else if (stream_->flow_control() == FlowControl::coalesce && !pending_.empty() &&
+    } else if (stream_->flow_control() == model::FlowControl::coalesce && !pending_.empty() &&
                std::holds_alternative<PreparedUpdate>(pending_.back())) {
       PreparedUpdate& older = std::get<PreparedUpdate>(pending_.back());
       PoseStream::coalesce(prepared.value(), older);
@@ -284,7 +284,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   /// Requires `mutex_`.
   void Pump() {
     if (finished_) return;
-    const bool coalescing = stream_->flow_control() == FlowControl::coalesce;
+    const bool coalescing = stream_->flow_control() == model::FlowControl::coalesce;
 
     // Error reports at the head of the queue go out once everything read before them has been
     // answered (no evaluation in progress).
@@ -527,7 +527,7 @@ namespace {
 
 using RegisterGeometryCall = UnaryCall<v1::RegisterGeometryRequest, v1::RegisterGeometryResponse>;
 void register_geometry(SceneService& scenes, RegisterGeometryCall& call) {
-  Expected<GeometryInfo> info = scenes.register_geometry(to_input(call.request.geometry()));
+  Expected<model::GeometryInfo> info = scenes.register_geometry(to_input(call.request.geometry()));
   if (!info) return call.reject(info.error());
   to_proto(info.value(), *call.response.mutable_geometry());
   log_info("geometry_registered")
@@ -549,7 +549,7 @@ void remove_geometry(SceneService& scenes, RemoveGeometryCall& call) {
 
 using ListGeometriesCall = UnaryCall<v1::ListGeometriesRequest, v1::ListGeometriesResponse>;
 void list_geometries(SceneService& scenes, ListGeometriesCall& call) {
-  for (const GeometryInfo& info : scenes.list_geometries())
+  for (const model::GeometryInfo& info : scenes.list_geometries())
     to_proto(info, *call.response.add_geometries());
   call.finish(grpc::Status::OK);
 }
@@ -565,7 +565,7 @@ void create_scene(SceneService& scenes, CreateSceneCall& call) {
         "scene_id", text("differs from the routing header x-nearpoint-scene ", quoted(key),
                          ": a sharding proxy would route later calls for ",
                          quoted(request.scene_id()), " elsewhere")));
-  Expected<SceneInfo> info = scenes.create_scene(to_input(request));
+  Expected<model::SceneInfo> info = scenes.create_scene(to_input(request));
   if (!info) return call.reject(info.error());
   call.response.set_scene_id(info->scene_id);
   call.response.set_pair_count(std::uint32_t(info->pair_count));

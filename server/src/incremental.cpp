@@ -31,11 +31,11 @@ bool same_options(const ResolvedOptions& a, const ResolvedOptions& b) {
          x.penetration_bound == y.penetration_bound && x.gradient == y.gradient;
 }
 
-void report_pruned(const ScenePair& pair, double lower_bound, PairReport& out) {
-  out = PairReport{};
+void report_pruned(const ScenePair& pair, double lower_bound, model::PairReport& out) {
+  out = model::PairReport{};
   out.object_a = pair.object_a;
   out.object_b = pair.object_b;
-  out.status = PairStatus::beyond_cutoff;
+  out.status = model::PairStatus::beyond_cutoff;
   out.distance_lower_bound = lower_bound;
 }
 
@@ -57,12 +57,12 @@ void set_near(IncrementalState& state, std::uint32_t pair, bool near) {
 
 }  // namespace
 
-bool within_cutoff(const PairReport& pair, double cutoff) {
+bool within_cutoff(const model::PairReport& pair, double cutoff) {
   // The engine may converge before a support plane proves the cutoff: then the pair is separated
   // with a distance beyond it, and is left out as well. Problems (iteration limit, engine error)
   // are always reported.
-  return pair.status != PairStatus::beyond_cutoff &&
-         !(pair.status == PairStatus::separated && pair.distance > cutoff);
+  return pair.status != model::PairStatus::beyond_cutoff &&
+         !(pair.status == model::PairStatus::separated && pair.distance > cutoff);
 }
 
 void index_object_pairs(SceneDefinition& scene) {
@@ -85,12 +85,12 @@ void index_object_pairs(SceneDefinition& scene) {
 
 void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double>>& poses,
                      const ResolvedOptions& options, IncrementalState& state,
-                     std::vector<std::uint32_t>& evaluate, ReportCounts& counts) {
+                     std::vector<std::uint32_t>& evaluate, model::ReportCounts& counts) {
   const std::size_t n = scene.objects.size();
   const bool first = !state.valid;
   const bool everything = first || !same_options(state.options, options);
   if (first) {
-    state.pairs.assign(scene.pairs.size(), PairReport{});
+    state.pairs.assign(scene.pairs.size(), model::PairReport{});
     state.pruned_pairs.clear();
     state.pruned_listed.assign(scene.pairs.size(), 0);
     state.pruned_bound.assign(scene.pairs.size(), std::numeric_limits<double>::quiet_NaN());
@@ -118,7 +118,7 @@ void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double
   evaluate.clear();
   state.pruned_now.clear();
   const bool watching = state.watches != nullptr;
-  counts = ReportCounts{};
+  counts = model::ReportCounts{};
   const double cutoff = options.engine.distance_cutoff;
   const bool prune = std::isfinite(cutoff);
   std::size_t touched = 0;  // pairs with a moved object
@@ -199,26 +199,29 @@ bool nearer(const IncrementalState& state, std::uint32_t p, std::uint32_t q) {
 
 }  // namespace
 
-double nearness(const PairReport& pair) {
-  if (pair.status == PairStatus::intersecting || pair.status == PairStatus::engine_error) return 0;
+double nearness(const model::PairReport& pair) {
+  if (pair.status == model::PairStatus::intersecting ||
+      pair.status == model::PairStatus::engine_error)
+    return 0;
   return pair.distance;
 }
 
 void collect_report(const SceneDefinition& scene, IncrementalState& state,
-                    const ResolvedOptions& options, bool state_dies, std::vector<PairReport>& out) {
-  const ReportMode mode = options.report_mode;
+                    const ResolvedOptions& options, bool state_dies,
+                    std::vector<model::PairReport>& out) {
+  const model::ReportMode mode = options.report_mode;
   // Any other mode shows the client values the changed baseline does not hold.
-  if (mode != ReportMode::changed) state.sent_valid = false;
+  if (mode != model::ReportMode::changed) state.sent_valid = false;
   out.clear();
   switch (mode) {
-    case ReportMode::within_cutoff: {
+    case model::ReportMode::within_cutoff: {
       std::vector<std::uint32_t> order = state.near_pairs;
       std::sort(order.begin(), order.end());  // the scene's pair order, as in all_pairs
       out.reserve(order.size());
       for (const std::uint32_t p : order) out.push_back(state.pairs[p]);
       return;
     }
-    case ReportMode::nearest_per_object: {
+    case model::ReportMode::nearest_per_object: {
       // The candidates are the near pairs (those within_cutoff would report): pairs the broad
       // phase pruned are beyond the cutoff, so the answer is the same with or without it.
       constexpr std::uint32_t kNone = IncrementalState::kNotNear;
@@ -235,7 +238,7 @@ void collect_report(const SceneDefinition& scene, IncrementalState& state,
       for (const std::uint32_t p : chosen) out.push_back(state.pairs[p]);
       return;
     }
-    case ReportMode::global_minimum: {
+    case model::ReportMode::global_minimum: {
       if (state.near_pairs.empty()) return;
       std::uint32_t best = state.near_pairs.front();
       for (const std::uint32_t p : state.near_pairs)
@@ -243,22 +246,22 @@ void collect_report(const SceneDefinition& scene, IncrementalState& state,
       out.push_back(state.pairs[best]);
       return;
     }
-    case ReportMode::changed: {
+    case model::ReportMode::changed: {
       // Every pair is compared: a pair's result changes only when it is evaluated or pruned, but
       // a scan is simpler to trust than a second dirty list, and costs no engine call.
       write_pruned(scene, state);
       const std::size_t count = state.pairs.size();
       const bool first = !state.sent_valid;
       if (first) {
-        state.sent_status.assign(count, PairStatus::engine_error);
+        state.sent_status.assign(count, model::PairStatus::engine_error);
         state.sent_distance.assign(count, 0);
       }
       const double tolerance = options.change_tolerance;
       for (std::size_t p = 0; p < count; ++p) {
-        const PairReport& pair = state.pairs[p];
+        const model::PairReport& pair = state.pairs[p];
         // A BEYOND_CUTOFF pair's lower bound moves with every pose: only its status counts.
         const bool changed = first || pair.status != state.sent_status[p] ||
-                             (pair.status != PairStatus::beyond_cutoff &&
+                             (pair.status != model::PairStatus::beyond_cutoff &&
                               !(std::abs(pair.distance - state.sent_distance[p]) <= tolerance));
         if (!changed) continue;
         out.push_back(pair);

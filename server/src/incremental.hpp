@@ -29,7 +29,7 @@ struct IncrementalState {
   /// in `pruned_pairs`: those were pruned since and their entries are written (from
   /// `pruned_bound`) only when a report shows them, so that a moved object's far partners cost a
   /// double each per update, not a 250-byte PairReport.
-  std::vector<PairReport> pairs;
+  std::vector<model::PairReport> pairs;
   std::vector<std::uint32_t> pruned_pairs;
   /// Per pair: whether it is in `pruned_pairs` (listed once however often it is pruned), and the
   /// boxes' gap when its entry is still to be written, else NaN.
@@ -47,7 +47,7 @@ struct IncrementalState {
   /// one (another mode's report shows the client other values: the next changed report then
   /// carries every pair).
   bool sent_valid = false;
-  std::vector<PairStatus> sent_status;
+  std::vector<model::PairStatus> sent_status;
   std::vector<double> sent_distance;
   /// The stream's thresholds (null: none) and, per watch, whether its pair is inside.
   std::shared_ptr<const WatchSet> watches;
@@ -62,7 +62,7 @@ struct IncrementalState {
 
 /// Whether REPORT_MODE_WITHIN_CUTOFF reports `pair`: not BEYOND_CUTOFF, and not SEPARATED by more
 /// than `cutoff`.
-bool within_cutoff(const PairReport& pair, double cutoff);
+bool within_cutoff(const model::PairReport& pair, double cutoff);
 
 /// Fills the scene's pair index (each object's pairs, `SceneDefinition::object_pairs`).
 void index_object_pairs(SceneDefinition& scene);
@@ -72,7 +72,7 @@ void index_object_pairs(SceneDefinition& scene);
 /// `evaluate` and counts all three in `counts`. No geometry beyond boxes.
 void plan_evaluation(const SceneDefinition& scene, const std::vector<Pose<double>>& poses,
                      const ResolvedOptions& options, IncrementalState& state,
-                     std::vector<std::uint32_t>& evaluate, ReportCounts& counts);
+                     std::vector<std::uint32_t>& evaluate, model::ReportCounts& counts);
 
 /// Records a finished evaluation as the state the next one starts from; `evaluated` are the
 /// pairs the engine ran (their results now in `state.pairs`).
@@ -82,7 +82,7 @@ void finish_evaluation(std::vector<Pose<double>> poses, const ResolvedOptions& o
 /// How near a pair is, for REPORT_MODE_NEAREST_PER_OBJECT and REPORT_MODE_GLOBAL_MINIMUM:
 /// INTERSECTING and ENGINE_ERROR pairs rank as 0 (a failed pair is not proven far), the rest by
 /// `distance`. Only meaningful for pairs `within_cutoff`.
-double nearness(const PairReport& pair);
+double nearness(const model::PairReport& pair);
 
 /// The one place that selects a report's pairs from the stream's per-pair results, under
 /// `options.report_mode`, in the scene's pair order (see nearpoint.v1.ReportMode): every pair's
@@ -91,6 +91,7 @@ double nearness(const PairReport& pair);
 /// stream's previous report (changed, which updates the baseline). `state_dies`: the state is
 /// not used again (a query's), so its results may be moved out instead of copied.
 void collect_report(const SceneDefinition& scene, IncrementalState& state,
-                    const ResolvedOptions& options, bool state_dies, std::vector<PairReport>& out);
+                    const ResolvedOptions& options, bool state_dies,
+                    std::vector<model::PairReport>& out);
 
 }  // namespace nearpoint::server

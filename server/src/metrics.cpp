@@ -5,6 +5,7 @@
 #include <memory>
 #include <mutex>
 
+#include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/scene_service.hpp"
 
 #if NEARPOINT_HAVE_METRICS
@@ -20,34 +21,6 @@
 #endif
 
 namespace nearpoint::server::metrics {
-
-namespace {
-
-// grpc::StatusCode values by name, so that this file needs no gRPC header (the scene library,
-// which records reports, does not link gRPC).
-const char* grpc_code_name(int code) {
-  static constexpr const char* names[] = {"OK",
-                                          "CANCELLED",
-                                          "UNKNOWN",
-                                          "INVALID_ARGUMENT",
-                                          "DEADLINE_EXCEEDED",
-                                          "NOT_FOUND",
-                                          "ALREADY_EXISTS",
-                                          "PERMISSION_DENIED",
-                                          "RESOURCE_EXHAUSTED",
-                                          "FAILED_PRECONDITION",
-                                          "ABORTED",
-                                          "OUT_OF_RANGE",
-                                          "UNIMPLEMENTED",
-                                          "INTERNAL",
-                                          "UNAVAILABLE",
-                                          "DATA_LOSS",
-                                          "UNAUTHENTICATED"};
-  if (code < 0 || code >= int(std::size(names))) return "UNKNOWN";
-  return names[code];
-}
-
-}  // namespace
 
 Outcome check_metrics_listen(const std::string& listen) {
   const char* flag = "--metrics-listen";
@@ -220,7 +193,7 @@ void record_pairs(const PairTally& tally) {
       tally.iteration_sum);
 }
 
-void record_report(bool query, const ReportTiming& timing, const ReportCounts& counts,
+void record_report(bool query, const model::ReportTiming& timing, const model::ReportCounts& counts,
                    std::uint32_t coalesced_updates) {
   State* s = state();
   if (!s) return;
@@ -250,7 +223,7 @@ void record_query(const Error* error) {
 void record_grpc_status(const char* rpc, int code) {
   State* s = state();
   if (!s || code == 0) return;
-  s->grpc_errors.Add({{"rpc", rpc}, {"code", grpc_code_name(code)}}).Increment();
+  s->grpc_errors.Add({{"rpc", rpc}, {"code", model::status_code_name(code)}}).Increment();
 }
 
 void record_dds_sample(bool in) {
@@ -300,7 +273,7 @@ bool enabled() {
   return false;
 }
 void record_pairs(const PairTally&) {}
-void record_report(bool, const ReportTiming&, const ReportCounts&, std::uint32_t) {}
+void record_report(bool, const model::ReportTiming&, const model::ReportCounts&, std::uint32_t) {}
 void record_update(const Error*) {}
 void record_query(const Error*) {}
 void record_grpc_status(const char*, int) {}

@@ -16,7 +16,7 @@
 #include <string>
 
 #include "nearpoint/server/errors.hpp"
-#include "nearpoint/server/scene_types.hpp"
+#include "nearpoint/server/report.hpp"
 
 namespace nearpoint::server {
 
@@ -52,7 +52,7 @@ bool enabled();
 /// One evaluation task's pairs (warm-start hits, the iterations histogram).
 void record_pairs(const PairTally& tally);
 /// One finished evaluation: a stream update's report or a unary query's.
-void record_report(bool query, const ReportTiming& timing, const ReportCounts& counts,
+void record_report(bool query, const model::ReportTiming& timing, const model::ReportCounts& counts,
                    std::uint32_t coalesced_updates);
 /// One pose update read from a stream (gRPC or DDS): accepted (`error` null) or rejected.
 void record_update(const Error* error);

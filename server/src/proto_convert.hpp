@@ -1,13 +1,16 @@
 // SPDX-License-Identifier: Apache-2.0
-// Conversions between the nearpoint.v1 protobuf messages and the scene API's plain structs, and
-// the one mapping from scene API errors to gRPC status codes. Mechanical: no validation here
-// (the scene API validates, so every transport rejects the same inputs with the same messages).
+// The gRPC adapter's conversions: the requests it reads (the model ↔ protobuf conversion itself is
+// nearpoint_proto_convert's, shared with the client; a scene request also gets its fingerprint
+// here), the reports it writes (a server Report names objects through its scene), and the one
+// mapping from scene API errors to gRPC status codes. Mechanical: no validation here (the scene
+// API validates, so every transport rejects the same inputs with the same messages).
 #pragma once
 
 #include <grpcpp/support/status.h>
 
+#include "nearpoint/proto/convert.hpp"
 #include "nearpoint/server/errors.hpp"
-#include "nearpoint/server/scene_types.hpp"
+#include "nearpoint/server/report.hpp"
 #include "nearpoint_diagnostics.pb.h"
 #include "nearpoint_distance.pb.h"
 #include "nearpoint_geometry.pb.h"
@@ -19,14 +22,14 @@ namespace nearpoint::server {
 /// message ("field: what is wrong"), limits are RESOURCE_EXHAUSTED.
 grpc::Status to_grpc_status(const Error& error);
 
-PoseInput to_input(const v1::Pose& pose);
-GeometryInput to_input(const v1::Geometry& geometry);
-QueryOptionsInput to_input(const v1::QueryOptions& options);
-SceneInput to_input(const v1::CreateSceneRequest& request);
-PoseUpdateInput to_input(const v1::PoseUpdate& update);
-QueryInput to_input(const v1::QueryRequest& request);
+model::PoseInput to_input(const v1::Pose& pose);
+model::GeometryInput to_input(const v1::Geometry& geometry);
+model::QueryOptionsInput to_input(const v1::QueryOptions& options);
+model::SceneInput to_input(const v1::CreateSceneRequest& request);
+model::PoseUpdateInput to_input(const v1::PoseUpdate& update);
+model::QueryInput to_input(const v1::QueryRequest& request);
 
-void to_proto(const GeometryInfo& info, v1::GeometryInfo& out);
+using proto::to_proto;  // GeometryInfo and the rest of the model
 void to_proto(const Report& report, v1::DistanceReport& out);
 /// The report of a rejected update: its sequence number and why.
 void to_proto(const Error& error, std::uint64_t sequence, v1::DistanceReport& out);

@@ -7,13 +7,13 @@
 
 namespace nearpoint::server {
 
-Expected<SceneInfo> preload_scene_file(SceneService& service, const std::string& path) {
+Expected<model::SceneInfo> preload_scene_file(SceneService& service, const std::string& path) {
   formats::SceneFile file;
   if (std::string error = formats::load_scene_file(path, /*meshes=*/{}, file); !error.empty())
     return invalid_argument("", error);
   std::map<std::string, std::string> ids;
   for (const auto& [name, geometry] : file.geometries) {
-    Expected<GeometryInfo> info = service.register_geometry(geometry);
+    Expected<model::GeometryInfo> info = service.register_geometry(geometry);
     if (!info)
       return Error{info.error().code, "",
                    path + ": geometries." + name + ": " + info.error().describe()};
@@ -22,7 +22,7 @@ Expected<SceneInfo> preload_scene_file(SceneService& service, const std::string&
   for (std::size_t i = 0; i < file.scene.objects.size(); ++i)
     if (!file.geometry_names[i].empty())
       file.scene.objects[i].geometry_id = ids.at(file.geometry_names[i]);
-  Expected<SceneInfo> scene = service.create_scene(file.scene);
+  Expected<model::SceneInfo> scene = service.create_scene(file.scene);
   if (!scene) return Error{scene.error().code, "", path + ": " + scene.error().describe()};
   return scene;
 }

@@ -14,6 +14,6 @@
 namespace nearpoint::server {
 
 /// Registers the file's geometries and creates its scene. Errors name the file and the field.
-Expected<SceneInfo> preload_scene_file(SceneService& service, const std::string& path);
+Expected<model::SceneInfo> preload_scene_file(SceneService& service, const std::string& path);
 
 }  // namespace nearpoint::server

@@ -11,7 +11,7 @@
 namespace nearpoint::server {
 
 Expected<std::shared_ptr<const WatchSet>> resolve_thresholds(
-    const SceneDefinition& scene, const std::vector<ThresholdInput>& thresholds,
+    const SceneDefinition& scene, const std::vector<model::ThresholdInput>& thresholds,
     std::size_t max_watches) {
   if (thresholds.size() > kMaxThresholds)
     return resource_exhausted(
@@ -24,7 +24,7 @@ Expected<std::shared_ptr<const WatchSet>> resolve_thresholds(
   std::vector<std::vector<std::uint32_t>> per_threshold(thresholds.size());
   std::size_t watches = 0;
   for (std::size_t t = 0; t < thresholds.size(); ++t) {
-    const ThresholdInput& in = thresholds[t];
+    const model::ThresholdInput& in = thresholds[t];
     const std::string field = text("thresholds[", t, ']');
     if (auto error = check_name(in.name, field + ".name")) return *error;
     if (!(std::isfinite(in.distance) && in.distance > 0))
@@ -122,19 +122,19 @@ std::optional<Error> check_cutoff(const WatchSet& watches, double cutoff) {
            "the cutoff to at least the largest exit distance"));
 }
 
-bool watch_distance(const PairReport& pair, double& distance) {
+bool watch_distance(const model::PairReport& pair, double& distance) {
   switch (pair.status) {
-    case PairStatus::intersecting:
+    case model::PairStatus::intersecting:
       distance = 0;
       return true;
-    case PairStatus::beyond_cutoff:
+    case model::PairStatus::beyond_cutoff:
       distance = pair.distance_lower_bound;
       return true;
-    case PairStatus::separated:
-    case PairStatus::iteration_limit:  // an upper bound, within error_bound of the truth
+    case model::PairStatus::separated:
+    case model::PairStatus::iteration_limit:  // an upper bound, within error_bound of the truth
       distance = pair.distance;
       return true;
-    case PairStatus::engine_error:
+    case model::PairStatus::engine_error:
       return false;
   }
   return false;
@@ -142,28 +142,28 @@ bool watch_distance(const PairReport& pair, double& distance) {
 
 void check_crossings(const WatchSet& watches, const ScenePair& pair, std::uint32_t p,
                      double distance, std::uint64_t sequence, std::vector<char>& inside,
-                     std::vector<ThresholdEvent>& events) {
+                     std::vector<model::ThresholdEvent>& events) {
   for (std::uint32_t w = watches.watch_begin[p]; w < watches.watch_begin[p + 1]; ++w) {
     const std::uint32_t t = watches.watch_threshold[w];
     const ResolvedThreshold& threshold = watches.thresholds[t];
     char& in = inside[w];
-    Crossing crossing;
+    model::Crossing crossing;
     if (!in && distance < threshold.enter) {
-      crossing = Crossing::enter;
+      crossing = model::Crossing::enter;
     } else if (in && distance > threshold.exit) {
-      crossing = Crossing::exit;
+      crossing = model::Crossing::exit;
     } else {
       continue;  // in the hysteresis band, or no change of side
     }
     in = !in;
     events.push_back(
-        ThresholdEvent{t, p, pair.object_a, pair.object_b, crossing, distance, sequence});
+        model::ThresholdEvent{t, p, pair.object_a, pair.object_b, crossing, distance, sequence});
   }
 }
 
-void sort_events(std::vector<ThresholdEvent>& events) {
+void sort_events(std::vector<model::ThresholdEvent>& events) {
   std::stable_sort(events.begin(), events.end(),
-                   [](const ThresholdEvent& x, const ThresholdEvent& y) {
+                   [](const model::ThresholdEvent& x, const model::ThresholdEvent& y) {
                      return std::tie(x.sequence, x.pair, x.threshold) <
                             std::tie(y.sequence, y.pair, y.threshold);
                    });

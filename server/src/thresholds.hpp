@@ -66,7 +66,7 @@ struct WatchSet {
 /// Validates `thresholds` (field paths "thresholds[i]. …") against `scene` and resolves them.
 /// At most `max_watches` (pair, threshold) watches.
 Expected<std::shared_ptr<const WatchSet>> resolve_thresholds(
-    const SceneDefinition& scene, const std::vector<ThresholdInput>& thresholds,
+    const SceneDefinition& scene, const std::vector<model::ThresholdInput>& thresholds,
     std::size_t max_watches);
 
 /// INVALID_ARGUMENT ("options.distance_cutoff") when `cutoff` is below a threshold's exit
@@ -74,16 +74,16 @@ Expected<std::shared_ptr<const WatchSet>> resolve_thresholds(
 std::optional<Error> check_cutoff(const WatchSet& watches, double cutoff);
 
 /// A pair's watch distance, or false for a result that has none (ENGINE_ERROR).
-bool watch_distance(const PairReport& pair, double& distance);
+bool watch_distance(const model::PairReport& pair, double& distance);
 
 /// Compares pair `p`'s watch distance `distance` with its watches (flags in `inside`, indexed by
 /// watch) and appends an event per crossing. Calling it again with the same distance adds
 /// nothing.
 void check_crossings(const WatchSet& watches, const ScenePair& pair, std::uint32_t p,
                      double distance, std::uint64_t sequence, std::vector<char>& inside,
-                     std::vector<ThresholdEvent>& events);
+                     std::vector<model::ThresholdEvent>& events);
 
 /// Orders events by sequence, then pair, then threshold.
-void sort_events(std::vector<ThresholdEvent>& events);
+void sort_events(std::vector<model::ThresholdEvent>& events);
 
 }  // namespace nearpoint::server

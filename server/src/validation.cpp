@@ -21,7 +21,7 @@ constexpr std::uint64_t kMaxIterationsCap = 100'000;
 constexpr char kAxis[3] = {'x', 'y', 'z'};
 
 /// A finite coordinate within kMaxMagnitude; `field` names the vector, errors name the axis.
-std::optional<Error> check_vector(const Vec3d& v, const std::string& field) {
+std::optional<Error> check_vector(const model::Vec3d& v, const std::string& field) {
   for (int k = 0; k < 3; ++k) {
     if (!std::isfinite(v[k]))
       return invalid_argument(text(field, '.', kAxis[k]), text("is not finite (got ", v[k], ")"));
@@ -40,14 +40,14 @@ std::optional<Error> check_length(double value, const std::string& field) {
   return std::nullopt;
 }
 
-std::optional<Error> check_lengths(const Vec3d& v, const std::string& field) {
+std::optional<Error> check_lengths(const model::Vec3d& v, const std::string& field) {
   for (int k = 0; k < 3; ++k)
     if (auto error = check_length(v[k], text(field, '.', kAxis[k]))) return error;
   return std::nullopt;
 }
 
 /// Validates one piece's shape and converts it to the engine's type.
-Expected<Shape<double>> build_shape(const PieceInput& piece, const std::string& field) {
+Expected<Shape<double>> build_shape(const model::PieceInput& piece, const std::string& field) {
   struct Visitor {
     const std::string& field;
     double radius;
@@ -56,7 +56,7 @@ Expected<Shape<double>> build_shape(const PieceInput& piece, const std::string& 
                               "no shape set (one of polytope, point, segment, box, cylinder, cone, "
                               "ellipsoid)");
     }
-    Expected<Shape<double>> operator()(const PolytopeInput& polytope) const {
+    Expected<Shape<double>> operator()(const model::PolytopeInput& polytope) const {
       const std::string vertices = field + ".polytope.vertices";
       if (polytope.vertices.empty())
         return invalid_argument(vertices, "must hold at least one vertex");
@@ -160,7 +160,7 @@ std::optional<Error> check_name(std::string_view name, const std::string& field)
   return std::nullopt;
 }
 
-Expected<Pose<double>> check_pose(const PoseInput& pose, const std::string& field) {
+Expected<Pose<double>> check_pose(const model::PoseInput& pose, const std::string& field) {
   const auto& q = pose.rotation_wxyz;
   constexpr char kComponent[4] = {'w', 'x', 'y', 'z'};
   for (int i = 0; i < 4; ++i)
@@ -182,7 +182,7 @@ Expected<Pose<double>> check_pose(const PoseInput& pose, const std::string& fiel
 }
 
 Expected<ResolvedOptions> resolve_options(const ResolvedOptions& base,
-                                          const QueryOptionsInput& overrides,
+                                          const model::QueryOptionsInput& overrides,
                                           const std::string& field) {
   ResolvedOptions out = base;
   if (overrides.epsilon) {
@@ -194,19 +194,19 @@ Expected<ResolvedOptions> resolve_options(const ResolvedOptions& base,
   }
   if (overrides.near_points) out.engine.near_points = *overrides.near_points;
   switch (overrides.penetration) {
-    case PenetrationMode::unspecified:
+    case model::PenetrationMode::unspecified:
       break;
-    case PenetrationMode::none:
+    case model::PenetrationMode::none:
       out.engine.penetration_bound = false;
       break;
-    case PenetrationMode::bound:
+    case model::PenetrationMode::bound:
       out.engine.penetration_bound = true;
       break;
-    case PenetrationMode::depth:
+    case model::PenetrationMode::depth:
       return invalid_argument(field + ".penetration",
                               "PENETRATION_MODE_DEPTH (exact depth, EPA) is not supported by the "
                               "engine yet; PENETRATION_MODE_BOUND gives a certified lower bound");
-    case PenetrationMode::unknown:
+    case model::PenetrationMode::unknown:
       return invalid_argument(field + ".penetration", "unknown PenetrationMode value");
   }
   if (overrides.gradient) out.engine.gradient = *overrides.gradient;
@@ -218,9 +218,10 @@ Expected<ResolvedOptions> resolve_options(const ResolvedOptions& base,
     out.engine.distance_cutoff = cutoff;
   }
   if (overrides.warm_start) out.warm_start = *overrides.warm_start;
-  if (overrides.report_mode == ReportMode::unknown)
+  if (overrides.report_mode == model::ReportMode::unknown)
     return invalid_argument(field + ".report_mode", "unknown ReportMode value");
-  if (overrides.report_mode != ReportMode::unspecified) out.report_mode = overrides.report_mode;
+  if (overrides.report_mode != model::ReportMode::unspecified)
+    out.report_mode = overrides.report_mode;
   if (overrides.change_tolerance) {
     const double tolerance = *overrides.change_tolerance;
     if (!(tolerance >= 0))  // NaN-safe
@@ -243,7 +244,7 @@ Expected<ResolvedOptions> resolve_options(const ResolvedOptions& base,
   return out;
 }
 
-Expected<std::shared_ptr<StoredGeometry>> build_geometry(const GeometryInput& geometry,
+Expected<std::shared_ptr<StoredGeometry>> build_geometry(const model::GeometryInput& geometry,
                                                          const ServiceLimits& limits) {
   if (auto error = check_name(geometry.name, "geometry.name")) return *error;
   if (geometry.pieces.empty())
@@ -253,8 +254,8 @@ Expected<std::shared_ptr<StoredGeometry>> build_geometry(const GeometryInput& ge
                               text("has ", geometry.pieces.size(), " pieces; the limit is ",
                                    limits.max_pieces_per_geometry, " (--max-pieces-per-geometry)"));
   std::size_t vertex_count = 0;
-  for (const PieceInput& piece : geometry.pieces)
-    if (const auto* polytope = std::get_if<PolytopeInput>(&piece.shape))
+  for (const model::PieceInput& piece : geometry.pieces)
+    if (const auto* polytope = std::get_if<model::PolytopeInput>(&piece.shape))
       vertex_count += polytope->vertices.size();
   if (vertex_count > limits.max_vertices_per_geometry)
     return resource_exhausted(
@@ -265,7 +266,7 @@ Expected<std::shared_ptr<StoredGeometry>> build_geometry(const GeometryInput& ge
   std::vector<Piece<double>> pieces;
   pieces.reserve(geometry.pieces.size());
   for (std::size_t i = 0; i < geometry.pieces.size(); ++i) {
-    const PieceInput& input = geometry.pieces[i];
+    const model::PieceInput& input = geometry.pieces[i];
     const std::string field = text("geometry.pieces[", i, ']');
     if (auto error = check_length(input.radius, field + ".radius")) return *error;
     Expected<Shape<double>> shape = build_shape(input, field);
@@ -284,20 +285,20 @@ Expected<std::shared_ptr<StoredGeometry>> build_geometry(const GeometryInput& ge
   // One sphere around the pieces' spheres: centred in their bounding box, which is tight enough
   // for the broad phase and needs no iterative fitting.
   const Compound<double>& compound = stored->compound;
-  Vec3d low = Vec3d::Constant(std::numeric_limits<double>::infinity());
-  Vec3d high = -low;
+  model::Vec3d low = model::Vec3d::Constant(std::numeric_limits<double>::infinity());
+  model::Vec3d high = -low;
   for (std::size_t i = 0; i < compound.size(); ++i) {
-    const Vec3d reach = Vec3d::Constant(compound.sphere_radius(i));
+    const model::Vec3d reach = model::Vec3d::Constant(compound.sphere_radius(i));
     low = low.cwiseMin(compound.sphere_center(i) - reach);
     high = high.cwiseMax(compound.sphere_center(i) + reach);
   }
-  const Vec3d center = 0.5 * (low + high);
+  const model::Vec3d center = 0.5 * (low + high);
   double radius = 0;
   for (std::size_t i = 0; i < compound.size(); ++i)
     radius =
         std::max(radius, (compound.sphere_center(i) - center).norm() + compound.sphere_radius(i));
 
-  GeometryInfo& info = stored->info;
+  model::GeometryInfo& info = stored->info;
   info.name = geometry.name;
   info.piece_count = compound.size();
   info.vertex_count = vertex_count;

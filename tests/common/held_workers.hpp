@@ -25,7 +25,7 @@ class HeldWorkers {
   HeldWorkers(server::SceneService& service, const std::string& scene_id)
       : state_(std::make_shared<State>()) {
     state_->released = state_->release.get_future().share();
-    server::QueryInput hold;
+    model::QueryInput hold;
     hold.scene_id = scene_id;
     const std::size_t workers = service.worker_count();
     for (std::size_t i = 0; i < workers; ++i) {

@@ -22,10 +22,10 @@ namespace {
 
 using testkit::random_hull_vertices;
 
+using model::GeometryInput;
+using model::PieceInput;
 using server::DdsBridge;
 using server::DdsConfig;
-using server::GeometryInput;
-using server::PieceInput;
 using server::SceneService;
 using server::ServiceLimits;
 
@@ -39,7 +39,7 @@ Geometry polytope(const std::vector<Vec3<double>>& vertices) {
   Geometry g;
   g.input.name = "polytope";
   PieceInput& piece = g.input.pieces.emplace_back();
-  server::PolytopeInput shape;
+  model::PolytopeInput shape;
   shape.vertices = vertices;
   piece.shape = shape;
   std::vector<Piece<double>> pieces;
@@ -79,13 +79,13 @@ struct TestScene {
 
 TestScene create_scene(SceneService& service, std::vector<Geometry> geometries) {
   TestScene scene;
-  server::SceneInput input;
+  model::SceneInput input;
   input.name = "dds-test";
   for (std::size_t i = 0; i < geometries.size(); ++i) {
     auto registered = service.register_geometry(geometries[i].input);
     EXPECT_TRUE(registered.ok()) << registered.error().describe();
     if (!registered) return scene;
-    server::ObjectInput& object = input.objects.emplace_back();
+    model::ObjectInput& object = input.objects.emplace_back();
     object.id = "object-" + std::to_string(i);
     object.geometry_id = registered->geometry_id;
     object.pose.translation = Vec3<double>(2.0 * double(i), 0, 0);

@@ -11,6 +11,8 @@
 
 namespace nearpoint::server::testing {
 
+using namespace ::nearpoint::model;  // the scene model's types, unqualified in the tests
+
 struct LocalScene {
   std::vector<TestGeometry> geometries;
   std::vector<std::string> geometry_ids;

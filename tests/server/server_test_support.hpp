@@ -23,6 +23,8 @@
 
 namespace nearpoint::server::testing {
 
+using namespace ::nearpoint::model;  // the scene model's types, unqualified in the tests
+
 namespace v1 = ::nearpoint::v1;
 
 /// Every client call gets a deadline: a broken stream fails the test instead of hanging it.

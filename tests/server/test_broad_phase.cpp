@@ -24,6 +24,8 @@
 namespace nearpoint::server {
 namespace {
 
+using namespace ::nearpoint::model;  // the scene model's types, unqualified in the tests
+
 using Rng = std::mt19937_64;
 
 double uniform(Rng& rng, double lo, double hi) {
@@ -508,6 +510,8 @@ TEST(OnlyMovedObjects, StreamAnswersEqualRecomputingEverything) {
 
 namespace nearpoint::server {
 namespace {
+
+using namespace ::nearpoint::model;  // the scene model's types, unqualified in the tests
 
 // ---- report modes ----
 

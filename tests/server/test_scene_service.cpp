@@ -14,6 +14,8 @@
 namespace nearpoint::server {
 namespace {
 
+using namespace ::nearpoint::model;  // the scene model's types, unqualified in the tests
+
 GeometryInput box_input(double half = 0.5) {
   GeometryInput geometry;
   geometry.name = "box";

@@ -9,6 +9,8 @@
 namespace nearpoint::server {
 namespace {
 
+using namespace ::nearpoint::model;  // the scene model's types, unqualified in the tests
+
 TEST(Security, LoopbackAddressesNeedNoTls) {
   for (const char* listen : {"127.0.0.1:50051", "127.0.0.1:0", "127.1.2.3:1", "localhost:50051",
                              "[::1]:50051", "unix:/run/nearpoint.sock", "unix-abstract:np"})

@@ -12,9 +12,9 @@
 // Errors are values: every call returns a Status or an Expected<T> carrying the gRPC status code
 // (by name) and the server's message, which names the offending field. Nothing throws.
 //
-// Geometries and scenes are described with the scene API's plain structs (scene_types.hpp: the
-// same structs the server and the file formats use, Eigen vectors inside); poses at this API are
-// Eigen::Isometry3d or an Eigen::Quaterniond with an Eigen::Vector3d.
+// Geometries and scenes are described with the scene API's plain structs (model/scene_types.hpp:
+// the same structs the server and the file formats use, Eigen vectors inside); poses at this API
+// are Eigen::Isometry3d or an Eigen::Quaterniond with an Eigen::Vector3d.
 //
 // Thread safety: a Client may be used from any number of threads at once. A Session may be pushed
 // to from any thread (pushes are serialised, and numbered in the order they are serialised), and
@@ -49,7 +49,7 @@ struct Status {
   std::string message;
 
   bool ok() const { return code == 0; }
-  /// "OK", "INVALID_ARGUMENT", "UNAVAILABLE", …
+  /// "OK", "INVALID_ARGUMENT", "UNAVAILABLE", … ("CODE_<n>" outside gRPC's codes).
   std::string code_name() const;
   /// "CODE_NAME: message".
   std::string describe() const;
@@ -90,8 +90,8 @@ class [[nodiscard]] Expected {
   std::variant<T, Status> state_;
 };
 
-// The request side: the scene API's plain structs (see scene_types.hpp and the .proto files for
-// every field's unit and frame).
+// The request side: the scene API's plain structs (see model/scene_types.hpp and the .proto files
+// for every field's unit and frame).
 using Geometry = model::GeometryInput;
 using Piece = model::PieceInput;
 using GeometryInfo = model::GeometryInfo;
@@ -130,7 +130,9 @@ struct ObjectPose {
 
 // ---- answers ----
 
-enum class PairStatus { separated, intersecting, beyond_cutoff, iteration_limit, engine_error };
+using PairStatus = model::PairStatus;
+/// The status as the CLI prints it: separated, intersecting, beyond_cutoff, …
+/// (model/vocabulary.hpp).
 const char* to_string(PairStatus status);
 /// The mode's name as the CLI spells it: all, within-cutoff, nearest, global, changed.
 const char* to_string(ReportMode mode);
@@ -159,7 +161,7 @@ struct PairDistance {
   std::string message;
 };
 
-enum class Crossing { enter, exit };
+using Crossing = model::Crossing;
 /// "enter" or "exit".
 const char* to_string(Crossing crossing);
 
@@ -177,9 +179,7 @@ struct ThresholdEvent {
 };
 
 /// Server-side timing, microseconds (see nearpoint.v1.ReportTiming).
-struct ReportTiming {
-  double server_us = 0, queue_us = 0, evaluation_us = 0, geometry_us = 0;
-};
+using ReportTiming = model::ReportTiming;
 
 /// The answer to one update or query.
 struct Report {

@@ -25,7 +25,9 @@ enum class ErrorCode : unsigned char {
   internal,             ///< a bug: should never be seen
 };
 
-const char* to_string(ErrorCode code);
+/// The status code's name in lower case, as logs and metrics label it ("invalid_argument"):
+/// model/vocabulary.hpp's status table, through the code wire_numbers.hpp gives it.
+std::string to_string(ErrorCode code);
 
 struct Error {
   ErrorCode code = ErrorCode::internal;

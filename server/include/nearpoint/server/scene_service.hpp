@@ -21,8 +21,13 @@
 #include "nearpoint/options.hpp"
 #include "nearpoint/server/errors.hpp"
 #include "nearpoint/server/limits.hpp"
-#include "nearpoint/server/scene_types.hpp"
+#include "nearpoint/server/report.hpp"
 #include "nearpoint/server/worker_pool.hpp"
+// The model's types under server:: for tests/fuzz and bench/service only (model_names.hpp); the
+// server's own code and its tests (built with NEARPOINT_SERVER_NO_MODEL_NAMES) name them model::….
+#ifndef NEARPOINT_SERVER_NO_MODEL_NAMES
+#include "nearpoint/server/model_names.hpp"
+#endif
 
 namespace nearpoint::server {
 
@@ -31,18 +36,21 @@ struct WatchSet;
 /// A validated, immutable geometry: the engine's compound plus what the broad phase needs.
 /// Shared (shared_ptr<const>) by the store and every scene object that uses it.
 struct StoredGeometry {
-  GeometryInfo info;
+  model::GeometryInfo info;
   Compound<double> compound;
   /// Order of first registration (ListGeometries lists by it; ids are content hashes).
   std::uint64_t registration = 0;
 };
+
+/// A scene request's inline geometries by key, validated but not yet stored.
+using InlineGeometries = std::unordered_map<std::string, std::shared_ptr<StoredGeometry>>;
 
 /// Options after inheritance and validation: what the engine is run with.
 struct ResolvedOptions {
   DistanceOptions<double> engine;
   bool warm_start = true;
   /// Never unspecified/unknown once resolved.
-  ReportMode report_mode = ReportMode::all_pairs;
+  model::ReportMode report_mode = model::ReportMode::all_pairs;
   /// REPORT_MODE_CHANGED's distance tolerance, metres (only chooses what is sent).
   double change_tolerance = 0;
 };
@@ -83,7 +91,7 @@ class SceneDefinition {
   /// SceneInput::fingerprint of the request that created it ("" for none): an identical request
   /// for the same id is answered as the first was. `info` is that first answer.
   std::string fingerprint;
-  SceneInfo info;
+  model::SceneInfo info;
   /// Sum of cache_count over the pairs: the size of one warm-start cache array.
   std::size_t piece_pair_count = 0;
   /// An upper bound on the bytes of this scene's reports without near points, penetration
@@ -173,7 +181,8 @@ class PoseStream {
   /// Validates `update` against the stream's state (scene binding, sequence order, poses,
   /// options) and, if it is accepted, records its poses as the stream's current ones. Cheap: no
   /// geometry. `field` paths are relative to the update ("poses[1].pose.rotation").
-  Expected<PreparedUpdate> prepare(const PoseUpdateInput& update, Clock::time_point received);
+  Expected<PreparedUpdate> prepare(const model::PoseUpdateInput& update,
+                                   Clock::time_point received);
 
   /// Folds `older` (accepted earlier, not yet evaluated) into `newer`: since a prepared update
   /// carries every object's pose, the newer one already holds the older one's poses. With
@@ -190,7 +199,7 @@ class PoseStream {
   void evaluate(PreparedUpdate update, ReportCallback done);
 
   /// The flow-control policy chosen by the first update (block until then).
-  FlowControl flow_control() const { return flow_control_; }
+  model::FlowControl flow_control() const { return flow_control_; }
   bool bound() const { return scene_ != nullptr; }
 
  private:
@@ -208,7 +217,7 @@ class PoseStream {
   std::shared_ptr<const WatchSet> watches_;
   bool has_sequence_ = false;
   std::uint64_t last_sequence_ = 0;
-  FlowControl flow_control_ = FlowControl::block;
+  model::FlowControl flow_control_ = model::FlowControl::block;
   bool evaluating_ = false;
 };
 
@@ -223,20 +232,20 @@ class SceneService {
   /// Validates (finite, non-empty, within limits, radii >= 0, unit quaternions) and stores under
   /// its content id (content_hash.hpp): the same geometry again is stored once and answered the
   /// same. Error fields start with "geometry.".
-  Expected<GeometryInfo> register_geometry(const GeometryInput& geometry);
+  Expected<model::GeometryInfo> register_geometry(const model::GeometryInput& geometry);
   Outcome remove_geometry(const std::string& geometry_id);
-  std::vector<GeometryInfo> list_geometries() const;
+  std::vector<model::GeometryInfo> list_geometries() const;
 
   /// Stores the scene's inline geometries (as register_geometry would) and creates it. A taken
   /// requested_id is ALREADY_EXISTS unless the request's fingerprint matches the scene's.
-  Expected<SceneInfo> create_scene(const SceneInput& scene);
+  Expected<model::SceneInfo> create_scene(const model::SceneInput& scene);
   Outcome delete_scene(const std::string& scene_id);
   /// The live scene, or nullptr.
   std::shared_ptr<Scene> find_scene(const std::string& scene_id) const;
 
   /// Validates the query now (the error, if any, is returned and `done` is never called) and
   /// evaluates it on the pool; `done` runs exactly once, on a pool thread.
-  Outcome query(const QueryInput& query, Clock::time_point received, ReportCallback done);
+  Outcome query(const model::QueryInput& query, Clock::time_point received, ReportCallback done);
 
   /// A new stream, or RESOURCE_EXHAUSTED when `max_streams` are open.
   Expected<std::unique_ptr<PoseStream>> open_stream();
@@ -253,10 +262,9 @@ class SceneService {
   struct Job;
   /// Runs `job`'s pairs on the pool, in parallel, and calls its completion on the last one.
   void run(std::shared_ptr<Job> job);
-  Expected<std::vector<Pose<double>>> apply_poses(const SceneDefinition& scene,
-                                                  std::vector<Pose<double>> poses,
-                                                  const std::vector<ObjectPoseInput>& updates,
-                                                  const char* field) const;
+  Expected<std::vector<Pose<double>>> apply_poses(
+      const SceneDefinition& scene, std::vector<Pose<double>> poses,
+      const std::vector<model::ObjectPoseInput>& updates, const char* field) const;
 
   ServiceLimits limits_;
 
@@ -267,6 +275,13 @@ class SceneService {
   /// or RESOURCE_EXHAUSTED at --max-geometries. `field` names it in that error.
   Expected<std::shared_ptr<const StoredGeometry>> store_geometry(
       std::shared_ptr<StoredGeometry> geometry, const std::string& field);
+  /// The stored geometry `geometry_id`, or nullptr.
+  std::shared_ptr<const StoredGeometry> find_geometry(const std::string& geometry_id) const;
+  /// The last step of create_scene: stores the scene's inline geometries, then the scene under
+  /// its requested id (or the next free "scene-N"), unless the id is taken.
+  Expected<model::SceneInfo> commit_scene(std::shared_ptr<SceneDefinition> scene,
+                                          const model::SceneInput& input,
+                                          const InlineGeometries& inline_geometries);
 
   mutable std::shared_mutex scenes_mutex_;
   std::unordered_map<std::string, std::shared_ptr<Scene>> scenes_;
