@@ -591,7 +591,8 @@ void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
   if (why) return set_invalid(result, why);
   // A refused query leaves the warm-start cache as it found it: the checks below can refuse an
   // answer after the loop has written its simplex there.
-  const SimplexCache cache_before = cache ? *cache : SimplexCache{};
+  SimplexCache cache_before;  // copied only when there is a cache (no cost on the plain query)
+  if (cache) cache_before = *cache;
   // One dispatch per query; the loop below is specialised for the two concrete shapes.
   std::visit(
       [&](const auto& ga, const auto& gb) {

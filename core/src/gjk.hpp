@@ -231,8 +231,9 @@ struct LoopInput {
 /// beside it for ColdStart::with_centroids. Returns the support calls made (0 or 1) and writes
 /// the first support plane's lower bound on d into `lower_bound` (0 when it proves nothing).
 template <class S, class K>
-int initial_simplex(const K& k_set, const LoopInput<S>& in, const SimplexCache* cache, bool tables,
-                    LoopOutcome<S>& out, S& lower_bound) {
+[[gnu::always_inline]] inline int initial_simplex(const K& k_set, const LoopInput<S>& in,
+                                                  const SimplexCache* cache, bool tables,
+                                                  LoopOutcome<S>& out, S& lower_bound) {
   Simplex<S>& simplex = out.simplex;
   Vec3<S> y, on_a, on_b;
   lower_bound = 0;
@@ -286,9 +287,10 @@ int initial_simplex(const K& k_set, const LoopInput<S>& in, const SimplexCache* 
 /// d ≥ n̂·s_K(−n̂). Raises `out.lower_bound` and sharpens `out.gap` when it proves more. Returns
 /// the support calls made (0 or 1).
 template <class S, class K>
-int sharpen_by_triangle_plane(const K& k_set, const Vec3<S>& y0, const Vec3<S>& y1,
-                              const Vec3<S>& y2, const Nearest<S>& nearest, S magnitude,
-                              LoopOutcome<S>& out) {
+[[gnu::always_inline]] inline int sharpen_by_triangle_plane(const K& k_set, const Vec3<S>& y0,
+                                                            const Vec3<S>& y1, const Vec3<S>& y2,
+                                                            const Nearest<S>& nearest, S magnitude,
+                                                            LoopOutcome<S>& out) {
   Vec3<S> normal = (y1 - y0).cross(y2 - y0);
   const S length = normal.norm();
   if (!(length > 0)) return 0;
