@@ -1,4 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
+// Objects as unions of convex pieces (paper Section II, eq. 2–4): the distance is the least over
+// piece pairs, found by evaluating the pairs whose bounding spheres may beat the best so far.
+// E. G. Gilbert, D. W. Johnson, S. S. Keerthi, "A Fast Procedure for Computing the Distance Between
+// Complex Objects in Three-Dimensional Space", IEEE Journal of Robotics and Automation 4(2), 1988
+// (equations as numbered there; docs/design.md has the paper by section).
+//
+// Where it departs from the paper: pairs are pruned by bounding spheres (with a rounding margin)
+// and stopped as soon as a support plane proves them beyond the best; the answer's bound covers
+// every evaluated pair's interval and the rounding of composing the pieces' poses.
 #include "nearpoint/compound.hpp"
 
 #include "distance_internal.hpp"

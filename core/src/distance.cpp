@@ -1,6 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 // The distance query: validation, the relative frame, dispatch to the specialised loop, and the
 // result (near points, spherical extensions, error bound, penetration bound, gradient).
+// E. G. Gilbert, D. W. Johnson, S. S. Keerthi, "A Fast Procedure for Computing the Distance Between
+// Complex Objects in Three-Dimensional Space", IEEE Journal of Robotics and Automation 4(2), 1988
+// (equations as numbered there; docs/design.md has the paper by section).
+//
+// Where it departs from the paper: B is placed in A's frame (as Box2D does) besides the origin
+// shift of eq. (34), with shapes far from their local origins placed by compensated arithmetic;
+// K is rescaled by a power of two when D(K) would under- or overflow the loop's products; the
+// reported bound covers the rounding of placing the shapes (the working magnitude) and pose A's
+// rotation defect; beyond a cutoff the answer is the certified lower bound, not |ν|.
 #include "nearpoint/distance.hpp"
 
 #include <algorithm>

@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // Entry points shared inside the core: compound queries validate their poses once and then query
-// piece pairs without re-checking poses composed from validated ones.
+// piece pairs without re-checking poses composed from validated ones. Part of the engine for
+// Gilbert, Johnson & Keerthi's algorithm (IEEE J. Robotics and Automation 4(2), 1988): the
+// citation and the departures are in distance.cpp and gjk.hpp.
 #pragma once
 
 #include <algorithm>

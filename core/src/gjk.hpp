@@ -1,5 +1,15 @@
 // SPDX-License-Identifier: Apache-2.0
 // The paper's Numerical Algorithm (Section VI, steps 1–6) on K = A − B, for two concrete shapes.
+// E. G. Gilbert, D. W. Johnson, S. S. Keerthi, "A Fast Procedure for Computing the Distance Between
+// Complex Objects in Three-Dimensional Space", IEEE Journal of Robotics and Automation 4(2), 1988
+// (equations as numbered there; docs/design.md has the paper by section).
+//
+// Where it departs from the paper: ε defaults to machine precision squared rather than "100 ×
+// machine error" (options.hpp); the loop keeps the best support-plane lower bound L of every
+// iteration besides g (eq. 25), and ends on whichever certifies first; a cold start may add the
+// centroids' point to V_0 (ColdStart::with_centroids); every roundoff allowance is a few ulps of
+// one working magnitude (distance_roundoff); an "enclosed" origin is certified before it is
+// answered (enclosure_certified); closed forms replace the loop for point and segment cores.
 #pragma once
 
 #include <algorithm>

@@ -1,5 +1,12 @@
 // SPDX-License-Identifier: Apache-2.0
 // Johnson's distance subalgorithm (paper Section V, eq. 29–31) and the Backup Procedure (eq. 38).
+// E. G. Gilbert, D. W. Johnson, S. S. Keerthi, "A Fast Procedure for Computing the Distance Between
+// Complex Objects in Three-Dimensional Space", IEEE Journal of Robotics and Automation 4(2), 1988
+// (equations as numbered there; docs/design.md has the paper by section).
+//
+// As the paper has it (inner products kept between iterations, subsets ordered as Section VI
+// suggests), with the Δ's of every subset kept too; where roundoff defeats it, the loop falls back
+// on the Backup Procedure as the paper does, or on signed volumes (options.hpp, Subalgorithm).
 //
 // The simplex V_k lives in four slots. Inner products y_i·y_j and the cofactors Δ_i(Y_s) of every
 // subset Y_s (a 4-bit mask over the slots) are kept between iterations: when a support point

@@ -1,4 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
+// The shapes' validation, centres and extents, and the polytope's support search (paper eq. 17:
+// an enumeration of inner products, vectorised; or a climb over the hull's edges for large hulls).
+// E. G. Gilbert, D. W. Johnson, S. S. Keerthi, "A Fast Procedure for Computing the Distance Between
+// Complex Objects in Three-Dimensional Space", IEEE Journal of Robotics and Automation 4(2), 1988
+// (equations as numbered there; docs/design.md has the paper by section).
 #include "nearpoint/shapes.hpp"
 
 #include <algorithm>

@@ -1,5 +1,10 @@
 // SPDX-License-Identifier: Apache-2.0
 // Support adaptors: each concrete shape seen through what GJK needs (paper eq. 15–17).
+// E. G. Gilbert, D. W. Johnson, S. S. Keerthi, "A Fast Procedure for Computing the Distance Between
+// Complex Objects in Three-Dimensional Space", IEEE Journal of Robotics and Automation 4(2), 1988
+// (equations as numbered there; docs/design.md has the paper by section).
+// Section IX gives the support functions of general convex sets (ellipsoids, cylinders); here
+// each is written for its shape about its centre.
 //
 // Every adaptor works relative to the shape's centre z̄ (eq. 34): `support` returns s(η) − z̄, so
 // the engine never forms large coordinates. `vertex` returns a vertex by index for warm starts.

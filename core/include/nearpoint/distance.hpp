@@ -1,5 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 // The distance query: the paper's Numerical Algorithm (Section VI) on K = A − B.
+// E. G. Gilbert, D. W. Johnson, S. S. Keerthi, "A Fast Procedure for Computing the Distance Between
+// Complex Objects in Three-Dimensional Space", IEEE Journal of Robotics and Automation 4(2), 1988
+// (equations as numbered there; docs/design.md has the paper by section).
 #pragma once
 
 #include "nearpoint/options.hpp"
