@@ -92,24 +92,171 @@ struct QueryInput {
   S placement;
 };
 
-// Writes into `result`, which the caller has just default-constructed (see
-// detail::distance_with_valid_poses). Returns false without touching `result` or `cache` when
-// `may_rescale` and D(K) or the radii lie outside the loop's range: the caller then rescales K
-// (rescaled_query). `magnitude_out` receives the working magnitude M computed here.
-template <class S, class GA, class GB>
-bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<S>& result,
-           bool may_rescale, S& magnitude_out) {
-  const GA& ga = in.a.geometry;
-  const GB& gb = in.b.geometry;
-  const S radius_a = in.a.radius, radius_b = in.b.radius;
-  const Pose<S>&pose_a = in.a.pose, &pose_b = in.b.pose;
-  const DistanceOptions<S>& options = in.options;
-  const S defect2_a = in.defect2_a;
-  using SA = detail::Support<GA, S>;
-  using SB = detail::Support<GB, S>;
-  const SA support_a{ga};
-  const SB support_b{gb};
+/// The certified error and the verdict from the loop's outcome, written into `result`: Theorem 1
+/// and the support-plane interval, the roundoff allowance (ulps of the working magnitude) and
+/// pose A's rotation defect, the radii by eq. (8), and a cutoff's lower bound.
+template <class S>
+[[gnu::always_inline]] inline void certify(const detail::LoopOutcome<S>& loop, S diameter,
+                                           S roundoff, S defect_allowance, S radii,
+                                           DistanceResult<S>& result) {
+  using std::sqrt;
+  const detail::Nearest<S>& nearest = loop.nearest;
+  const S core_distance = loop.nu_length;
+  result.gap = loop.gap;
+  result.diameter_bound = diameter;
+  result.iterations = loop.iterations;
+  result.support_calls = loop.support_calls;
+  result.subalgorithm_runs = loop.subalgorithm_runs;
+  result.termination = loop.termination;
+  result.warm_started = loop.warm_started;
+  result.finished_by = loop.finished_by;
 
+  // The certified error. The distance lies in [L, |ν|], L the best support-plane lower bound
+  // found; and Theorem 1 gives |ν − ν(K)| ≤ √g. Both hold for the computed values up to roundoff
+  // in y, ν and the inner products, which the allowance covers (a few ulps of D(K), the largest
+  // magnitude in the loop).
+  if (core_distance > 0) {
+    const S interval = std::max(S(0), core_distance - loop.lower_bound);
+    result.error_bound = std::min(sqrt(loop.gap), interval) + roundoff;
+  } else {
+    result.error_bound = sqrt(loop.gap) + roundoff;  // the enclosure's residual (see the loop)
+  }
+  // A rotation that is not quite one (accepted up to max |(RᵀR − I)ᵢⱼ| ≤ 1e-6 in double, 1.2e-4
+  // in float: see Pose). B is placed in A's frame with R_Aᵀ, which is R_A⁻¹ only when E = R_AᵀR_A
+  // − I is 0; the loop measures R_Aᵀ(a − b) − E(a − z̄_A) for world points a, b instead of a − b:
+  // lengths scaled by a singular value of R_A (within ‖E‖₂ of 1) and A's points moved by at most
+  // ‖E‖₂·extent(A), so the distance moves by at most ‖E‖₂·(d + extent(A)) ≤ 2‖E‖_F·D(K). δ formed
+  // directly carries E·z̄_A besides, |z̄_A| ≤ D/8 (see above): 3‖E‖_F·D(K) covers both. R_B's
+  // defect is part of the input itself: B's points are R_B b + p_B either way. Up to 8ε the
+  // defect is what rounding an exact rotation's entries leaves and what RᵀR computed in floating
+  // point cannot tell from 0: the roundoff allowance has always absorbed it (the paper set's and
+  // the stiff suite's bounds stay tight); the excess is added. One predictable branch.
+  // Without the origin shift A's points enter the loop at their local size: M, not D(K), is
+  // what the defect moves (M = D(K) with the shift).
+  result.error_bound += defect_allowance;
+
+  // The verdict needs a proof. The distance is within error_bound of |ν| − r_A − r_B, so
+  // "separated" is certain when that exceeds the bound; otherwise the shapes touch, overlap, or
+  // are too close to tell from touching at this precision or tolerance, and touching counts as
+  // intersecting. (This also keeps a numerical-limit exit deep inside an overlap, where |ν| can
+  // be 1e-17 rather than 0, "intersecting", and a loose ε from claiming a separation it cannot
+  // back.)
+  const bool cores_intersect = !(nearest.nu_norm2 > 0);
+  const bool separated = !cores_intersect && core_distance - radii > result.error_bound;
+  result.distance = separated ? core_distance - radii : S(0);  // eq. (8): (d − r_A − r_B)⁺
+  if (!separated) result.error_bound += std::max(S(0), core_distance - radii);
+  if (loop.termination == Termination::iteration_limit)
+    result.status = Status::iteration_limit;
+  else
+    result.status = separated ? Status::separated : Status::intersecting;
+  // Beyond the cutoff the loop stopped on a support plane's proof, d ≥ L, before |ν| converged:
+  // the answer is that certified lower bound, with the interval up to |ν| as its bound, so the
+  // truth lies in [distance, distance + error_bound] (what a caller filtering on the cutoff
+  // needs; |ν| alone may be far above the truth). L carries the loop's roundoff and the defect's.
+  if (loop.termination == Termination::beyond_cutoff) {
+    const S lower = loop.lower_bound - roundoff - defect_allowance - radii;
+    // |ν| bounds d from above; a computed L may pass it by a rounding, and the interval then
+    // keeps its roundoff on both sides of L (the closed forms, whose L is |ν|, answer the same).
+    const S upper = std::max(core_distance, loop.lower_bound) - radii + roundoff + defect_allowance;
+    if (lower > 0) {
+      result.status = Status::separated;
+      result.distance = lower;
+      result.error_bound = std::max(S(0), upper - lower);
+    }
+  }
+}
+
+/// The final simplex into the result (eq. 22) and the warm-start cache (Section VIII).
+template <class S>
+[[gnu::always_inline]] inline void write_simplex(const detail::LoopOutcome<S>& loop,
+                                                 DistanceResult<S>& result, SimplexCache* cache) {
+  const detail::Nearest<S>& nearest = loop.nearest;
+  const detail::Simplex<S>& simplex = loop.simplex;
+  result.simplex_size = 0;
+  for (int i = 0; i < 4; ++i) {
+    if (!(nearest.subset & (1u << i))) continue;
+    const int n = result.simplex_size++;
+    result.index_a[n] = simplex.index_a[i];
+    result.index_b[n] = simplex.index_b[i];
+    result.weights[n] = nearest.lambda[i];
+  }
+  // Written field by field: a whole SimplexCache assembled on the stack and copied read its
+  // single-field stores back with wider loads (a store-forwarding stall per warm query).
+  if (cache) {
+    cache->count = static_cast<std::uint8_t>(result.simplex_size);
+    for (int n = 0; n < 4; ++n) {
+      const bool kept = n < result.simplex_size;
+      cache->index_a[n] = kept ? result.index_a[n] : 0;
+      cache->index_b[n] = kept ? result.index_b[n] : 0;
+    }
+  }
+}
+
+/// Near points on each shape and the normal, world frame (eq. 23–24), into the result.
+template <class S, class K>
+[[gnu::always_inline]] inline void write_near_points(const K& k_set, bool far_centers,
+                                                     const Pose<S>& pose_a, S radius_a, S radius_b,
+                                                     const detail::LoopOutcome<S>& loop,
+                                                     DistanceResult<S>& result) {
+  const detail::Nearest<S>& nearest = loop.nearest;
+  const detail::Simplex<S>& simplex = loop.simplex;
+  const bool cores_intersect = !(nearest.nu_norm2 > 0);
+  // eq. (23)–(24): near points from the simplex weights, in A's frame relative to z̄_A.
+  Vec3<S> on_a = Vec3<S>::Zero(), on_b = Vec3<S>::Zero();
+  for (int i = 0; i < 4; ++i) {
+    if (!(nearest.subset & (1u << i))) continue;
+    on_a += nearest.lambda[i] * simplex.a[i];
+    on_b += nearest.lambda[i] * simplex.b[i];
+  }
+  // Relative to z̄_A in A's frame, which is placed in the world with p_A; or, when the
+  // centroids are far from their local origins, relative to A's world-frame centroid formed
+  // with compensated arithmetic (the points are then as accurate as their world coordinates
+  // can be, not ulps of the local coordinates worse).
+  Vec3<S> base = k_set.a_center, origin = pose_a.translation;
+  if (far_centers) {
+    base = Vec3<S>::Zero();
+    origin = detail::compensated_difference(pose_a, k_set.a_center,
+                                            static_cast<const Pose<S>*>(nullptr), base);
+  }
+  Vec3<S> point_a = base + on_a;
+  Vec3<S> point_b = base + k_set.offset + on_b;
+  Vec3<S> normal = Vec3<S>::Zero();  // A → B, A's frame: −ν/|ν|
+  if (!cores_intersect) {
+    // Scaled before it is squared: ν/|ν| with |ν|² formed as is would be no unit vector when
+    // |ν|² lies among the subnormals (a float pair reported intersecting 1e-21 apart).
+    normal = -nearest.nu.stableNormalized();
+    point_a += radius_a * normal;
+    point_b -= radius_b * normal;
+  } else {
+    point_b = point_a;  // one common point of the cores
+  }
+  result.has_near_points = true;
+  result.point_a = detail::rotate(pose_a.rotation, point_a) + origin;
+  result.point_b = detail::rotate(pose_a.rotation, point_b) + origin;
+  // A unit vector in the world too: R_A may be a rotation only to within its accepted defect.
+  result.normal = detail::rotate(pose_a.rotation, normal);
+  if (!cores_intersect) result.normal = result.normal.stableNormalized();
+}
+
+/// B placed in A's frame, the centroid offset δ of eq. (34), D(K) of eq. (37) and the working
+/// magnitude M: everything the loop and the bound need to know of the poses.
+template <class S>
+struct RelativeFrame {
+  Mat3<S> rotation;      // B's frame → A's frame
+  Vec3<S> translation;   // R_Aᵀ(p_B − p_A)
+  Vec3<S> a_center;      // z̄_A, A's frame
+  Vec3<S> b_center_rel;  // z̄_B placed in A's frame
+  Vec3<S> offset;        // δ
+  S diameter;            // D(K)
+  S magnitude;           // M (gjk.hpp, distance_roundoff)
+  bool far_centers;      // δ formed from world-frame centroids, compensated
+};
+
+template <class S, class GA, class GB, class SA, class SB>
+[[gnu::always_inline]] inline RelativeFrame<S> relative_frame(const QueryInput<S, GA, GB>& in,
+                                                              const SA& support_a,
+                                                              const SB& support_b) {
+  const Pose<S>&pose_a = in.a.pose, &pose_b = in.b.pose;
   // B relative to A: t = R_Aᵀ(p_B − p_A). A common offset of both poses cancels in p_B − p_A.
   // Written out (detail::rotate_back per column): Eigen's 3×3 products were left out of line here,
   // on the path to the first support point.
@@ -153,9 +300,33 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
   // translation that places z̄_B in A's frame, so those enter M in full (1-norms: a bound on each
   // component's rounding whatever the rotation).
   S magnitude = diameter + in.placement;
-  if (!options.origin_shift)
+  if (!in.options.origin_shift)
     magnitude += S(2) * (a_center.cwiseAbs().sum() + b_center.cwiseAbs().sum() +
                          translation.cwiseAbs().sum());
+  return {rotation, translation, a_center, b_center_rel, offset, diameter, magnitude, far_centers};
+}
+
+// Writes into `result`, which the caller has just default-constructed (see
+// detail::distance_with_valid_poses). Returns false without touching `result` or `cache` when
+// `may_rescale` and D(K) or the radii lie outside the loop's range: the caller then rescales K
+// (rescaled_query). `magnitude_out` receives the working magnitude M computed here.
+template <class S, class GA, class GB>
+bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<S>& result,
+           bool may_rescale, S& magnitude_out) {
+  const GA& ga = in.a.geometry;
+  const GB& gb = in.b.geometry;
+  const S radius_a = in.a.radius, radius_b = in.b.radius;
+  const Pose<S>&pose_a = in.a.pose, &pose_b = in.b.pose;
+  const DistanceOptions<S>& options = in.options;
+  const S defect2_a = in.defect2_a;
+  using SA = detail::Support<GA, S>;
+  using SB = detail::Support<GB, S>;
+  const SA support_a{ga};
+  const SB support_b{gb};
+
+  const RelativeFrame<S> frame = relative_frame(in, support_a, support_b);
+  const S diameter = frame.diameter, magnitude = frame.magnitude;
+  const bool far_centers = frame.far_centers;
   magnitude_out = magnitude;
   const S radii = radius_a + radius_b;
   // One branch decides whether K is in the loop's range (and the radii representable): outside
@@ -181,7 +352,8 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
   // Every member given its value here: an aggregate with members left to `{}` was zeroed first
   // (a `rep stos` of 168 bytes per query).
   const detail::MinkowskiDifference<S, SA, SB> k_set{
-      support_a, support_b, rotation, offset, a_center, b_center_rel, options.origin_shift};
+      support_a,      support_b,          frame.rotation,      frame.offset,
+      frame.a_center, frame.b_center_rel, options.origin_shift};
 
   using std::sqrt;
   const S epsilon = options.epsilon > 0 ? options.epsilon : S(0);
@@ -206,6 +378,7 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
   const ColdStart cold_start =
       options.penetration_bound ? ColdStart::single_point : options.cold_start;
   detail::LoopOutcome<S> loop;
+  constexpr bool point_pair = std::is_same_v<GA, Point> && std::is_same_v<GB, Point>;
   constexpr bool segment_pair = std::is_same_v<GA, Segment<S>> && std::is_same_v<GB, Segment<S>>;
   bool answered = false;
   if constexpr (point_pair) {
@@ -229,128 +402,13 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
                              options.subalgorithm, cold_start},
         cache, loop);
 
+  certify(loop, diameter, roundoff, defect_allowance, radii, result);
+  write_simplex(loop, result, cache);
   const detail::Nearest<S>& nearest = loop.nearest;
-  const detail::Simplex<S>& simplex = loop.simplex;
   const S core_distance = loop.nu_length;
-  result.gap = loop.gap;
-  result.diameter_bound = diameter;
-  result.iterations = loop.iterations;
-  result.support_calls = loop.support_calls;
-  result.subalgorithm_runs = loop.subalgorithm_runs;
-  result.termination = loop.termination;
-  result.warm_started = loop.warm_started;
-  result.finished_by = loop.finished_by;
-
-  // The certified error. The distance lies in [L, |ν|], L the best support-plane lower bound
-  // found; and Theorem 1 gives |ν − ν(K)| ≤ √g. Both hold for the computed values up to roundoff
-  // in y, ν and the inner products, which the allowance covers (a few ulps of D(K), the largest
-  // magnitude in the loop).
-  if (core_distance > 0) {
-    const S interval = std::max(S(0), core_distance - loop.lower_bound);
-    result.error_bound = std::min(sqrt(loop.gap), interval) + roundoff;
-  } else {
-    result.error_bound = sqrt(loop.gap) + roundoff;  // the enclosure's residual (see the loop)
-  }
-  // A rotation that is not quite one (accepted up to max |(RᵀR − I)ᵢⱼ| ≤ 1e-6 in double, 1.2e-4
-  // in float: see Pose). B is placed in A's frame with R_Aᵀ, which is R_A⁻¹ only when E = R_AᵀR_A
-  // − I is 0; the loop measures R_Aᵀ(a − b) − E(a − z̄_A) for world points a, b instead of a − b:
-  // lengths scaled by a singular value of R_A (within ‖E‖₂ of 1) and A's points moved by at most
-  // ‖E‖₂·extent(A), so the distance moves by at most ‖E‖₂·(d + extent(A)) ≤ 2‖E‖_F·D(K). δ formed
-  // directly carries E·z̄_A besides, |z̄_A| ≤ D/8 (see above): 3‖E‖_F·D(K) covers both. R_B's
-  // defect is part of the input itself: B's points are R_B b + p_B either way. Up to 8ε the
-  // defect is what rounding an exact rotation's entries leaves and what RᵀR computed in floating
-  // point cannot tell from 0: the roundoff allowance has always absorbed it (the paper set's and
-  // the stiff suite's bounds stay tight); the excess is added. One predictable branch.
-  // Without the origin shift A's points enter the loop at their local size: M, not D(K), is
-  // what the defect moves (M = D(K) with the shift).
-  result.error_bound += defect_allowance;
-
-  result.simplex_size = 0;
-  for (int i = 0; i < 4; ++i) {
-    if (!(nearest.subset & (1u << i))) continue;
-    const int n = result.simplex_size++;
-    result.index_a[n] = simplex.index_a[i];
-    result.index_b[n] = simplex.index_b[i];
-    result.weights[n] = nearest.lambda[i];
-  }
-  // Written field by field: a whole SimplexCache assembled on the stack and copied read its
-  // single-field stores back with wider loads (a store-forwarding stall per warm query).
-  if (cache) {
-    cache->count = static_cast<std::uint8_t>(result.simplex_size);
-    for (int n = 0; n < 4; ++n) {
-      const bool kept = n < result.simplex_size;
-      cache->index_a[n] = kept ? result.index_a[n] : 0;
-      cache->index_b[n] = kept ? result.index_b[n] : 0;
-    }
-  }
-
-  // The verdict needs a proof. The distance is within error_bound of |ν| − r_A − r_B, so
-  // "separated" is certain when that exceeds the bound; otherwise the shapes touch, overlap, or
-  // are too close to tell from touching at this precision or tolerance, and touching counts as
-  // intersecting. (This also keeps a numerical-limit exit deep inside an overlap, where |ν| can
-  // be 1e-17 rather than 0, "intersecting", and a loose ε from claiming a separation it cannot
-  // back.)
   const bool cores_intersect = !(nearest.nu_norm2 > 0);
-  const bool separated = !cores_intersect && core_distance - radii > result.error_bound;
-  result.distance = separated ? core_distance - radii : S(0);  // eq. (8): (d − r_A − r_B)⁺
-  if (!separated) result.error_bound += std::max(S(0), core_distance - radii);
-  if (loop.termination == Termination::iteration_limit)
-    result.status = Status::iteration_limit;
-  else
-    result.status = separated ? Status::separated : Status::intersecting;
-  // Beyond the cutoff the loop stopped on a support plane's proof, d ≥ L, before |ν| converged:
-  // the answer is that certified lower bound, with the interval up to |ν| as its bound, so the
-  // truth lies in [distance, distance + error_bound] (what a caller filtering on the cutoff
-  // needs; |ν| alone may be far above the truth). L carries the loop's roundoff and the defect's.
-  if (loop.termination == Termination::beyond_cutoff) {
-    const S lower = loop.lower_bound - roundoff - defect_allowance - radii;
-    // |ν| bounds d from above; a computed L may pass it by a rounding, and the interval then
-    // keeps its roundoff on both sides of L (the closed forms, whose L is |ν|, answer the same).
-    const S upper = std::max(core_distance, loop.lower_bound) - radii + roundoff + defect_allowance;
-    if (lower > 0) {
-      result.status = Status::separated;
-      result.distance = lower;
-      result.error_bound = std::max(S(0), upper - lower);
-    }
-  }
-
-  if (options.near_points || options.gradient) {
-    // eq. (23)–(24): near points from the simplex weights, in A's frame relative to z̄_A.
-    Vec3<S> on_a = Vec3<S>::Zero(), on_b = Vec3<S>::Zero();
-    for (int i = 0; i < 4; ++i) {
-      if (!(nearest.subset & (1u << i))) continue;
-      on_a += nearest.lambda[i] * simplex.a[i];
-      on_b += nearest.lambda[i] * simplex.b[i];
-    }
-    // Relative to z̄_A in A's frame, which is placed in the world with p_A; or, when the
-    // centroids are far from their local origins, relative to A's world-frame centroid formed
-    // with compensated arithmetic (the points are then as accurate as their world coordinates
-    // can be, not ulps of the local coordinates worse).
-    Vec3<S> base = k_set.a_center, origin = pose_a.translation;
-    if (far_centers) {
-      base = Vec3<S>::Zero();
-      origin = detail::compensated_difference(pose_a, k_set.a_center,
-                                              static_cast<const Pose<S>*>(nullptr), base);
-    }
-    Vec3<S> point_a = base + on_a;
-    Vec3<S> point_b = base + k_set.offset + on_b;
-    Vec3<S> normal = Vec3<S>::Zero();  // A → B, A's frame: −ν/|ν|
-    if (!cores_intersect) {
-      // Scaled before it is squared: ν/|ν| with |ν|² formed as is would be no unit vector when
-      // |ν|² lies among the subnormals (a float pair reported intersecting 1e-21 apart).
-      normal = -nearest.nu.stableNormalized();
-      point_a += radius_a * normal;
-      point_b -= radius_b * normal;
-    } else {
-      point_b = point_a;  // one common point of the cores
-    }
-    result.has_near_points = true;
-    result.point_a = detail::rotate(pose_a.rotation, point_a) + origin;
-    result.point_b = detail::rotate(pose_a.rotation, point_b) + origin;
-    // A unit vector in the world too: R_A may be a rotation only to within its accepted defect.
-    result.normal = detail::rotate(pose_a.rotation, normal);
-    if (!cores_intersect) result.normal = result.normal.stableNormalized();
-  }
+  if (options.near_points || options.gradient)
+    write_near_points(k_set, far_centers, pose_a, radius_a, radius_b, loop, result);
 
   if (options.penetration_bound && result.status == Status::intersecting) {
     // eq. (32)–(33) on the cores, plus the radii; for rounded shapes whose cores are apart the
@@ -361,10 +419,11 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
     // by that much.
     result.has_penetration_bound = true;
     result.penetration_bound =
-        cores_intersect ? std::max(S(0), detail::penetration_lower_bound(simplex, nearest.subset) -
-                                             result.error_bound) +
-                              radii
-                        : std::max(S(0), radii - core_distance);
+        cores_intersect
+            ? std::max(S(0), detail::penetration_lower_bound(loop.simplex, nearest.subset) -
+                                 result.error_bound) +
+                  radii
+            : std::max(S(0), radii - core_distance);
   }
 
   if (options.gradient && result.status == Status::separated && !result.beyond_cutoff()) {
