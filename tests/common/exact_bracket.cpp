@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 #include "common/exact_bracket.hpp"
 
 #include <CGAL/Gmpzf.h>

@@ -1,3 +1,4 @@
+// SPDX-License-Identifier: Apache-2.0
 // An exact bracket on the distance between two bodies of polytope-representable pieces (point,
 // segment, box, polytope; each with a spherical radius), cheap enough for a fuzz target that runs
 // millions of inputs (CGAL's full QP, `exact_distance`, costs about a millisecond).
