@@ -285,8 +285,9 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
   S diameter = extents + offset.norm();  // D(K) ≤ D(A − z̄_A) + D(B − z̄_B) + |δ|, eq. (37)
   const bool far_centers =
       !(a_center.cwiseAbs().sum() + b_center.cwiseAbs().sum() <= S(0.125) * diameter);
+  S compensation = 0;
   if (far_centers) {
-    offset = detail::centroid_offset(pose_a, a_center, pose_b, b_center);
+    offset = detail::centroid_offset(pose_a, a_center, pose_b, b_center, compensation);
     diameter = extents + offset.norm();
   }
   // |δ|² underflows below ~1e-154 (double): two points 7e-301 apart had D(K) = 0 and were
@@ -301,7 +302,9 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
   // back (MinkowskiDifference::difference): it rounds by ulps of z̄_A, of z̄_B and of the
   // translation that places z̄_B in A's frame, so those enter M in full (1-norms: a bound on each
   // component's rounding whatever the rotation).
-  S magnitude = diameter + in.placement;
+  // Far centroids add what their compensated offset may still be off by (the rounding of its
+  // accumulated error terms: detail::compensated_difference).
+  S magnitude = diameter + in.placement + compensation;
   if (!options.origin_shift)
     magnitude += S(2) * (a_center.cwiseAbs().sum() + b_center.cwiseAbs().sum() +
                          translation.cwiseAbs().sum());
@@ -497,7 +500,17 @@ template <class S, class GA, class GB>
   const Vec3<S> center_b = detail::Support<GB, S>{gb}.center();
   const Vec3<S> between = (pose_b.rotation * center_b + pose_b.translation) -
                           (pose_a.rotation * center_a + pose_a.translation);
-  const S size = std::max({magnitude<S>(ga), magnitude<S>(gb), between.cwiseAbs().maxCoeff()});
+  S size = std::max({magnitude<S>(ga), magnitude<S>(gb), between.cwiseAbs().maxCoeff()});
+  // Two point cores whose `between` rounded to 0: their places may still differ by less than the
+  // subnormals resolve (float points 4e-45 from the origin, B turned by its pose, 6e-46 apart,
+  // were answered "at one place" with bound 0). Scaled by their coordinates instead, the
+  // placement is formed among normal numbers and the loop sees their true offset.
+  // (At most the largest length: points that coincide far out are no reason to refuse.)
+  if (!(size > 0))
+    size = std::min(kLargestLength<S>,
+                    std::max({center_a.cwiseAbs().maxCoeff(), center_b.cwiseAbs().maxCoeff(),
+                              pose_a.translation.cwiseAbs().maxCoeff(),
+                              pose_b.translation.cwiseAbs().maxCoeff()}));
   if (!(size <= kLargestLength<S>)) return set_invalid(result, kTooLarge);
   int k = size > 0 ? -std::ilogb(size) : 0;
   Vec3<S> translation_hi, translation_lo;
