@@ -47,13 +47,314 @@ Compound<S>::Compound(std::vector<Piece<S>> pieces) : pieces_(std::move(pieces))
   invalid_reason_ = nullptr;
 }
 
+namespace {
+
+/// One compound query, split along its steps: the piece pairs' bounding-sphere gaps, the nearest
+/// pair's evaluation, the search over the other pairs, the bound widened to every evaluated
+/// pair's lower end, and the answer moved back to the world. Lives on the stack of `distance`.
+template <class S>
+class CompoundQuery {
+ public:
+  CompoundQuery(const Compound<S>& a, const Pose<S>& pose_a, const Compound<S>& b,
+                const Pose<S>& pose_b, const DistanceOptions<S>& options,
+                std::span<SimplexCache> caches, S defect2_a, CompoundResult<S>& out)
+      : a_(a),
+        b_(b),
+        pose_a_(pose_a),
+        pose_b_(pose_b),
+        options_(options),
+        caches_(caches),
+        defect2_a_(defect2_a),
+        out_(out) {
+    // The world moved to A's position: the piece poses are composed from (R_A, 0) and
+    // (R_B, p_B − p_A), as the single-shape query places B relative to A, so that objects far
+    // from the origin do not round their pieces' placement to the ulps of their world coordinates
+    // (two unit spheres at x ≈ 1e9, one 5e-8 nearer: composed in the world frame both sat at the
+    // same rounded place and the nearer one was pruned). A translation of the whole scene changes
+    // no distance; near points are moved back at the end. The object whose piece sits at its
+    // origin is queried on the caller's poses themselves: exactly the single-shape query.
+    frame_a_.rotation = pose_a.rotation;
+    frame_b_.rotation = pose_b.rotation;
+    frame_b_.translation = pose_b.translation - pose_a.translation;
+    // Pieces are evaluated without the gradient (it refers to the whole objects, see finish).
+    piece_options_ = options;
+    piece_options_.gradient = false;
+    piece_options_.near_points = options.near_points || options.gradient;
+  }
+
+  void run() {
+    const auto [first_i, first_j] = nearest_spheres();
+    nearest_in_world_ = evaluate(first_i, first_j, out_.nearest);
+    out_.piece_a = int(first_i);
+    out_.piece_b = int(first_j);
+    if (out_.nearest.status == Status::invalid_input) return;
+    if (!search_other_pairs(first_i, first_j)) return;
+    widen_to_lowest();
+    finish();
+  }
+
+ private:
+  // For the usual few pieces the gaps and the caches' former contents are kept on the stack.
+  static constexpr std::size_t kStackPairs = 64;
+
+  std::size_t pair_count() const { return a_.size() * b_.size(); }
+  bool keep_gaps() const { return pair_count() <= kStackPairs; }
+
+  // The lowest distance an evaluated pair's interval [d − e, d + e] allows (a beyond-cutoff
+  // answer's lower end is its distance itself: DistanceResult::distance).
+  static S lower_end(const DistanceResult<S>& r) {
+    return r.beyond_cutoff() ? r.distance : r.distance - r.error_bound;
+  }
+
+  // Lower bound on a piece pair's distance from its bounding spheres (eq. 2–4 need every pair
+  // only in principle: a pair whose spheres are farther apart than the best distance cannot win).
+  // The computed gap errs by a few ulps of the magnitudes that enter it, kept in gap_roundoff_:
+  // pairs are pruned only when it exceeds the best distance by more than that and more than the
+  // best's own error bound (so a pair is skipped only when it is certainly not nearer).
+  S compute_gap(std::size_t i, std::size_t j) {
+    const Vec3<S> ca = detail::apply_pose(frame_a_, a_.sphere_center(i));
+    const Vec3<S> cb = detail::apply_pose(frame_b_, b_.sphere_center(j));
+    const S magnitude = ca.cwiseAbs().sum() + cb.cwiseAbs().sum() + a_.sphere_radius(i) +
+                        b_.sphere_radius(j) + frame_b_.translation.cwiseAbs().sum() +
+                        a_.sphere_center(i).cwiseAbs().sum() + b_.sphere_center(j).cwiseAbs().sum();
+    gap_roundoff_ = std::max(gap_roundoff_, S(16) * std::numeric_limits<S>::epsilon() * magnitude);
+    // Scaled before squaring: centres beyond √max apart overflowed |cb − ca|² to inf, and an
+    // infinite gap pruned a pair that was in fact the nearest (found by fuzz_engine in float).
+    return (cb - ca).stableNorm() - a_.sphere_radius(i) - b_.sphere_radius(j);
+  }
+  S sphere_gap(std::size_t i, std::size_t j) {
+    return keep_gaps() ? gaps_[i * b_.size() + j] : compute_gap(i, j);
+  }
+
+  // The pair whose spheres are nearest: it usually holds the answer, so the bound that prunes
+  // the others is tight from the start (and no list needs sorting or allocating).
+  std::pair<std::size_t, std::size_t> nearest_spheres() {
+    std::size_t first_i = 0, first_j = 0;
+    if (pair_count() <= 1) return {first_i, first_j};
+    S first_gap = std::numeric_limits<S>::infinity();
+    for (std::size_t i = 0; i < a_.size(); ++i)
+      for (std::size_t j = 0; j < b_.size(); ++j) {
+        const S gap = compute_gap(i, j);
+        if (keep_gaps()) gaps_[i * b_.size() + j] = gap;
+        if (gap < first_gap || (i == 0 && j == 0)) {
+          first_gap = gap;
+          first_i = i;
+          first_j = j;
+        }
+      }
+    return {first_i, first_j};
+  }
+
+  // A refused query leaves the caches as they were: the evaluated pairs' former contents are
+  // kept (beyond kStackPairs evaluated pairs, rare since pruning keeps few, those caches are left
+  // as cold starts).
+  void save_cache(std::size_t index) {
+    if (saved_count_ < kStackPairs)
+      saved_[saved_count_++] = {index, caches_[index]};
+    else
+      saved_all_ = false;
+  }
+  void restore_caches() {
+    if (!saved_all_)
+      for (SimplexCache& cache : caches_) cache = SimplexCache{};
+    for (std::size_t n = 0; n < saved_count_; ++n) caches_[saved_[n].index] = saved_[n].cache;
+  }
+
+  // Pair (i, j) into `into`, written in place (a returned result was a 400-byte copy per query).
+  // Returns whether its near points are in the world (a pair of pieces at their objects' origins,
+  // queried on the caller's poses) rather than relative to A's position (composed pieces).
+  bool evaluate(std::size_t i, std::size_t j, DistanceResult<S>& into) {
+    const std::size_t index = i * b_.size() + j;
+    SimplexCache* cache = caches_.empty() ? nullptr : &caches_[index];
+    if (cache) save_cache(index);
+    ++out_.pairs_evaluated;
+    if (a_.at_origin(i) && b_.at_origin(j)) {
+      detail::distance_with_valid_poses(a_.piece(i).shape, pose_a_, b_.piece(j).shape, pose_b_,
+                                        piece_options_, cache, into, defect2_a_);
+      count_work(into);
+      return true;
+    }
+    // Pieces placed relative to A's position, from the poses rounded there: p_B − p_A by an ulp
+    // of itself, and a composed offset's R·t_offset + t by ulps of both translations, its
+    // R·R_offset moving the piece's points by ulps of their local size (|z̄| plus the extent,
+    // which D(K) holds). Those lengths enter the query's working magnitude, so that its bound
+    // covers the pieces posed exactly. Poses composed from validated ones are rigid to roundoff:
+    // no need to check them again.
+    const Pose<S>* piece_pose_a = &frame_a_;
+    const Pose<S>* piece_pose_b = &frame_b_;
+    S placement = S(2) * frame_b_.translation.cwiseAbs().sum();
+    const auto composed = [&](const Pose<S>& frame, const Piece<S>& piece, Pose<S>& placed) {
+      placed = frame.compose(piece.offset);
+      placement += S(2) * (piece.offset.translation.cwiseAbs().sum() +
+                           core_center(piece.shape).cwiseAbs().sum());
+      return &placed;
+    };
+    if (!a_.at_origin(i)) piece_pose_a = composed(frame_a_, a_.piece(i), placed_a_);
+    if (!b_.at_origin(j)) piece_pose_b = composed(frame_b_, b_.piece(j), placed_b_);
+    detail::distance_with_valid_poses(a_.piece(i).shape, *piece_pose_a, b_.piece(j).shape,
+                                      *piece_pose_b, piece_options_, cache, into,
+                                      detail::rotation_defect2(piece_pose_a->rotation), placement);
+    count_work(into);
+    return false;
+  }
+  void count_work(const DistanceResult<S>& r) {
+    out_.support_calls += r.support_calls;
+    out_.subalgorithm_runs += r.subalgorithm_runs;
+  }
+
+  // Every pair but the first, pruned by its spheres' gap or stopped once proven beyond the best.
+  // Returns false when a pair was refused (the answer is then that refusal).
+  bool search_other_pairs(std::size_t first_i, std::size_t first_j) {
+    // The objects' distance is the least true distance over the pairs, so the answer's bound must
+    // reach down to the lowest lower end: the nearest computed distance is not always the nearest
+    // pair when another pair's bound is wide (a huge flat piece: e ≈ √ε·D), and reporting the
+    // first with its own tight bound was wrong by up to the other's width (found by fuzz_engine:
+    // 3.7e-4 ± 1.8e-15 where a pair with 2.2e-2 ± 2.2e-2 was truly 2.8e-5 away). Pairs proven
+    // beyond the best, or pruned, lie above every evaluated pair's lower end and cannot lower it.
+    lowest_ = lower_end(out_.nearest);
+    const bool want_penetration = options_.penetration_bound;
+    for (std::size_t i = 0; i < a_.size(); ++i) {
+      for (std::size_t j = 0; j < b_.size(); ++j) {
+        if (i == first_i && j == first_j) continue;
+        const S gap = sphere_gap(i, j) - gap_roundoff_;
+        const S best = out_.nearest.distance;
+        // With intersecting pieces, keep evaluating pairs that may also intersect: the object's
+        // penetration bound is the largest d⁻ among them (paper, Section VIII).
+        // NaN-safe on purpose: a gap that is not a number (a piece whose bounding sphere
+        // overflows) proves nothing, and the pair is evaluated (and refused, if it must be).
+        const bool may_matter = !(gap >= best + out_.nearest.error_bound) ||
+                                (want_penetration && best == 0 && gap <= 0);
+        if (!may_matter || gap > options_.distance_cutoff) {
+          // Pruned by the cutoff, the pair is proven no nearer than its gap, which may still lie
+          // below the best answer's lower end: the objects' distance is the least over pairs.
+          if (may_matter) lowest_ = std::min(lowest_, gap);
+          ++out_.pairs_pruned;
+          continue;
+        }
+        // Only a distance below the best can change the answer: past it the piece pair may stop
+        // as soon as a support plane proves so, often at its first support point.
+        piece_options_.distance_cutoff = std::min(options_.distance_cutoff, best);
+        DistanceResult<S> r;
+        const bool r_in_world = evaluate(i, j, r);
+        if (r.status == Status::invalid_input) {
+          out_.nearest = r;
+          restore_caches();
+          return false;
+        }
+        if (r.beyond_cutoff() && !(options_.distance_cutoff <= best)) {
+          ++out_.pairs_stopped_at_best;
+          continue;  // proven farther than the best: it cannot be the answer
+        }
+        lowest_ = std::min(lowest_, lower_end(r));
+        const S previous_penetration =
+            out_.nearest.has_penetration_bound ? out_.nearest.penetration_bound : S(0);
+        if (r.distance < best || (r.distance == best && r.status == Status::intersecting &&
+                                  out_.nearest.status != Status::intersecting)) {
+          out_.nearest = r;
+          nearest_in_world_ = r_in_world;
+          out_.piece_a = int(i);
+          out_.piece_b = int(j);
+        }
+        if (want_penetration && out_.nearest.status == Status::intersecting) {
+          const S candidate = r.has_penetration_bound ? r.penetration_bound : S(0);
+          out_.nearest.has_penetration_bound = true;
+          out_.nearest.penetration_bound =
+              std::max({previous_penetration, candidate, out_.nearest.penetration_bound});
+        }
+      }
+    }
+    return true;
+  }
+
+  // Only another pair's lower end below the answer's own widens it (a single pair's answer
+  // stays exactly the single query's). Distances are ≥ 0: a lower end below 0 widens the bound
+  // only to the distance itself. Two ulps cover the rounding of d − e and of this difference.
+  void widen_to_lowest() {
+    DistanceResult<S>& nearest = out_.nearest;
+    constexpr S two_ulps = 2 * std::numeric_limits<S>::epsilon();
+    if (nearest.beyond_cutoff()) {
+      // Beyond the cutoff the answer is the objects' certified lower bound, the least over the
+      // pairs', with the interval up to the best pair's upper end.
+      if (!(lowest_ < nearest.distance)) return;
+      const S upper = nearest.distance + nearest.error_bound;
+      const S floor = std::max(S(0), lowest_);
+      nearest.distance = floor;
+      nearest.error_bound = (upper - floor) + two_ulps * (upper + floor);
+      if (!(floor > 0)) {  // no longer proven apart: too close to tell from touching
+        nearest.status = Status::intersecting;
+        nearest.termination = Termination::numerical_limit;
+      }
+    } else if (lowest_ < nearest.distance - nearest.error_bound) {
+      const S floor = std::max(S(0), lowest_);
+      const S reach = (nearest.distance - floor) + two_ulps * (nearest.distance + floor);
+      nearest.error_bound = std::max(nearest.error_bound, reach);
+    }
+  }
+
+  // The gradient of the objects' distance, and the near points back from A's position to the
+  // world; an answer that overflows there is refused, as the single-shape query does.
+  void finish() {
+    DistanceResult<S>& nearest = out_.nearest;
+    if (options_.gradient && nearest.status == Status::separated && !nearest.beyond_cutoff()) {
+      const Pose<S>& origin_a = nearest_in_world_ ? pose_a_ : frame_a_;
+      const Pose<S>& origin_b = nearest_in_world_ ? pose_b_ : frame_b_;
+      distance_gradient(nearest.point_a, nearest.point_b, nearest.normal, origin_a.translation,
+                        origin_b.translation, nearest.gradient_a, nearest.gradient_b);
+      nearest.has_gradient = true;
+    }
+    if (nearest.has_near_points && !nearest_in_world_) {
+      nearest.point_a += pose_a_.translation;
+      nearest.point_b += pose_a_.translation;
+    }
+    // Beside a position near the largest number a near point can overflow (found by fuzz_engine:
+    // compounds at 1.8e308 answered near points of inf); the gradient's moments are positions
+    // crossed with the normal and overflow too (a piece offset of 1.8e308).
+    const bool points_overflow = nearest.has_near_points && options_.near_points &&
+                                 !(nearest.point_a.allFinite() && nearest.point_b.allFinite());
+    const bool gradient_overflows =
+        nearest.has_gradient && !(nearest.gradient_a.allFinite() && nearest.gradient_b.allFinite());
+    if (points_overflow || gradient_overflows) {
+      detail::set_invalid(nearest, "the answer is too large to represent in this precision");
+      restore_caches();
+      return;
+    }
+    if (!options_.near_points) nearest.has_near_points = false;
+  }
+
+  struct Saved {
+    std::size_t index;
+    SimplexCache cache;
+  };
+
+  const Compound<S>& a_;
+  const Compound<S>& b_;
+  const Pose<S>& pose_a_;
+  const Pose<S>& pose_b_;
+  const DistanceOptions<S>& options_;
+  std::span<SimplexCache> caches_;
+  const S defect2_a_;  // ‖R_AᵀR_A − I‖_F², for pieces queried on the caller's poses
+  CompoundResult<S>& out_;
+  Pose<S> frame_a_, frame_b_;    // the objects' poses with the world moved to A's position
+  Pose<S> placed_a_, placed_b_;  // composed piece poses (storage for evaluate)
+  DistanceOptions<S> piece_options_;
+  bool nearest_in_world_ = false;  // the frame of the best answer's near points
+  S gap_roundoff_ = 0;
+  S lowest_ = 0;
+  S gaps_[kStackPairs];
+  Saved saved_[kStackPairs];
+  std::size_t saved_count_ = 0;
+  bool saved_all_ = true;
+};
+
+}  // namespace
+
 template <class S>
 CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Compound<S>& b,
                            const Pose<S>& pose_b, const DistanceOptions<S>& options,
                            std::span<SimplexCache> caches) {
   CompoundResult<S> out;
   const char* why = a.invalid_reason() ? a.invalid_reason() : b.invalid_reason();
-  S defect2_a = 0;  // ‖R_AᵀR_A − I‖_F², for pieces queried on the caller's poses
+  S defect2_a = 0;
   if (!why) why = detail::invalid_poses_reason(pose_a, pose_b, &defect2_a);
   if (!why && !caches.empty() && caches.size() != a.size() * b.size())
     why = "compound query: caches must be empty or hold one cache per piece pair";
@@ -61,255 +362,7 @@ CompoundResult<S> distance(const Compound<S>& a, const Pose<S>& pose_a, const Co
     detail::set_invalid(out.nearest, why);
     return out;
   }
-
-  // The world moved to A's position: the piece poses are composed from (R_A, 0) and
-  // (R_B, p_B − p_A), as the single-shape query places B relative to A, so that objects far from
-  // the origin do not round their pieces' placement to the ulps of their world coordinates (two
-  // unit spheres at x ≈ 1e9, one 5e-8 nearer: composed in the world frame both sat at the same
-  // rounded place and the nearer one was pruned). A translation of the whole scene changes no
-  // distance; near points are moved back at the end. The object whose piece sits at its origin is
-  // queried on the caller's poses themselves: exactly the single-shape query.
-  Pose<S> frame_a, frame_b;
-  frame_a.rotation = pose_a.rotation;
-  frame_b.rotation = pose_b.rotation;
-  frame_b.translation = pose_b.translation - pose_a.translation;
-  // Which frame the best answer's near points are in: the world (a pair of pieces at their
-  // objects' origins, queried on the caller's poses) or A's position (composed pieces).
-  bool nearest_in_world = false;
-
-  // Pieces are evaluated without the gradient (it refers to the whole objects, see below).
-  DistanceOptions<S> piece_options = options;
-  piece_options.gradient = false;
-  piece_options.near_points = options.near_points || options.gradient;
-
-  // Lower bound on a piece pair's distance from its bounding spheres (eq. 2–4 need every pair
-  // only in principle: a pair whose spheres are farther apart than the best distance cannot win).
-  // The sphere centres go to world frame once per query; for the usual few pieces the gaps are
-  // kept on the stack so the pruning pass below does not recompute them.
-  constexpr std::size_t kStackPairs = 64;
-  const std::size_t pair_count = a.size() * b.size();
-  const bool keep_gaps = pair_count <= kStackPairs;
-  S gaps[kStackPairs];
-  // The computed gap errs by a few ulps of the magnitudes that enter it; pairs are pruned only
-  // when it exceeds the best distance by more than that and more than the best's own error bound
-  // (so a pair is skipped only when it is certainly not nearer).
-  S gap_roundoff = 0;
-  auto compute_gap = [&](std::size_t i, std::size_t j) {
-    const Vec3<S> ca = detail::apply_pose(frame_a, a.sphere_center(i));
-    const Vec3<S> cb = detail::apply_pose(frame_b, b.sphere_center(j));
-    const S magnitude = ca.cwiseAbs().sum() + cb.cwiseAbs().sum() + a.sphere_radius(i) +
-                        b.sphere_radius(j) + frame_b.translation.cwiseAbs().sum() +
-                        a.sphere_center(i).cwiseAbs().sum() + b.sphere_center(j).cwiseAbs().sum();
-    gap_roundoff = std::max(gap_roundoff, S(16) * std::numeric_limits<S>::epsilon() * magnitude);
-    // Scaled before squaring: centres beyond √max apart overflowed |cb − ca|² to inf, and an
-    // infinite gap pruned a pair that was in fact the nearest (found by fuzz_engine in float).
-    return (cb - ca).stableNorm() - a.sphere_radius(i) - b.sphere_radius(j);
-  };
-  auto sphere_gap = [&](std::size_t i, std::size_t j) {
-    return keep_gaps ? gaps[i * b.size() + j] : compute_gap(i, j);
-  };
-  // A piece's pose is the object's when it sits at the object's origin (single-piece obstacles,
-  // say); otherwise the two are composed here. Poses composed from validated ones are rigid to
-  // roundoff: no need to check them again. The answer is written straight into `into` (the
-  // object's result for the first pair): a returned result was a 400-byte copy per query.
-  Pose<S> placed_a, placed_b;
-  // The caches as they were, for the pairs evaluated so far: a refused query leaves them so
-  // (restore_caches). Beyond kStackPairs evaluated pairs (rare: pruning keeps few), a refusal
-  // leaves those caches as cold starts.
-  struct Saved {
-    std::size_t index;
-    SimplexCache cache;
-  };
-  Saved saved[kStackPairs];
-  std::size_t saved_count = 0;
-  bool saved_all = true;
-  auto restore_caches = [&] {
-    if (!saved_all)
-      for (SimplexCache& cache : caches) cache = SimplexCache{};
-    for (std::size_t n = 0; n < saved_count; ++n) caches[saved[n].index] = saved[n].cache;
-  };
-  auto evaluate = [&](std::size_t i, std::size_t j, DistanceResult<S>& into) {
-    SimplexCache* cache = caches.empty() ? nullptr : &caches[i * b.size() + j];
-    if (cache) {
-      if (saved_count < kStackPairs)
-        saved[saved_count++] = {i * b.size() + j, *cache};
-      else
-        saved_all = false;
-    }
-    ++out.pairs_evaluated;
-    if (a.at_origin(i) && b.at_origin(j)) {
-      detail::distance_with_valid_poses(a.piece(i).shape, pose_a, b.piece(j).shape, pose_b,
-                                        piece_options, cache, into, defect2_a);
-      out.support_calls += into.support_calls;
-      out.subalgorithm_runs += into.subalgorithm_runs;
-      return true;  // near points in the world
-    }
-    // Pieces placed relative to A's position, from the poses rounded there: p_B − p_A by an ulp
-    // of itself, and a composed offset's R·t_offset + t by ulps of both translations, its
-    // R·R_offset moving the piece's points by ulps of their local size (|z̄| plus the extent, which
-    // D(K) holds). Those lengths enter the query's working magnitude, so that its bound covers the
-    // pieces posed exactly.
-    const Pose<S>* piece_pose_a = &frame_a;
-    const Pose<S>* piece_pose_b = &frame_b;
-    S placement = S(2) * frame_b.translation.cwiseAbs().sum();
-    const auto composed = [&](const Pose<S>& frame, const Piece<S>& piece, Pose<S>& placed) {
-      placed = frame.compose(piece.offset);
-      placement += S(2) * (piece.offset.translation.cwiseAbs().sum() +
-                           core_center(piece.shape).cwiseAbs().sum());
-      return &placed;
-    };
-    if (!a.at_origin(i)) piece_pose_a = composed(frame_a, a.piece(i), placed_a);
-    if (!b.at_origin(j)) piece_pose_b = composed(frame_b, b.piece(j), placed_b);
-    detail::distance_with_valid_poses(a.piece(i).shape, *piece_pose_a, b.piece(j).shape,
-                                      *piece_pose_b, piece_options, cache, into,
-                                      detail::rotation_defect2(piece_pose_a->rotation), placement);
-    out.support_calls += into.support_calls;
-    out.subalgorithm_runs += into.subalgorithm_runs;
-    return false;  // near points relative to A's position
-  };
-
-  // Start with the pair whose spheres are nearest: it usually holds the answer, so the bound
-  // that prunes the others is tight from the start (and no list needs sorting or allocating).
-  std::size_t first_i = 0, first_j = 0;
-  S first_gap = std::numeric_limits<S>::infinity();
-  if (pair_count > 1) {
-    for (std::size_t i = 0; i < a.size(); ++i)
-      for (std::size_t j = 0; j < b.size(); ++j) {
-        const S gap = compute_gap(i, j);
-        if (keep_gaps) gaps[i * b.size() + j] = gap;
-        if (gap < first_gap || (i == 0 && j == 0)) {
-          first_gap = gap;
-          first_i = i;
-          first_j = j;
-        }
-      }
-  }
-  nearest_in_world = evaluate(first_i, first_j, out.nearest);
-  out.piece_a = int(first_i);
-  out.piece_b = int(first_j);
-  if (out.nearest.status == Status::invalid_input) return out;
-  // The lowest distance any evaluated pair's interval [d − e, d + e] allows. The objects'
-  // distance is the least true distance over the pairs, so the answer's bound must reach down to
-  // it: the nearest computed distance is not always the nearest pair when another pair's bound
-  // is wide (a huge flat piece: e ≈ √ε·D), and reporting the first with its own tight bound was
-  // wrong by up to the other's width (found by fuzz_engine: 3.7e-4 ± 1.8e-15 where a pair with
-  // 2.2e-2 ± 2.2e-2 was truly 2.8e-5 away). Pairs proven beyond the best, or pruned, lie above
-  // every evaluated pair's lower end and cannot lower it.
-  // A beyond-cutoff answer's lower end is its distance itself (DistanceResult::distance).
-  const auto lower_end = [](const DistanceResult<S>& r) {
-    return r.beyond_cutoff() ? r.distance : r.distance - r.error_bound;
-  };
-  S lowest = lower_end(out.nearest);
-
-  const bool want_penetration = options.penetration_bound;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    for (std::size_t j = 0; j < b.size(); ++j) {
-      if (i == first_i && j == first_j) continue;
-      const S gap = sphere_gap(i, j) - gap_roundoff;
-      const S best = out.nearest.distance;
-      // With intersecting pieces, keep evaluating pairs that may also intersect: the object's
-      // penetration bound is the largest d⁻ among them (paper, Section VIII).
-      // NaN-safe on purpose: a gap that is not a number (a piece whose bounding sphere
-      // overflows) proves nothing, and the pair is evaluated (and refused, if it must be).
-      const bool may_matter =
-          !(gap >= best + out.nearest.error_bound) || (want_penetration && best == 0 && gap <= 0);
-      if (!may_matter || gap > options.distance_cutoff) {
-        // Pruned by the cutoff, the pair is proven no nearer than its gap, which may still lie
-        // below the best answer's lower end: the objects' distance is the least over pairs.
-        if (may_matter) lowest = std::min(lowest, gap);
-        ++out.pairs_pruned;
-        continue;
-      }
-      // Only a distance below the best can change the answer: past it the piece pair may stop
-      // as soon as a support plane proves so, often at its first support point.
-      piece_options.distance_cutoff = std::min(options.distance_cutoff, best);
-      DistanceResult<S> r;
-      const bool r_in_world = evaluate(i, j, r);
-      if (r.status == Status::invalid_input) {
-        out.nearest = r;
-        restore_caches();
-        return out;
-      }
-      if (r.beyond_cutoff() && !(options.distance_cutoff <= best)) {
-        ++out.pairs_stopped_at_best;
-        continue;  // proven farther than the best: it cannot be the answer
-      }
-      lowest = std::min(lowest, lower_end(r));
-      const S previous_penetration =
-          out.nearest.has_penetration_bound ? out.nearest.penetration_bound : S(0);
-      if (r.distance < best || (r.distance == best && r.status == Status::intersecting &&
-                                out.nearest.status != Status::intersecting)) {
-        out.nearest = r;
-        nearest_in_world = r_in_world;
-        out.piece_a = int(i);
-        out.piece_b = int(j);
-      }
-      if (want_penetration && out.nearest.status == Status::intersecting) {
-        const S candidate = r.has_penetration_bound ? r.penetration_bound : S(0);
-        out.nearest.has_penetration_bound = true;
-        out.nearest.penetration_bound =
-            std::max({previous_penetration, candidate, out.nearest.penetration_bound});
-      }
-    }
-  }
-
-  // Only another pair's lower end below the answer's own widens it (a single pair's answer
-  // stays exactly the single query's). Distances are ≥ 0: a lower end below 0 widens the bound
-  // only to the distance itself. Two ulps cover the rounding of d − e and of this difference.
-  if (out.nearest.beyond_cutoff()) {
-    // Beyond the cutoff the answer is the objects' certified lower bound, the least over the
-    // pairs', with the interval up to the best pair's upper end (two ulps for the roundings).
-    if (lowest < out.nearest.distance) {
-      const S upper = out.nearest.distance + out.nearest.error_bound;
-      const S floor = std::max(S(0), lowest);
-      out.nearest.distance = floor;
-      out.nearest.error_bound =
-          (upper - floor) + 2 * std::numeric_limits<S>::epsilon() * (upper + floor);
-      if (!(floor > 0)) {  // no longer proven apart: too close to tell from touching
-        out.nearest.status = Status::intersecting;
-        out.nearest.termination = Termination::numerical_limit;
-      }
-    }
-  } else if (lowest < out.nearest.distance - out.nearest.error_bound) {
-    const S floor = std::max(S(0), lowest);
-    const S reach = (out.nearest.distance - floor) +
-                    2 * std::numeric_limits<S>::epsilon() * (out.nearest.distance + floor);
-    out.nearest.error_bound = std::max(out.nearest.error_bound, reach);
-  }
-
-  if (options.gradient && out.nearest.status == Status::separated && !out.nearest.beyond_cutoff()) {
-    const Pose<S>& origin_a = nearest_in_world ? pose_a : frame_a;
-    const Pose<S>& origin_b = nearest_in_world ? pose_b : frame_b;
-    distance_gradient(out.nearest.point_a, out.nearest.point_b, out.nearest.normal,
-                      origin_a.translation, origin_b.translation, out.nearest.gradient_a,
-                      out.nearest.gradient_b);
-    out.nearest.has_gradient = true;
-  }
-  // Near points back from A's position to the world.
-  if (out.nearest.has_near_points) {
-    if (!nearest_in_world) {
-      out.nearest.point_a += pose_a.translation;
-      out.nearest.point_b += pose_a.translation;
-    }
-    // Beside a position near the largest number a near point can overflow (found by fuzz_engine:
-    // compounds at 1.8e308 answered near points of inf): refuse, as the single-shape query does,
-    // rather than answer a number that is not one.
-    if (options.near_points &&
-        !(out.nearest.point_a.allFinite() && out.nearest.point_b.allFinite())) {
-      detail::set_invalid(out.nearest, "the answer is too large to represent in this precision");
-      restore_caches();
-      return out;
-    }
-  }
-  // The gradient's moments are positions crossed with the normal: with pieces placed near the
-  // largest number they overflow too (found by fuzz_engine: a piece offset of 1.8e308).
-  if (out.nearest.has_gradient &&
-      !(out.nearest.gradient_a.allFinite() && out.nearest.gradient_b.allFinite())) {
-    detail::set_invalid(out.nearest, "the answer is too large to represent in this precision");
-    restore_caches();
-    return out;
-  }
-  if (!options.near_points) out.nearest.has_near_points = false;
+  CompoundQuery<S>(a, pose_a, b, pose_b, options, caches, defect2_a, out).run();
   return out;
 }
 

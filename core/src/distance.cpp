@@ -458,7 +458,11 @@ S magnitude(const Point&) {
 }
 template <class S>
 S magnitude(const Segment<S>& g) {
-  return S(0.5) * (g.b - g.a).cwiseAbs().maxCoeff();
+  // The ends as the query stores them, about their rounded centre: a segment of one point one
+  // subnormal off the origin has a centre that rounds to 0 and |b − a| = 0, yet an end 2^-149
+  // from it (its extent's square underflowed too, and the pair was answered "at one place").
+  const detail::Support<Segment<S>, S> adaptor{g};
+  return std::max(adaptor.end(0).cwiseAbs().maxCoeff(), adaptor.end(1).cwiseAbs().maxCoeff());
 }
 template <class S>
 S magnitude(const Box<S>& g) {

@@ -281,11 +281,14 @@ template <class S, class K>
   // Not when the first support plane already proves the shapes apart (then it is an interior
   // point the descent would only drop: measured, it cost separated pairs more than it saved),
   // nor when it would repeat y (two points, say).
+  // (Each centroid as a point its shape's adaptor vouches for, interior(): a polytope's rounded
+  // vertex mean can lie outside a thin hull modelled far from its origin.)
   if (in.cold_start == ColdStart::with_centroids &&
       !(lower_bound > distance_roundoff(in.magnitude))) {
-    const Vec3<S> zero = Vec3<S>::Zero();
-    const Vec3<S> centroids = k_set.difference(zero, zero);
-    if (centroids != y) simplex.add(centroids, zero, zero, -1, -1, tables);
+    const Vec3<S> inner_a = k_set.a.interior();
+    const Vec3<S> inner_b = rotate(k_set.rotation, k_set.b.interior());
+    const Vec3<S> centroids = k_set.difference(inner_a, inner_b);
+    if (centroids != y) simplex.add(centroids, inner_a, inner_b, -1, -1, tables);
   }
   return 1;
 }

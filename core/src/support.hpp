@@ -94,6 +94,7 @@ template <class S>
 struct Support<Point, S> {
   const Point& shape;
   Vec3<S> center() const { return Vec3<S>::Zero(); }
+  Vec3<S> interior() const { return Vec3<S>::Zero(); }
   S extent() const { return 0; }
   Vec3<S> support(const Vec3<S>&, std::int32_t& index) const {
     index = 0;
@@ -115,6 +116,7 @@ struct Support<Segment<S>, S> {
   // local origin is far more than its length.) Halves first, so that the sum cannot overflow (an
   // outside fuzzer's segment at 1.8e308 had D(K) = inf).
   Vec3<S> center() const { return S(0.5) * shape.a + S(0.5) * shape.b; }
+  Vec3<S> interior() const { return Vec3<S>::Zero(); }
   Vec3<S> end(std::int32_t index) const { return (index == 1 ? shape.b : shape.a) - center(); }
   S extent() const { return std::max(end(0).norm(), end(1).norm()); }
   Vec3<S> support(const Vec3<S>& d, std::int32_t& index) const {
@@ -138,6 +140,7 @@ template <class S>
 struct Support<Box<S>, S> {
   const Box<S>& shape;
   Vec3<S> center() const { return Vec3<S>::Zero(); }
+  Vec3<S> interior() const { return Vec3<S>::Zero(); }
   S extent() const { return shape.half_extents.norm(); }
   Vec3<S> support(const Vec3<S>& d, std::int32_t& index) const {
     Vec3<S> p;
@@ -164,6 +167,7 @@ struct Support<Polytope<S>, S> {
   // vertex). GJK's directions turn a little per iteration, so the answer is usually a step away.
   mutable std::int32_t hint = -1;
   Vec3<S> center() const { return shape.centroid(); }
+  Vec3<S> interior() const { return shape.centered_interior(); }
   S extent() const { return shape.extent(); }
   // eq. (17): an enumeration of inner products (vectorised), or a climb over the hull's edges
   // (see Polytope::support_index).
@@ -185,6 +189,7 @@ template <class S>
 struct Support<Cylinder<S>, S> {
   const Cylinder<S>& shape;
   Vec3<S> center() const { return Vec3<S>::Zero(); }
+  Vec3<S> interior() const { return Vec3<S>::Zero(); }
   S extent() const { return std::hypot(shape.radius, shape.half_height); }
   Vec3<S> support(const Vec3<S>& direction, std::int32_t& index) const {
     index = -1;
@@ -205,6 +210,7 @@ template <class S>
 struct Support<Cone<S>, S> {
   const Cone<S>& shape;
   Vec3<S> center() const { return Vec3<S>::Zero(); }
+  Vec3<S> interior() const { return Vec3<S>::Zero(); }
   S extent() const { return std::hypot(shape.radius, shape.half_height); }
   Vec3<S> support(const Vec3<S>& direction, std::int32_t& index) const {
     index = -1;
@@ -226,6 +232,7 @@ template <class S>
 struct Support<Ellipsoid<S>, S> {
   const Ellipsoid<S>& shape;
   Vec3<S> center() const { return Vec3<S>::Zero(); }
+  Vec3<S> interior() const { return Vec3<S>::Zero(); }
   S extent() const { return shape.radii.maxCoeff(); }
   // s(η) = D²η / |Dη| with D = diag(radii): the point where the outward normal D⁻²x is along η.
   Vec3<S> support(const Vec3<S>& direction, std::int32_t& index) const {
@@ -260,6 +267,7 @@ struct Support<ScaledPolytope<S>, S> {
                    std::ldexp(v.z(), shape.exponent));
   }
   Vec3<S> center() const { return scaled(shape.polytope->centroid()); }
+  Vec3<S> interior() const { return scaled(shape.polytope->centered_interior()); }
   S extent() const { return std::ldexp(shape.polytope->extent(), shape.exponent); }
   Vec3<S> support(const Vec3<S>& direction, std::int32_t& index) const {
     // The scan's products v·η are formed with the unscaled vertices: η is brought to the vertices'

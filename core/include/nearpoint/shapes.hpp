@@ -126,6 +126,10 @@ class Polytope {
   bool climbs() const { return !neighbor_begin_.empty(); }
   /// The vertex mean z̄ of eq. (34), local frame.
   const Vec3<Scalar>& centroid() const { return centroid_; }
+  /// A point of the hull relative to z̄, to within ulps of extent(): the mean of the centred
+  /// vertices. z̄ itself (0 here) is only within ulps of |z̄| of the hull, which for a thin shape
+  /// modelled far from its origin can be outside it.
+  const Vec3<Scalar>& centered_interior() const { return centered_interior_; }
   /// max |z − z̄| over the vertices: the shape's term in the D(K) bound of eq. (37).
   Scalar extent() const { return extent_; }
   /// nullptr when the polytope is usable, else why it is not.
@@ -155,6 +159,7 @@ class Polytope {
   std::vector<std::uint32_t> seeds_;
   std::size_t size_ = 0;
   Vec3<Scalar> centroid_ = Vec3<Scalar>::Zero();
+  Vec3<Scalar> centered_interior_ = Vec3<Scalar>::Zero();
   Scalar extent_ = 0;
   const char* invalid_reason_ = "polytope has no vertices";
 };
