@@ -23,11 +23,6 @@
 #include "nearpoint/server/limits.hpp"
 #include "nearpoint/server/report.hpp"
 #include "nearpoint/server/worker_pool.hpp"
-// The model's types under server:: for tests/fuzz and bench/service only (model_names.hpp); the
-// server's own code and its tests (built with NEARPOINT_SERVER_NO_MODEL_NAMES) name them model::….
-#ifndef NEARPOINT_SERVER_NO_MODEL_NAMES
-#include "nearpoint/server/model_names.hpp"
-#endif
 
 namespace nearpoint::server {
 
