@@ -18,7 +18,6 @@
 #include "nearpoint/server/log.hpp"
 #include "nearpoint_dds.hpp"
 #include "validation.hpp"
-#include "wire_numbers.hpp"
 
 namespace nearpoint::server {
 namespace {
@@ -554,7 +553,7 @@ struct DdsBridge::Impl {
     ReportSample sample{};
     address(pending.to, sample);
     sample.sequence_number = pending.sequence;
-    sample.status = wire::status_code(pending.error.code);
+    sample.status = status_code(pending.error.code);
     sample.error_field = borrow(pending.error.field);
     sample.message = borrow(pending.error.message);
     sample.pairs._release = false;

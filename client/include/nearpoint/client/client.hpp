@@ -35,6 +35,7 @@
 #include <Eigen/Geometry>
 
 #include "nearpoint/model/scene_types.hpp"
+#include "nearpoint/model/vocabulary.hpp"
 
 namespace nearpoint::client {
 
@@ -57,11 +58,14 @@ struct Status {
   static Status error(int code, std::string message) { return {code, std::move(message)}; }
 };
 
-inline constexpr int kDeadlineExceeded = 4;
-inline constexpr int kNotFound = 5;
-inline constexpr int kAlreadyExists = 6;
-inline constexpr int kOutOfRange = 11;
-inline constexpr int kUnavailable = 14;
+// The codes callers test for, by name from model/vocabulary.hpp's status table.
+inline constexpr int kDeadlineExceeded = model::status_code_number("DEADLINE_EXCEEDED");
+inline constexpr int kNotFound = model::status_code_number("NOT_FOUND");
+inline constexpr int kAlreadyExists = model::status_code_number("ALREADY_EXISTS");
+inline constexpr int kOutOfRange = model::status_code_number("OUT_OF_RANGE");
+inline constexpr int kUnavailable = model::status_code_number("UNAVAILABLE");
+static_assert(kDeadlineExceeded > 0 && kNotFound > 0 && kAlreadyExists > 0 && kOutOfRange > 0 &&
+              kUnavailable > 0);
 
 /// True for the end of a stream by a draining server (SIGTERM: UNAVAILABLE, "draining"), and for
 /// the error reports of the updates it had not read: those were never evaluated and can be sent
