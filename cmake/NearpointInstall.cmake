@@ -53,6 +53,8 @@ install(TARGETS nearpoint_core nearpoint_warnings EXPORT nearpoint-core-targets
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/core/include/nearpoint
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev)
+install(FILES ${PROJECT_BINARY_DIR}/generated/include/nearpoint/version.hpp
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/nearpoint COMPONENT dev)
 install(EXPORT nearpoint-core-targets NAMESPACE nearpoint:: DESTINATION ${NEARPOINT_INSTALL_CMAKEDIR}
         COMPONENT dev)
 

@@ -99,7 +99,7 @@ double percentile(std::vector<double> values, double q) {
 std::unique_ptr<DdsPoseClient> DdsPoseClient::create(const Config& config, std::string& error) {
   if (error = dds::check_configuration(config.allow_default_config); !error.empty()) return nullptr;
   if (std::string problem = dds::check_topic_prefix(config.topic_prefix); !problem.empty()) {
-    error = "--prefix '" + config.topic_prefix + "' " + problem;
+    error = "--dds-prefix '" + config.topic_prefix + "' " + problem;
     return nullptr;
   }
   std::unique_ptr<DdsPoseClient> self(new DdsPoseClient());
@@ -348,9 +348,14 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
                    std::ostream& err) {
   if (options.scene_id.empty()) {
     err << kPrefix << "--scene is required (the scene id on the server)\n";
-    return kStreamCannotRun;
+    return kStreamBadConfiguration;
   }
   std::string error;
+  // A missing DDS configuration is the user's to fix (exit 2); the failures below may pass.
+  if (error = dds::check_configuration(options.dds.allow_default_config); !error.empty()) {
+    err << kPrefix << error << '\n';
+    return kStreamBadConfiguration;
+  }
   std::unique_ptr<DdsPoseClient> client = DdsPoseClient::create(options.dds, error);
   if (!client) {
     err << kPrefix << error << '\n';

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "nearpoint/model/exit_codes.hpp"
 #include "nearpoint/model/scene_types.hpp"
 #include "nearpoint_dds.hpp"
 #include "trajectory.hpp"
@@ -91,10 +92,13 @@ struct DdsStreamOptions {
   std::chrono::milliseconds report_timeout{10000};
 };
 
-/// Exit codes of `nearpoint stream --dds`.
-inline constexpr int kStreamOk = 0;          ///< every update answered, in order, none rejected
-inline constexpr int kStreamIncomplete = 1;  ///< rejected updates, or reports missing/out of order
-inline constexpr int kStreamCannotRun = 2;   ///< no configuration, no server matched, DDS failed
+/// Exit codes of `nearpoint stream --dds` (the table of model/exit_codes.hpp).
+inline constexpr int kStreamOk =
+    model::kExitOk;  ///< every update answered, in order, none rejected
+inline constexpr int kStreamIncomplete = model::kExitFailure;      ///< rejected updates, or reports
+                                                                   ///< missing or out of order
+inline constexpr int kStreamBadConfiguration = model::kExitUsage;  ///< no scene id, no DDS config
+inline constexpr int kStreamCannotRun = model::kExitUnavailable;  ///< no server matched, DDS failed
 
 /// Publishes one PoseUpdate_ per trajectory step (sequence numbers 1, 2, …) and writes one JSON
 /// line per report to `out`:

@@ -14,6 +14,7 @@
 #include <sstream>
 #include <string>
 
+#include <unistd.h>
 #include <CLI/CLI.hpp>
 
 #include "distance_command.hpp"
@@ -21,14 +22,12 @@
 #include "demo.hpp"
 #include "remote_commands.hpp"
 #endif
+#include "nearpoint/model/exit_codes.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/options.hpp"
+#include "nearpoint/version.hpp"
 #if NEARPOINT_HAVE_DDS
 #include "dds_stream.hpp"
-#endif
-
-#ifndef NEARPOINT_VERSION
-#define NEARPOINT_VERSION "unknown"
 #endif
 
 namespace {
@@ -36,7 +35,12 @@ namespace {
 using nearpoint::cli::kExitIoError;
 using nearpoint::cli::kExitOk;
 
-constexpr int kExitUsage = 2;  // as for an I/O failure: the command could not do its work
+using nearpoint::model::kExitUsage;
+
+// Progress lines rewrite themselves with '\r': on a terminal only, never into a log or a pipe.
+bool stderr_is_terminal() {
+  return isatty(STDERR_FILENO) == 1;
+}
 
 // Pads an option's name and default to the column where the help text describes it.
 std::string pad(std::string text) {
@@ -151,12 +155,16 @@ struct DdsStreamArguments {
 
 void add_dds_stream_options(CLI::App& command, DdsStreamArguments& args) {
   nearpoint::cli::DdsStreamOptions& options = args.options;
-  command.add_option("--domain", options.dds.domain_id, "--dds: DDS domain id")
+  // The same names as nearpointd's; --domain and --prefix, this command's spellings before 1.0,
+  // are still accepted.
+  command
+      .add_option("--dds-domain,--domain", options.dds.domain_id,
+                  "--dds: DDS domain id, as nearpointd --dds-domain (--domain: deprecated)")
       ->capture_default_str()
       ->check(CLI::Range(0, 230));
   command
-      .add_option("--prefix", options.dds.topic_prefix,
-                  "--dds: topic prefix (as nearpointd --dds-prefix)")
+      .add_option("--dds-prefix,--prefix", options.dds.topic_prefix,
+                  "--dds: topic prefix, as nearpointd --dds-prefix (--prefix: deprecated)")
       ->capture_default_str();
   command.add_option("--client-id", options.client_id,
                      "--dds: echoed in this client's reports (default nearpoint-cli-PID)");
@@ -203,7 +211,8 @@ With --dds the updates go over DDS to `nearpointd --dds` (SCENE must be a scene 
 e.g. one preloaded with `nearpointd --scene FILE`): one JSON line per report, a check that every
 update is answered once and in order, and a summary on stderr. DDS needs CYCLONEDDS_URI, e.g.
 file://$PWD/deploy/cyclonedds-loopback.xml (loopback only). Exit status with --dds: 0 all
-answered; 1 rejected updates or missing / out-of-order reports; 2 cannot run.
+answered; 1 rejected updates or missing / out-of-order reports; 2 no scene id or no DDS
+configuration; 3 no server matched, or DDS failed.
   nearpoint stream --dds scene-1 examples/dds_trajectory.jsonl
 )";
 #endif
@@ -212,12 +221,8 @@ answered; 1 rejected updates or missing / out-of-order reports; 2 cannot run.
 
 using nearpoint::cli::RemoteOptions;
 
-constexpr const char* kRemoteExitCodes = R"(
-Exit status: 0 success; 1 the server answered with an error (its message is printed, naming the
-field); 2 bad command line, or an unreadable or malformed file (the message names the line or
-field); 3 the server could not be reached (UNAVAILABLE, DEADLINE_EXCEEDED) or nearpointd could
-not be started.
-)";
+// The exit-status table both binaries share (model/exit_codes.hpp), after each verb's help.
+const std::string kRemoteExitCodes = std::string("\n") + nearpoint::model::kExitStatusHelp;
 
 // --target, --json and --timeout-ms, shared by the server-facing verbs.
 void add_remote_options(CLI::App& command, RemoteOptions& remote) {
@@ -261,6 +266,23 @@ server answers. nearpointd answers without a token; TLS flags apply as for the o
   nearpoint health --target nearpoint:50051 --tls-ca ca.pem)");
   command->callback([options, &exit_code] {
     exit_code = nearpoint::cli::run_health(*options, std::cout, std::cerr);
+  });
+}
+
+void add_info_subcommand(CLI::App& app, int& exit_code) {
+  auto remote = std::make_shared<RemoteOptions>();
+  CLI::App* command = app.add_subcommand(
+      "info", "What a nearpointd is: version, build options, transports and limits");
+  add_remote_options(*command, *remote);
+  command->footer(std::string(R"(
+Prints the server's version (as `nearpointd --version`), what its build compiled in (gRPC, DDS,
+metrics), the transports this process serves (gRPC address and TLS, DDS domain and prefix,
+metrics port) and the limits it enforces (nearpointd's --max-* flags).
+  nearpoint info --target 127.0.0.1:50051
+  nearpoint info --json
+)") + kRemoteExitCodes);
+  command->callback([remote, &exit_code] {
+    exit_code = nearpoint::cli::run_info(*remote, std::cout, std::cerr);
   });
 }
 
@@ -402,7 +424,7 @@ TRAJECTORY, one of:
 Objects not listed at a step keep their previous pose.
 
 Output: with --json one JSON object per report (JSON Lines, in order, with the step's "t");
-otherwise a progress line on stderr and a summary per pair (minimum distance and when, steps in
+otherwise a progress line on stderr (a terminal) and a summary per pair (minimum distance and when, steps in
 contact) with the round-trip latency, and with --threshold every ENTER/EXIT event (in JSON:
 "events" of each report, each with the sequence of the update that crossed). A dropped
 connection is retried (the scene is replayed on the restarted server); updates in flight at the
@@ -442,10 +464,12 @@ Examples:
                                          options->near_points);
       return;
     }
+    if (!stderr_is_terminal()) options->progress_every = 0;
     exit_code = nearpoint::cli::run_stream(*options, std::cout, std::cerr);
   });
 #else
   command->callback([options, &exit_code] {
+    if (!stderr_is_terminal()) options->progress_every = 0;
     exit_code = nearpoint::cli::run_stream(*options, std::cout, std::cerr);
   });
 #endif
@@ -471,13 +495,14 @@ void add_load_subcommand(CLI::App& app, int& exit_code) {
       ->check(CLI::Range(1, 4096));
   add_remote_options(*command, options->remote);
   command->footer(std::string(R"(
-Prints a progress line on stderr while it runs, then the number of reports, updates/s and the
+Prints a progress line on stderr while it runs (when stderr is a terminal), then the number of reports, updates/s and the
 push-to-report latency p50/p90/p99/max over all streams.
 
 Example:
   nearpoint load --streams 4 --duration 5
 )") + kRemoteExitCodes);
   command->callback([options, &exit_code] {
+    if (!stderr_is_terminal()) options->progress_every = 0;
     exit_code = nearpoint::cli::run_load(*options, std::cout, std::cerr);
   });
 }
@@ -557,26 +582,14 @@ int main(int argc, char** argv) {
         "nearpoint: distances between convex shapes by the GJK algorithm (Gilbert, Johnson and "
         "Keerthi, 1988)",
         "nearpoint"};
-    app.set_version_flag("--version", std::string("nearpoint ") + NEARPOINT_VERSION);
+    app.set_version_flag("--version", std::string("nearpoint ") + nearpoint::kVersion);
     app.require_subcommand(1);
-    app.footer(R"(
-Run 'nearpoint COMMAND --help' for the details of a command. `distance` runs locally; the other
-commands talk to nearpointd (--target, default $NEARPOINT_TARGET or 127.0.0.1:50051), and `demo`
-starts one of its own when given no --target.
-
-Exit status: 0 success; 1 the server answered with an error; 2 bad command line or input file;
-3 the server could not be reached (or nearpointd not started).
-
-Examples:
-  nearpoint demo
-  nearpoint distance examples/pairs.jsonl
-  echo '{"a": {"sphere": {}, "radius": 1}, "b": {"sphere": {}, "radius": 1, "pose": {"translation": [3,0,0]}}}' | nearpoint distance
-)");
     int exit_code = kExitOk;
     add_distance_subcommand(app, exit_code);
 #ifdef NEARPOINT_WITH_REMOTE
     add_register_subcommand(app, exit_code);
     add_health_subcommand(app, exit_code);
+    add_info_subcommand(app, exit_code);
     add_scene_subcommand(app, exit_code);
     add_query_subcommand(app, exit_code);
     add_stream_subcommand(app, exit_code);
@@ -585,6 +598,18 @@ Examples:
 #elif NEARPOINT_HAVE_DDS
     add_stream_subcommand(app, exit_code);
 #endif
+    // Set after the subcommands, which would otherwise inherit it: `nearpoint scene --help`
+    // must not repeat the top-level examples.
+    app.footer(std::string(R"(
+Run 'nearpoint COMMAND --help' for the details of a command. `distance` runs locally; the other
+commands talk to nearpointd (--target, default $NEARPOINT_TARGET or 127.0.0.1:50051), and `demo`
+starts one of its own when given no --target.
+
+Examples:
+  nearpoint demo
+  nearpoint distance examples/pairs.jsonl
+  echo '{"a": {"sphere": {}, "radius": 1}, "b": {"sphere": {}, "radius": 1, "pose": {"translation": [3,0,0]}}}' | nearpoint distance
+)") + "\n" + nearpoint::model::kExitStatusHelp);
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -594,6 +619,6 @@ Examples:
     return exit_code;
   } catch (const std::exception& e) {
     std::cerr << "nearpoint: " << e.what() << '\n';
-    return kExitIoError;
+    return nearpoint::model::kExitFailure;
   }
 }

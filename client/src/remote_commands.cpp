@@ -22,6 +22,11 @@ namespace {
 
 using client::Clock;
 
+/// "1 pair", "2 pairs": a count and its noun, singular for one.
+std::string counted(std::uint64_t n, const std::string& noun) {
+  return std::to_string(n) + " " + noun + (n == 1 ? "" : "s");
+}
+
 /// A client with the --tls-* and --token-file files loaded, or nullptr (the reason printed to
 /// `err`) when one cannot be read.
 std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err) {
@@ -180,6 +185,85 @@ int run_health(const HealthOptions& options, std::ostream& out, std::ostream& er
   return *status == "SERVING" ? 0 : kExitServerError;
 }
 
+// ---- info ----
+
+int run_info(const RemoteOptions& remote, std::ostream& out, std::ostream& err) {
+  auto client = connect(remote, err);
+  if (!client) return kExitBadInput;
+  auto info = client->server_info();
+  if (!info) {
+    err << "nearpoint info: " << info.status().describe() << "\n";
+    return exit_code_for(info.status());
+  }
+  const client::ServerInfo::Transports& t = info->transports;
+  const client::ServerInfo::Limits& l = info->limits;
+  if (remote.json) {
+    Json transports = {{"grpc",
+                        {{"listen", t.grpc_listen},
+                         {"port", t.grpc_port},
+                         {"tls", t.tls},
+                         {"token_required", t.token_required}}},
+                       {"dds", {{"enabled", t.dds}}},
+                       {"metrics", {{"enabled", !t.metrics_listen.empty()}}}};
+    if (t.dds) {
+      transports["dds"]["domain"] = t.dds_domain;
+      transports["dds"]["prefix"] = t.dds_prefix;
+    }
+    if (!t.metrics_listen.empty()) {
+      transports["metrics"]["listen"] = t.metrics_listen;
+      transports["metrics"]["port"] = t.metrics_port;
+    }
+    out << Json{{"target", remote.target},
+                {"version", info->version},
+                {"build",
+                 {{"grpc", info->build.grpc},
+                  {"dds", info->build.dds},
+                  {"metrics", info->build.metrics}}},
+                {"transports", std::move(transports)},
+                {"limits",
+                 {{"max_geometries", l.max_geometries},
+                  {"max_pieces_per_geometry", l.max_pieces_per_geometry},
+                  {"max_vertices_per_geometry", l.max_vertices_per_geometry},
+                  {"max_scenes", l.max_scenes},
+                  {"max_objects_per_scene", l.max_objects_per_scene},
+                  {"max_pairs_per_scene", l.max_pairs_per_scene},
+                  {"max_piece_pairs_per_scene", l.max_piece_pairs_per_scene},
+                  {"max_streams", l.max_streams},
+                  {"max_in_flight_per_stream", l.max_in_flight_per_stream},
+                  {"max_concurrent_queries", l.max_concurrent_queries},
+                  {"max_message_bytes", l.max_message_bytes},
+                  {"workers", l.workers}}}}
+               .dump()
+        << "\n";
+    return 0;
+  }
+  auto on_off = [](bool on) { return on ? "yes" : "no"; };
+  out << "nearpointd " << info->version << " at " << remote.target << "\n"
+      << "built with:   gRPC " << on_off(info->build.grpc) << ", DDS " << on_off(info->build.dds)
+      << ", metrics " << on_off(info->build.metrics) << "\n"
+      << "gRPC:         " << t.grpc_listen << " (port " << t.grpc_port << "), TLS " << t.tls
+      << ", token " << (t.token_required ? "required" : "off") << "\n"
+      << "DDS:          ";
+  if (t.dds)
+    out << "on, domain " << t.dds_domain << ", prefix " << t.dds_prefix << "\n";
+  else
+    out << "off\n";
+  out << "metrics:      ";
+  if (t.metrics_listen.empty())
+    out << "off\n";
+  else
+    out << t.metrics_listen << " (port " << t.metrics_port << ", /metrics)\n";
+  out << "limits:       " << l.max_scenes << " scenes, " << l.max_geometries << " geometries ("
+      << l.max_pieces_per_geometry << " pieces, " << l.max_vertices_per_geometry
+      << " vertices each), " << l.max_objects_per_scene << " objects, " << l.max_pairs_per_scene
+      << " pairs and " << l.max_piece_pairs_per_scene << " piece pairs per scene\n"
+      << "              " << l.max_streams << " streams (" << l.max_in_flight_per_stream
+      << " updates in flight each), " << l.max_concurrent_queries << " concurrent queries, "
+      << l.max_message_bytes << "-byte messages, " << l.workers
+      << (l.workers == 1 ? " worker thread\n" : " worker threads\n");
+  return 0;
+}
+
 int run_register(const RegisterOptions& options, std::ostream& out, std::ostream& err) {
   if (options.files.empty()) {
     err << "nearpoint register: give at least one FILE\n";
@@ -288,7 +372,7 @@ int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostrea
     json["scene_id"] = scene_id;
     out << json.dump() << "\n";
   } else {
-    out << "scene " << scene_id << ": " << report->pairs.size() << " pairs, "
+    out << "scene " << scene_id << ": " << counted(report->pairs.size(), "pair") << ", "
         << number(report->timing.server_us, 4) << " µs on the server\n";
     print_pairs(*report, out);
   }
@@ -376,9 +460,9 @@ bool parse_stream(const StreamCommandOptions& options, Trajectory& trajectory,
 void print_stream_summary(StreamTally& tally, const Trajectory& trajectory,
                           const std::string& scene_id, double wall, std::uint64_t reconnects,
                           bool watched, std::ostream& out) {
-  out << "scene " << scene_id << ": " << tally.reports << " reports for " << trajectory.steps.size()
-      << " updates in " << number(wall, 3) << " s";
-  if (reconnects > 0) out << " (" << reconnects << " reconnects)";
+  out << "scene " << scene_id << ": " << counted(tally.reports, "report") << " for "
+      << counted(trajectory.steps.size(), "update") << " in " << number(wall, 3) << " s";
+  if (reconnects > 0) out << " (" << counted(reconnects, "reconnect") << ")";
   out << "; round trip p50 " << number(percentile(tally.latencies_us, 0.5), 4) << " µs, p99 "
       << number(percentile(tally.latencies_us, 0.99), 4) << " µs\n";
   out << std::left << std::setw(24) << "pair" << std::setw(16) << "min distance" << std::setw(12)
@@ -391,10 +475,11 @@ void print_stream_summary(StreamTally& tally, const Trajectory& trajectory,
     if (s.intersecting_steps == 0)
       out << "never\n";
     else
-      out << s.intersecting_steps << " steps, first at t = " << number(s.first_hit) << "\n";
+      out << counted(s.intersecting_steps, "step") << ", first at t = " << number(s.first_hit)
+          << "\n";
   }
   if (!watched) return;
-  out << tally.events.size() << " threshold events\n";
+  out << counted(tally.events.size(), "threshold event") << "\n";
   for (const client::ThresholdEvent& e : tally.events) {
     out << "  t = " << std::left << std::setw(10) << number(step_time(trajectory, e.sequence))
         << (e.crossing == client::Crossing::enter ? "ENTER " : "EXIT  ")
@@ -616,9 +701,9 @@ void print_load_summary(LoadResult& result, const std::string& scene_id,
         << "\n";
     return;
   }
-  out << "scene " << scene_id << ": " << options.streams << " streams × " << options.window
-      << " in flight for " << number(options.duration_s, 3) << " s: " << count << " reports, "
-      << number(rate, 5) << " updates/s\n"
+  out << "scene " << scene_id << ": " << counted(options.streams, "stream") << " × "
+      << options.window << " in flight for " << number(options.duration_s, 3)
+      << " s: " << counted(count, "report") << ", " << number(rate, 5) << " updates/s\n"
       << "round-trip latency (push to report): p50 " << number(p50, 4) << " µs, p90 "
       << number(p90, 4) << " µs, p99 " << number(p99, 4) << " µs, max " << number(max, 4)
       << " µs\n";

@@ -32,6 +32,10 @@ struct HealthOptions {
 };
 int run_health(const HealthOptions& options, std::ostream& out, std::ostream& err);
 
+/// `nearpoint info`: the server's version, build options, transports and limits (GetServerInfo),
+/// as text or, with --json, one JSON object.
+int run_info(const RemoteOptions& remote, std::ostream& out, std::ostream& err);
+
 struct SceneCreateOptions {
   RemoteOptions remote;
   std::string file;

@@ -653,6 +653,17 @@ grpc::ServerUnaryReactor* DistanceServiceImpl::DeleteScene(grpc::CallbackServerC
       [this](const auto& call) { delete_scene(scenes_, *call); });
 }
 
+grpc::ServerUnaryReactor* DistanceServiceImpl::GetServerInfo(grpc::CallbackServerContext* context,
+                                                             const grpc::ByteBuffer* request,
+                                                             grpc::ByteBuffer* response) {
+  return serve_unary<v1::GetServerInfoRequest, v1::ServerInfo>(
+      calls_, context, "GetServerInfo", request, response, [this](const auto& call) {
+        call->response = server_info_;
+        call->response.mutable_transports()->set_grpc_port(std::uint32_t(port_.load()));
+        call->finish(grpc::Status::OK);
+      });
+}
+
 grpc::ServerUnaryReactor* DistanceServiceImpl::Query(grpc::CallbackServerContext* context,
                                                      const grpc::ByteBuffer* request,
                                                      grpc::ByteBuffer* response) {

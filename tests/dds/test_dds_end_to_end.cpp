@@ -65,9 +65,9 @@ std::vector<std::string> client_command(const std::string& scene, const std::str
   return {NEARPOINT_CLI_PATH,
           "stream",
           "--dds",
-          "--domain",
+          "--dds-domain",
           std::to_string(kDomainEndToEnd),
-          "--prefix",
+          "--dds-prefix",
           prefix,
           "--window",
           "4",
@@ -252,8 +252,8 @@ TEST(DdsEndToEnd, PureDdsClientStreamsToAPreloadedScene) {
       << server.stderr_text();
 
   const std::string trajectory = NEARPOINT_SOURCE_DIR "/examples/dds_trajectory.jsonl";
-  ChildProcess client({NEARPOINT_CLI_PATH, "stream", "--dds", "--domain",
-                       std::to_string(kDomainPreloaded), "--prefix", prefix, "dds-demo",
+  ChildProcess client({NEARPOINT_CLI_PATH, "stream", "--dds", "--dds-domain",
+                       std::to_string(kDomainPreloaded), "--dds-prefix", prefix, "dds-demo",
                        trajectory});
   ASSERT_TRUE(client.started());
   ASSERT_EQ(client.wait_exit(std::chrono::seconds(90)), 0) << client.stderr_text() << "\nserver:\n"
@@ -306,8 +306,8 @@ TEST(DdsEndToEnd, PureDdsClientStreamsToAPreloadedScene) {
   // The same path with --mode global and a threshold on the mover's pairs, over DDS: each
   // report holds one pair and names mode 4, and the events are exactly the rule applied to the
   // closed-form distances (ENTER below 0.3, EXIT above 0.3 + 0.1), each with its sequence.
-  ChildProcess watcher({NEARPOINT_CLI_PATH, "stream", "--dds", "--domain",
-                        std::to_string(kDomainPreloaded), "--prefix", prefix, "dds-demo",
+  ChildProcess watcher({NEARPOINT_CLI_PATH, "stream", "--dds", "--dds-domain",
+                        std::to_string(kDomainPreloaded), "--dds-prefix", prefix, "dds-demo",
                         trajectory, "--mode", "global", "--threshold",
                         "0.3,hysteresis=0.1,object=mover,name=near"});
   ASSERT_TRUE(watcher.started());

@@ -27,6 +27,12 @@ for pair in "$runtime:nearpoint" "$dev:nearpoint-dev"; do
     contents "$deb" | grep -qx "$doc/$file" || fail "$doc/$file not in $deb"
   done
 done
+# One version: the packages' is what the packaged nearpointd prints (project(VERSION) for both).
+version=$("$build/server/nearpointd" --version | awk '{print $2}')
+for deb in "$runtime" "$dev"; do
+  [[ "$(dpkg-deb -f "$deb" Version)" == "$version" ]] ||
+    fail "$deb has Version $(dpkg-deb -f "$deb" Version), nearpointd --version says $version"
+done
 depends=$(dpkg-deb -f "$runtime" Depends)
 echo "nearpoint Depends: $depends"
 for lib in libgrpc++ libprotobuf libc6; do

@@ -426,6 +426,10 @@ class Client:
         self._geometries[geometry_id] = geometry
         return geometry_id
 
+    def server_info(self):
+        """The server's `ServerInfo` message: version, build options, transports and limits."""
+        return self._call(self._stub.GetServerInfo, distance_pb.GetServerInfoRequest())
+
     def list_geometries(self) -> list:
         """Every stored geometry as a `GeometryInfo` message (id, name, counts, bounding sphere)."""
         response = self._call(self._stub.ListGeometries, distance_pb.ListGeometriesRequest())

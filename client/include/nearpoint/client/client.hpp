@@ -322,6 +322,32 @@ Status load_credentials(ClientOptions& options, const std::string& tls_ca_file,
                         const std::string& tls_cert_file, const std::string& tls_key_file,
                         const std::string& token_file);
 
+/// What a nearpointd is (nearpoint.v1.ServerInfo): its release, build, transports and limits.
+struct ServerInfo {
+  std::string version;  ///< "1.0.0", as `nearpointd --version` prints it
+  struct Build {
+    bool grpc = false, dds = false, metrics = false;  ///< compiled in
+  } build;
+  struct Transports {
+    std::string grpc_listen;  ///< --listen as given
+    std::uint32_t grpc_port = 0;
+    std::string tls;  ///< "off", "on" or "mutual"
+    bool token_required = false;
+    bool dds = false;  ///< serving pose streams over DDS
+    std::uint32_t dds_domain = 0;
+    std::string dds_prefix;
+    std::string metrics_listen;  ///< empty: none
+    std::uint32_t metrics_port = 0;
+  } transports;
+  struct Limits {
+    std::uint64_t max_geometries = 0, max_pieces_per_geometry = 0, max_vertices_per_geometry = 0,
+                  max_scenes = 0, max_objects_per_scene = 0, max_pairs_per_scene = 0,
+                  max_piece_pairs_per_scene = 0, max_streams = 0, max_in_flight_per_stream = 0,
+                  max_concurrent_queries = 0, max_message_bytes = 0;
+    std::uint32_t workers = 0;
+  } limits;
+};
+
 class Client {
  public:
   /// A client of the server at `target` ("host:port"). The connection is made lazily, on the
@@ -336,6 +362,8 @@ class Client {
   virtual Expected<GeometryInfo> register_geometry(const Geometry& geometry) = 0;
   virtual Status remove_geometry(const std::string& geometry_id) = 0;
   virtual Expected<std::vector<GeometryInfo>> list_geometries() = 0;
+  /// The server's version, build options, transports and limits (GetServerInfo).
+  virtual Expected<ServerInfo> server_info() = 0;
 
   /// Creates a scene whose objects name geometries by the ids register_geometry returned (or ids
   /// of geometries registered by others). Remembered for replay, like geometries. The scene's id
