@@ -23,6 +23,9 @@ install(FILES ${PROJECT_SOURCE_DIR}/deploy/cyclonedds-loopback.xml
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint COMPONENT runtime)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/examples COMPONENT runtime)
+# The JSON Schema of the reports `nearpoint query|stream --json` print (gRPC and DDS alike).
+install(FILES ${PROJECT_SOURCE_DIR}/client/schema/report.schema.json
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/schema COMPONENT runtime)
 
 # ---- licence (both components) ----
 # Apache-2.0 (LICENSE, NOTICE), the third-party notices, and a copyright file in Debian's

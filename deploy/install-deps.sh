@@ -39,6 +39,8 @@ test_packages=(
   python3-grpcio python3-protobuf
   # TLS tests (a throw-away CA made with openssl) and the deploy/k8s check (yamllint, PyYAML)
   openssl yamllint python3-yaml
+  # the CLI's JSON reports are validated against client/schema/report.schema.json
+  python3-jsonschema
   # the container image's test (deploy/test-container.sh): podman builds and runs the image
   # (buildah's engine inside; runc as the runtime, no daemon), debootstrap makes its local base
   # image, uidmap/slirp4netns/fuse-overlayfs are what podman needs beside them on Debian 12

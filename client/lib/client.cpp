@@ -277,6 +277,23 @@ class ClientImpl final : public Client, public detail::SessionHost {
     return from_grpc(status);
   }
 
+  Expected<std::vector<SceneSummary>> list_scenes() override {
+    v1::ListScenesResponse response;
+    const grpc::Status status =
+        stub_->ListScenes(context().get(), v1::ListScenesRequest{}, &response);
+    if (!status.ok()) return from_grpc(status);
+    std::vector<SceneSummary> out;
+    for (const v1::SceneSummary& scene : response.scenes()) {
+      SceneSummary& summary = out.emplace_back();
+      summary.scene_id = scene.scene_id();
+      summary.name = scene.name();
+      summary.pair_count = scene.pair_count();
+      for (const v1::SceneObject& object : scene.objects())
+        summary.objects.push_back(detail::from_proto(object));
+    }
+    return out;
+  }
+
   Expected<Report> query(const std::string& scene_id, const std::vector<ObjectPose>& poses,
                          const QueryOptions& options) override {
     v1::QueryRequest request;

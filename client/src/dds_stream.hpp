@@ -101,14 +101,11 @@ inline constexpr int kStreamBadConfiguration = model::kExitUsage;  ///< no scene
 inline constexpr int kStreamCannotRun = model::kExitUnavailable;  ///< no server matched, DDS failed
 
 /// Publishes one PoseUpdate_ per trajectory step (sequence numbers 1, 2, …) and writes one JSON
-/// line per report to `out`:
-///   {"sequence": n, "status": "ok", "pairs": [{"object_a", "object_b", "status", "distance",
-///    "distance_lower_bound", "error_bound", "iterations", "warm_started", ["point_a", "point_b",
-///    "normal"], ["penetration_bound"]}...], "coalesced_updates": k, "coalesced_from_sequence": s,
-///    "server_us": t, "round_trip_us": t, "report_mode": m, ["events": [{"threshold",
-///    "threshold_index", "object_a", "object_b", "crossing": "enter"|"exit", "distance",
-///    "sequence"}...]]}
-///   {"sequence": n, "status": "error", "code": "not_found", "field": "scene_id", "message": "…"}
+/// line per report to `out`, in the schema of every report the CLI prints, over gRPC as well
+/// (client/schema/report.schema.json): "sequence", "status" ("ok" or "error"), then either the
+/// pairs (each with distance, distance_lower_bound and error_bound), events, coalescing, counts
+/// and server timings (*_us), or "error": {"code", "field", "message"}; plus the step's "t" and,
+/// for ok reports, "round_trip_us".
 /// Checks that every update is answered exactly once — by its report, an error report, or as
 /// merged into a later report (coalesced_from_sequence) — and that reports come in sequence
 /// order; problems and a summary go to `err`.

@@ -20,6 +20,7 @@
 #include "distance_command.hpp"
 #ifdef NEARPOINT_WITH_REMOTE
 #include "demo.hpp"
+#include "manage_commands.hpp"
 #include "remote_commands.hpp"
 #endif
 #include "nearpoint/model/exit_codes.hpp"
@@ -343,6 +344,13 @@ Example:
   create->callback([options, &exit_code] {
     exit_code = nearpoint::cli::run_scene_create(*options, std::cout, std::cerr);
   });
+  nearpoint::cli::add_scene_management(*scene, exit_code, add_remote_options, kRemoteExitCodes);
+}
+
+void add_keep_scene_flag(CLI::App& command, bool& keep_scene) {
+  command.add_flag("--keep-scene", keep_scene,
+                   "Keep the scene this command creates (printed on stderr) instead of deleting "
+                   "it when the command ends");
 }
 
 void add_report_mode_options(CLI::App& command, nearpoint::cli::ReportModeFlags& flags) {
@@ -375,7 +383,11 @@ void add_query_subcommand(CLI::App& app, int& exit_code) {
                       "none | bound (d⁻, a certified lower bound on the penetration depth)");
   add_report_mode_options(*command, options->report);
   add_remote_options(*command, options->remote);
+  add_keep_scene_flag(*command, options->keep_scene);
   command->footer(std::string(R"(
+A scene file is created on the server for this query and deleted afterwards (--keep-scene keeps
+it). Output with --json: one report (client/schema/report.schema.json) with "scene_id".
+
 Examples:
   nearpoint query examples/scene.json --pose gripper=0.2,0,0.5
   nearpoint query cell-1 --pose gripper=0,0,0.3,0.7071,0,0,0.7071 --near-points --json
@@ -413,6 +425,7 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
       "[,name=N]; reports carry ENTER when a pair comes closer than D, EXIT when it gets "
       "farther than D + H (--cutoff must be at least D + H)");
   add_remote_options(*command, options->remote);
+  add_keep_scene_flag(*command, options->keep_scene);
 #if NEARPOINT_HAVE_DDS
   command->add_flag("--dds", *use_dds, "Stream over DDS (nearpointd --dds) instead of gRPC");
   add_dds_stream_options(*command, *dds);
@@ -423,7 +436,10 @@ TRAJECTORY, one of:
   JSON Lines: {"t": 0.0, "poses": {"OBJ": {"rotation": [w,x,y,z], "translation": [x,y,z]}}}
 Objects not listed at a step keep their previous pose.
 
-Output: with --json one JSON object per report (JSON Lines, in order, with the step's "t");
+A scene file is created on the server for this stream and deleted when it ends, also on Ctrl-C
+(SIGINT/SIGTERM: exit 130/143 once the updates in flight are answered); --keep-scene keeps it.
+Output: with --json one JSON object per report (JSON Lines, in order, with the step's "t"; the
+schema is client/schema/report.schema.json, the same over --dds);
 otherwise a progress line on stderr (a terminal) and a summary per pair (minimum distance and when, steps in
 contact) with the round-trip latency, and with --threshold every ENTER/EXIT event (in JSON:
 "events" of each report, each with the sequence of the update that crossed). A dropped
@@ -494,7 +510,10 @@ void add_load_subcommand(CLI::App& app, int& exit_code) {
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
   add_remote_options(*command, options->remote);
+  add_keep_scene_flag(*command, options->keep_scene);
   command->footer(std::string(R"(
+The scene it creates (the demo scene, or SCENE when it is a file) is deleted at the end, also on
+Ctrl-C (exit 130/143); --keep-scene keeps it.
 Prints a progress line on stderr while it runs (when stderr is a terminal), then the number of reports, updates/s and the
 push-to-report latency p50/p90/p99/max over all streams.
 
@@ -523,7 +542,10 @@ void add_demo_subcommand(CLI::App& app, int& exit_code) {
                       "SVG of the distance curves (default demo.svg in the working directory, "
                       "else in the temporary directory; - for none)");
   command->add_flag("--json", options->json, "Machine-readable output (JSON)");
+  add_keep_scene_flag(*command, options->keep_scene);
   command->footer(std::string(R"(
+With --target the demo scene is deleted from that server at the end (also on Ctrl-C: exit
+130/143) unless --keep-scene.
 A moving object made of two convex pieces passes five obstacles along a straight line, turning by
 a slerp (the paper's Fig. 5; the same scene as bench's Table I). The path is streamed twice to the
 server, with warm starts and with single-point starts. Printed per obstacle: the minimum distance
@@ -591,6 +613,7 @@ int main(int argc, char** argv) {
     add_health_subcommand(app, exit_code);
     add_info_subcommand(app, exit_code);
     add_scene_subcommand(app, exit_code);
+    nearpoint::cli::add_geometry_subcommand(app, exit_code, add_remote_options, kRemoteExitCodes);
     add_query_subcommand(app, exit_code);
     add_stream_subcommand(app, exit_code);
     add_load_subcommand(app, exit_code);

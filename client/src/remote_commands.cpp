@@ -15,6 +15,7 @@
 #include "demo.hpp"
 #include "local_server.hpp"
 #include "nearpoint/model/vocabulary.hpp"
+#include "scene_lease.hpp"
 #include "trajectory.hpp"
 
 namespace nearpoint::cli {
@@ -27,21 +28,6 @@ std::string counted(std::uint64_t n, const std::string& noun) {
   return std::to_string(n) + " " + noun + (n == 1 ? "" : "s");
 }
 
-/// A client with the --tls-* and --token-file files loaded, or nullptr (the reason printed to
-/// `err`) when one cannot be read.
-std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err) {
-  client::ClientOptions options;
-  options.call_timeout = remote.timeout;
-  options.tls_server_name = remote.tls_server_name;
-  const client::Status loaded = client::load_credentials(options, remote.tls_ca, remote.tls_cert,
-                                                         remote.tls_key, remote.token_file);
-  if (!loaded.ok()) {
-    err << "nearpoint: " << loaded.message << "\n";
-    return nullptr;
-  }
-  return client::Client::connect(remote.target, options);
-}
-
 bool is_mesh_file(const std::filesystem::path& file) {
   std::string extension = file.extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(),
@@ -49,14 +35,27 @@ bool is_mesh_file(const std::filesystem::path& file) {
   return extension == ".obj" || extension == ".stl" || extension == ".off" || extension == ".ply";
 }
 
+// True when the server already holds `scene_id` (false when it cannot tell, e.g. a server
+// without ListScenes).
+bool scene_exists(client::Client& client, const std::string& scene_id) {
+  auto scenes = client.list_scenes();
+  return scenes && std::any_of(scenes->begin(), scenes->end(), [&](const client::SceneSummary& s) {
+           return s.scene_id == scene_id;
+         });
+}
+
 // Registers a scene file's geometries and creates its scene. Returns the exit code (0 on success).
+// `existed`: the file names a scene id the server held already (CreateScene then answers the
+// same request again idempotently): the caller must not delete it as its own.
 int create_scene_from_file(client::Client& client, const std::string& path, std::ostream& err,
-                           client::SceneInfo& created) {
+                           client::SceneInfo& created, bool* existed = nullptr) {
   formats::SceneFile file;
   if (std::string error = formats::load_scene_file(path, mesh_loader(), file); !error.empty()) {
     err << "nearpoint: " << error << "\n";
     return kExitBadInput;
   }
+  if (existed != nullptr)
+    *existed = !file.scene.requested_id.empty() && scene_exists(client, file.scene.requested_id);
   std::map<std::string, std::string> ids;
   for (const auto& [name, geometry] : file.geometries) {
     auto info = client.register_geometry(geometry);
@@ -79,14 +78,19 @@ int create_scene_from_file(client::Client& client, const std::string& path, std:
   return 0;
 }
 
-// A scene argument: an existing file is created first; anything else is a scene id.
+// A scene argument: an existing file is created first (`created` set: the caller owns it);
+// anything else is a scene id.
 int resolve_scene(client::Client& client, const std::string& scene, std::ostream& err,
-                  std::string& scene_id) {
+                  std::string& scene_id, bool& created) {
+  created = false;
   std::error_code ignored;
   if (std::filesystem::is_regular_file(scene, ignored)) {
-    client::SceneInfo created;
-    if (int code = create_scene_from_file(client, scene, err, created); code != 0) return code;
-    scene_id = created.scene_id;
+    client::SceneInfo info;
+    bool existed = false;
+    if (int code = create_scene_from_file(client, scene, err, info, &existed); code != 0)
+      return code;
+    scene_id = info.scene_id;
+    created = !existed;
     return 0;
   }
   scene_id = scene;
@@ -145,6 +149,11 @@ void print_pairs(const client::Report& report, std::ostream& out) {
       out << "  A " << point(p.near_points->point_a) << "  B " << point(p.near_points->point_b);
     out << "\n";
   }
+}
+
+/// Push (or query) to report, client side, microseconds.
+double round_trip_us(const client::Report& report) {
+  return std::chrono::duration<double, std::micro>(report.received - report.sent).count();
 }
 
 double percentile(std::vector<double>& values, double q) {
@@ -360,8 +369,12 @@ int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostrea
     return kExitBadInput;
   auto client = connect(options.remote, err);
   if (!client) return kExitBadInput;
+  install_interrupt_handlers();
   std::string scene_id;
-  if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) return code;
+  bool created = false;
+  if (int code = resolve_scene(*client, options.scene, err, scene_id, created); code != 0)
+    return code;
+  SceneLease lease(*client, scene_id, created, options.keep_scene, "nearpoint query", err);
   auto report = client->query(scene_id, poses, query_options);
   if (!report) {
     err << "nearpoint query: " << report.status().describe() << "\n";
@@ -369,6 +382,7 @@ int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostrea
   }
   if (options.remote.json) {
     Json json = to_json(*report);
+    json["round_trip_us"] = round_trip_us(*report);
     json["scene_id"] = scene_id;
     out << json.dump() << "\n";
   } else {
@@ -376,7 +390,8 @@ int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostrea
         << number(report->timing.server_us, 4) << " µs on the server\n";
     print_pairs(*report, out);
   }
-  return 0;
+  lease.release();
+  return interrupt_signal() != 0 ? interrupted_exit_code() : 0;
 }
 
 // ---- stream: parse → run → print ----
@@ -496,8 +511,13 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
   if (!parse_stream(options, trajectory, session_options, err)) return kExitBadInput;
   auto client = connect(options.remote, err);
   if (!client) return kExitBadInput;
+  install_interrupt_handlers();
   std::string scene_id;
-  if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) return code;
+  bool created = false;
+  if (int code = resolve_scene(*client, options.scene, err, scene_id, created); code != 0)
+    return code;
+  // Declared before the session: the stream is closed before the scene is deleted.
+  SceneLease lease(*client, scene_id, created, options.keep_scene, "nearpoint stream", err);
 
   // Run: every step pushed (the window bounds what is in flight), each report tallied as it comes.
   std::mutex mutex;
@@ -510,6 +530,7 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
     if (options.remote.json) {
       Json json = to_json(report);
       json["t"] = time;
+      if (report.error.ok()) json["round_trip_us"] = round_trip_us(report);
       out << json.dump() << "\n";
     }
     if (!tally.add(report, time)) return;
@@ -526,6 +547,8 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
     return exit_code_for(session.status());
   }
   for (const TrajectoryStep& step : trajectory.steps) {
+    // Ctrl-C: stop sending; the updates in flight are still answered (and printed) by close().
+    if (interrupt_signal() != 0) break;
     std::vector<client::ObjectPose> poses;
     for (const ObjectPose& pose : step.poses) poses.push_back(to_object_pose(pose));
     auto pushed = (*session)->push(poses, Clock::now() + options.remote.timeout);
@@ -546,6 +569,11 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
   if (!tally.first_error.empty())
     err << "nearpoint stream: " << tally.errors
         << " updates rejected; the first: " << tally.first_error << "\n";
+  if (interrupt_signal() != 0) {
+    err << "nearpoint stream: interrupted after " << tally.reports << " of "
+        << trajectory.steps.size() << " updates\n";
+    return interrupted_exit_code();  // the session ends before the lease deletes the scene
+  }
   if (!closed.ok()) {
     err << "nearpoint stream: " << closed.describe() << "\n";
     return exit_code_for(closed);
@@ -639,7 +667,7 @@ LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
       }
       // Streams start at different points of the path, so they do not run in lock step.
       std::size_t step = std::size_t(k) * path.size() / std::size_t(options.streams);
-      while (Clock::now() < stop_at) {
+      while (Clock::now() < stop_at && interrupt_signal() == 0) {
         auto pushed =
             (*session)->push(path[step % path.size()], stop_at + std::chrono::seconds(10));
         if (!pushed) {
@@ -658,7 +686,7 @@ LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
   }
   // The progress line, until the streams are done.
   if (options.progress_every > 0) {
-    while (Clock::now() < stop_at) {
+    while (Clock::now() < stop_at && interrupt_signal() == 0) {
       std::this_thread::sleep_for(
           std::min(std::chrono::duration_cast<Clock::duration>(
                        std::chrono::duration<double>(options.progress_every)),
@@ -716,19 +744,28 @@ int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream&
   if (!parse_load(options, path, err)) return kExitBadInput;
   auto client = connect(options.remote, err);
   if (!client) return kExitBadInput;
+  install_interrupt_handlers();
   std::string scene_id;
+  bool created = false;
   if (options.scene.empty()) {
-    auto created = create_demo_scene(*client);
-    if (!created) {
-      err << "nearpoint load: " << options.remote.target << ": " << created.status().describe()
+    auto demo = create_demo_scene(*client);
+    if (!demo) {
+      err << "nearpoint load: " << options.remote.target << ": " << demo.status().describe()
           << "\n";
-      return exit_code_for(created.status());
+      return exit_code_for(demo.status());
     }
-    scene_id = *created;
-  } else if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) {
+    scene_id = *demo;
+    created = true;
+  } else if (int code = resolve_scene(*client, options.scene, err, scene_id, created); code != 0) {
     return code;
   }
+  SceneLease lease(*client, scene_id, created, options.keep_scene, "nearpoint load", err);
   LoadResult result = run_load_streams(*client, scene_id, path, options, err);
+  lease.release();
+  if (interrupt_signal() != 0) {
+    err << "nearpoint load: interrupted\n";
+    return interrupted_exit_code();
+  }
   print_load_summary(result, scene_id, options, out);
   if (result.errors > 0) {
     err << "nearpoint load: " << result.errors << " errors; the first: " << result.first_error

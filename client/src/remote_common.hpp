@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <iosfwd>
+#include <memory>
 #include <string>
 
 #include "json_shapes.hpp"
@@ -39,6 +40,10 @@ struct RemoteOptions {
   std::string tls_key;
   std::string token_file;
 };
+
+/// A client with the --tls-* and --token-file files loaded, or nullptr (the reason printed to
+/// `err`) when one cannot be read.
+std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err);
 
 /// Mesh files → convex pieces (nearpoint_mesh_import), or an error when built without it.
 formats::MeshLoader mesh_loader();

@@ -58,10 +58,11 @@ using RawDistanceService = v1::DistanceService::WithRawCallbackMethod_RegisterGe
         v1::DistanceService::WithRawCallbackMethod_ListGeometries<
             v1::DistanceService::WithRawCallbackMethod_CreateScene<
                 v1::DistanceService::WithRawCallbackMethod_DeleteScene<
-                    v1::DistanceService::WithRawCallbackMethod_Query<
-                        v1::DistanceService::WithRawCallbackMethod_StreamPoses<
-                            v1::DistanceService::WithRawCallbackMethod_GetServerInfo<
-                                v1::DistanceService::Service>>>>>>>>;
+                    v1::DistanceService::WithRawCallbackMethod_ListScenes<
+                        v1::DistanceService::WithRawCallbackMethod_Query<
+                            v1::DistanceService::WithRawCallbackMethod_StreamPoses<
+                                v1::DistanceService::WithRawCallbackMethod_GetServerInfo<
+                                    v1::DistanceService::Service>>>>>>>>>;
 
 class DistanceServiceImpl final : public RawDistanceService {
  public:
@@ -87,6 +88,9 @@ class DistanceServiceImpl final : public RawDistanceService {
   grpc::ServerUnaryReactor* DeleteScene(grpc::CallbackServerContext* context,
                                         const grpc::ByteBuffer* request,
                                         grpc::ByteBuffer* response) override;
+  grpc::ServerUnaryReactor* ListScenes(grpc::CallbackServerContext* context,
+                                       const grpc::ByteBuffer* request,
+                                       grpc::ByteBuffer* response) override;
   grpc::ServerUnaryReactor* Query(grpc::CallbackServerContext* context,
                                   const grpc::ByteBuffer* request,
                                   grpc::ByteBuffer* response) override;

@@ -866,7 +866,9 @@ TEST_F(WithServer, SceneCreateQueryAndStreamAgreeWithGeometry) {
   query.remote = remote();
   query.scene = (kSource / "examples/scene.json").string();  // created on the fly
   query.poses = {"gripper=0,0,0.3"};
+  query.keep_scene = true;  // kept: the idempotent re-create below needs it on the server
   ASSERT_EQ(run_query(query, out, err), 0) << err.str();
+  EXPECT_NE(err.str().find("kept scene cell-1"), std::string::npos) << err.str();
   Json report = parse_json(out.str());
   EXPECT_EQ(report["scene_id"], "cell-1");
   ASSERT_EQ(report["pairs"].size(), 3u);

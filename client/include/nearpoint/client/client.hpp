@@ -112,6 +112,15 @@ using ReportCounts = model::ReportCounts;
 using Threshold = model::ThresholdInput;
 using SceneInfo = model::SceneInfo;
 
+/// One live scene on the server (nearpoint.v1.SceneSummary): its objects as created (body names
+/// are not kept by the server and come back empty).
+struct SceneSummary {
+  std::string scene_id;
+  std::string name;
+  std::size_t pair_count = 0;
+  std::vector<SceneObject> objects;
+};
+
 /// Conversions between Eigen poses and the plain structs' (w, x, y, z) + translation.
 model::PoseInput to_pose_input(const Eigen::Isometry3d& pose);
 model::PoseInput to_pose_input(const Eigen::Quaterniond& rotation,
@@ -374,6 +383,8 @@ class Client {
   /// is whole on whichever replica holds it.
   virtual Expected<SceneInfo> create_scene(const Scene& scene) = 0;
   virtual Status delete_scene(const std::string& scene_id) = 0;
+  /// The server's live scenes, ordered by id (behind a sharding proxy: one replica's).
+  virtual Expected<std::vector<SceneSummary>> list_scenes() = 0;
 
   /// One-shot distances at the given poses (objects not listed are at their initial pose). For a
   /// scene this client created, NOT_FOUND for the scene (a restarted server, or a sharding proxy

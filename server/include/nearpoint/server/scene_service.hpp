@@ -237,6 +237,8 @@ class SceneService {
   Outcome delete_scene(const std::string& scene_id);
   /// The live scene, or nullptr.
   std::shared_ptr<Scene> find_scene(const std::string& scene_id) const;
+  /// Every live scene's definition, ordered by scene id (ListScenes; `nearpoint scene list`).
+  std::vector<std::shared_ptr<const SceneDefinition>> list_scenes() const;
 
   /// Validates the query now (the error, if any, is returned and `done` is never called) and
   /// evaluates it on the pool; `done` runs exactly once, on a pool thread.
