@@ -14,6 +14,7 @@
 
 #include "demo.hpp"
 #include "local_server.hpp"
+#include "nearpoint/model/percentile.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 #include "trajectory.hpp"
 
@@ -21,6 +22,7 @@ namespace nearpoint::cli {
 namespace {
 
 using client::Clock;
+using model::percentile;
 
 /// A client with the --tls-* and --token-file files loaded, or nullptr (the reason printed to
 /// `err`) when one cannot be read.
@@ -140,14 +142,6 @@ void print_pairs(const client::Report& report, std::ostream& out) {
       out << "  A " << point(p.near_points->point_a) << "  B " << point(p.near_points->point_b);
     out << "\n";
   }
-}
-
-double percentile(std::vector<double>& values, double q) {
-  if (values.empty()) return 0;
-  const std::size_t k =
-      std::min(values.size() - 1, std::size_t(q * double(values.size() - 1) + 0.5));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
-  return values[k];
 }
 
 client::ObjectPose to_object_pose(const ObjectPose& pose) {
