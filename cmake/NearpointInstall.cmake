@@ -23,6 +23,8 @@ install(FILES ${PROJECT_SOURCE_DIR}/deploy/cyclonedds-loopback.xml
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint COMPONENT runtime)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/examples COMPONENT runtime)
+# nearpoint(1) and nearpointd(1), from their --help (help2man).
+include(${CMAKE_CURRENT_LIST_DIR}/NearpointManPages.cmake)
 
 # ---- licence (both components) ----
 # Apache-2.0 (LICENSE, NOTICE), the third-party notices, and a copyright file in Debian's
