@@ -26,6 +26,8 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/
 # The JSON Schema of the reports `nearpoint query|stream --json` print (gRPC and DDS alike).
 install(FILES ${PROJECT_SOURCE_DIR}/client/schema/report.schema.json
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/schema COMPONENT runtime)
+# nearpoint(1) and nearpointd(1), from their --help (help2man).
+include(${CMAKE_CURRENT_LIST_DIR}/NearpointManPages.cmake)
 
 # ---- licence (both components) ----
 # Apache-2.0 (LICENSE, NOTICE), the third-party notices, and a copyright file in Debian's

@@ -27,6 +27,11 @@ build_packages=(
   prometheus-cpp-dev
   # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged)
   cyclonedds-dev cyclonedds-tools
+  # server: SHA-256 of content ids (libcrypto; gRPC's TLS links it too)
+  libssl-dev
+  # the man pages of nearpoint and nearpointd, made from their --help at build time (optional:
+  # without it the build leaves them out, saying so)
+  help2man
 )
 # The tests, the fuzz targets and the tools CI runs, on top of the build's.
 test_packages=(

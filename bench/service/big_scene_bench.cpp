@@ -41,6 +41,7 @@
 #include <vector>
 
 #include "bench_scene.hpp"
+#include "nearpoint/model/percentile.hpp"
 #include "nearpoint/server/scene_service.hpp"
 #include "proto_convert.hpp"
 
@@ -49,6 +50,7 @@ namespace {
 using namespace nearpoint::server;
 namespace model = nearpoint::model;
 using Vec3 = Eigen::Vector3d;
+using nearpoint::model::percentile;
 
 struct Settings {
   std::vector<std::size_t> sizes{100, 1000};
@@ -135,13 +137,6 @@ Sample sample(const Report& report) {
   to_proto(report, message);
   return Sample{report.timing.server_us, report.counts, report.scene->pairs.size(),
                 report.pairs.size(), message.ByteSizeLong()};
-}
-
-double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  const std::size_t index = std::min(values.size() - 1, std::size_t(q * double(values.size())));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(index), values.end());
-  return values[index];
 }
 
 Row summarise(const std::vector<Sample>& reports) {

@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "nearpoint/model/percentile.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 
 namespace nearpoint::cli {
@@ -20,6 +21,7 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 using Clock = std::chrono::steady_clock;
+using model::percentile;
 
 dds_duration_t to_dds(Clock::duration d) {
   return std::max<dds_duration_t>(0,
@@ -94,13 +96,6 @@ Json report_json(const DistanceReportSample& report) {
   out["evaluation_us"] = report.timing.evaluation_us;
   out["geometry_us"] = report.timing.geometry_us;
   return out;
-}
-
-double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  const std::size_t index = std::min(values.size() - 1, std::size_t(q * double(values.size())));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(index), values.end());
-  return values[index];
 }
 
 }  // namespace

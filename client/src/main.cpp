@@ -309,7 +309,7 @@ a SHAPE, an array of SHAPEs, or {"name": "...", "pieces": [SHAPE, ...]} (SHAPE a
 `nearpoint distance --help`). Prints the geometry id the server assigned.
 
 Examples:
-  nearpoint register tests/data/cube.obj
+  nearpoint register examples/cube.obj
   nearpoint register --json gripper.json
   nearpoint register part-1.stl part-2.stl --name bracket
 )") + kRemoteExitCodes);

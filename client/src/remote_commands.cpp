@@ -14,6 +14,7 @@
 
 #include "demo.hpp"
 #include "local_server.hpp"
+#include "nearpoint/model/percentile.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 #include "scene_lease.hpp"
 #include "trajectory.hpp"
@@ -22,6 +23,7 @@ namespace nearpoint::cli {
 namespace {
 
 using client::Clock;
+using model::percentile;
 
 /// "1 pair", "2 pairs": a count and its noun, singular for one.
 std::string counted(std::uint64_t n, const std::string& noun) {
@@ -154,14 +156,6 @@ void print_pairs(const client::Report& report, std::ostream& out) {
 /// Push (or query) to report, client side, microseconds.
 double round_trip_us(const client::Report& report) {
   return std::chrono::duration<double, std::micro>(report.received - report.sent).count();
-}
-
-double percentile(std::vector<double>& values, double q) {
-  if (values.empty()) return 0;
-  const std::size_t k =
-      std::min(values.size() - 1, std::size_t(q * double(values.size() - 1) + 0.5));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
-  return values[k];
 }
 
 client::ObjectPose to_object_pose(const ObjectPose& pose) {

@@ -888,10 +888,10 @@ TEST_F(WithServer, SceneCreateQueryAndStreamAgreeWithGeometry) {
     std::ifstream in(query.scene);
     text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   }
-  const std::string mesh = "\"../tests/data/cube.obj\"";
+  const std::string mesh = "\"cube.obj\"";  // beside the scene file
   ASSERT_NE(text.find(mesh), std::string::npos);
   text.replace(text.find(mesh), mesh.size(),
-               "\"" + (kSource / "tests/data/cube.obj").string() + "\"");
+               "\"" + (kSource / "examples/cube.obj").string() + "\"");
   const std::string pose = "[0.6, 0.3, 0]";
   ASSERT_NE(text.find(pose), std::string::npos);
   text.replace(text.find(pose), pose.size(), "[0.7, 0.3, 0]");
