@@ -9,10 +9,10 @@
 #                           bench/results/ and bench/RESULTS.md
 #   bench/run.sh --quick    smoke test: small samples, few rounds, into build-bench/quick-results/
 #                           (bench/results/ and bench/RESULTS.md are left alone)
-#   bench/run.sh --peers DIR  where the openGJK / coal snapshots are (bench/README.md, "Peers");
-#                           also NEARPOINT_PEERS_DIR. Default: ../shared/peers beside the repository,
-#                           or beside the main worktree when this is a `git worktree`. They are
-#                           built once into the build tree; a missing one is named and left out.
+#   bench/run.sh --peers DIR  where the openGJK / coal snapshots are (bench/README.md, "Peers
+#                           built from source"); also NEARPOINT_PEERS_DIR. No default: without
+#                           either, openGJK and coal are left out, saying so, and the rest runs.
+#                           They are built once into the build tree; a missing one is named.
 #
 # Environment: BUILD_DIR (default build-bench), JOBS (build parallelism, default 1: the machine is
 # shared), PYTHON (default /usr/bin/python3, which needs python3-matplotlib: deploy/install-deps.sh
@@ -36,20 +36,21 @@ while [ $# -gt 0 ]; do
   shift
 done
 if [ -z "$peers" ]; then
-  peers="$root/../shared/peers"
-  # In a linked worktree the snapshots sit beside the main one.
-  common="$(git rev-parse --path-format=absolute --git-common-dir 2>/dev/null || true)"
-  if [ ! -d "$peers" ] && [ -n "$common" ] && [ -d "$(dirname "$common")/../shared/peers" ]; then
-    peers="$(dirname "$common")/../shared/peers"
-  fi
+  echo "bench/run.sh: no peers folder given (--peers DIR or NEARPOINT_PEERS_DIR): the bench runs" \
+       "without openGJK and coal (bench/README.md, \"Peers built from source\", says how to make" \
+       "their snapshots)" >&2
+elif [ ! -d "$peers" ]; then
+  echo "bench/run.sh: the peers folder $peers does not exist (--peers / NEARPOINT_PEERS_DIR)" >&2
+  exit 2
+else
+  peers="$(cd "$peers" && pwd)"
+  for snapshot in openGJK coal jrl-cmakemodules; do
+    if ! compgen -G "$peers/$snapshot-*.tar.gz" >/dev/null; then
+      echo "bench/run.sh: no $snapshot snapshot in $peers: the bench runs without" \
+           "$([ "$snapshot" = openGJK ] && echo openGJK || echo coal) (see --peers)" >&2
+    fi
+  done
 fi
-peers="$(cd "$peers" 2>/dev/null && pwd || echo "$peers")"
-for snapshot in openGJK coal jrl-cmakemodules; do
-  if ! compgen -G "$peers/$snapshot-*.tar.gz" >/dev/null; then
-    echo "bench/run.sh: no $snapshot snapshot in $peers: the bench runs without" \
-         "$([ "$snapshot" = openGJK ] && echo openGJK || echo coal) (see --peers)" >&2
-  fi
-done
 
 build="${BUILD_DIR:-build-bench}"
 jobs="${JOBS:-1}"

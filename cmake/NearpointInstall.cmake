@@ -23,6 +23,11 @@ install(FILES ${PROJECT_SOURCE_DIR}/deploy/cyclonedds-loopback.xml
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint COMPONENT runtime)
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/examples COMPONENT runtime)
+# The JSON Schema of the reports `nearpoint query|stream --json` print (gRPC and DDS alike).
+install(FILES ${PROJECT_SOURCE_DIR}/client/schema/report.schema.json
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/schema COMPONENT runtime)
+# nearpoint(1) and nearpointd(1), from their --help (help2man).
+include(${CMAKE_CURRENT_LIST_DIR}/NearpointManPages.cmake)
 
 # ---- licence (both components) ----
 # Apache-2.0 (LICENSE, NOTICE), the third-party notices, and a copyright file in Debian's
@@ -53,6 +58,8 @@ install(TARGETS nearpoint_core nearpoint_warnings EXPORT nearpoint-core-targets
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/core/include/nearpoint
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR} COMPONENT dev)
+install(FILES ${PROJECT_BINARY_DIR}/generated/include/nearpoint/version.hpp
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/nearpoint COMPONENT dev)
 install(EXPORT nearpoint-core-targets NAMESPACE nearpoint:: DESTINATION ${NEARPOINT_INSTALL_CMAKEDIR}
         COMPONENT dev)
 

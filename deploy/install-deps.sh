@@ -27,6 +27,11 @@ build_packages=(
   prometheus-cpp-dev
   # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged)
   cyclonedds-dev cyclonedds-tools
+  # server: SHA-256 of content ids (libcrypto; gRPC's TLS links it too)
+  libssl-dev
+  # the man pages of nearpoint and nearpointd, made from their --help at build time (optional:
+  # without it the build leaves them out, saying so)
+  help2man
 )
 # The tests, the fuzz targets and the tools CI runs, on top of the build's.
 test_packages=(
@@ -39,6 +44,8 @@ test_packages=(
   python3-grpcio python3-protobuf
   # TLS tests (a throw-away CA made with openssl) and the deploy/k8s check (yamllint, PyYAML)
   openssl yamllint python3-yaml
+  # the CLI's JSON reports are validated against client/schema/report.schema.json
+  python3-jsonschema
   # the container image's test (deploy/test-container.sh): podman builds and runs the image
   # (buildah's engine inside; runc as the runtime, no daemon), debootstrap makes its local base
   # image, uidmap/slirp4netns/fuse-overlayfs are what podman needs beside them on Debian 12

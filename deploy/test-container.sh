@@ -99,8 +99,11 @@ fi
 say "podman build -f deploy/Containerfile -t $image (BASE=$base)"
 build_start=$SECONDS
 previous="$(podman image inspect --format '{{.Id}}' "$image" 2>/dev/null || true)"
+# The image's version label: project(nearpoint VERSION ...) in CMakeLists.txt, the one place it is
+# written (nearpointd --version prints the same).
+version="$(sed -n 's/^project(nearpoint VERSION \([0-9.]*\).*/\1/p' "$root/CMakeLists.txt")"
 if ! podman build --format docker --network host --build-arg "BASE=$base" \
-       --build-arg "JOBS=${JOBS:-2}" -f "$root/deploy/Containerfile" -t "$image" "$root" \
+       --build-arg "JOBS=${JOBS:-2}" --build-arg "VERSION=$version" -f "$root/deploy/Containerfile" -t "$image" "$root" \
        >"$work/build.log" 2>&1; then
   tail -n 40 "$work/build.log"
   echo "FAIL: the image did not build (log above)"

@@ -7,9 +7,24 @@
 # Sets NEARPOINT_BENCH_HAVE_OPENGJK / NEARPOINT_BENCH_HAVE_COAL and defines the targets
 # nearpoint_bench_opengjk / nearpoint_bench_coal when present.
 
-set(NEARPOINT_PEERS_DIR "${PROJECT_SOURCE_DIR}/../shared/peers"
+# No default: the snapshots are not part of the repository, so their folder is named explicitly
+# (-DNEARPOINT_PEERS_DIR=DIR, or the environment variable of the same name at first configure).
+set(NEARPOINT_PEERS_DIR "$ENV{NEARPOINT_PEERS_DIR}"
     CACHE PATH "Folder with the openGJK / coal / jrl-cmakemodules snapshots (bench peers)")
+set(NEARPOINT_BENCH_HAVE_OPENGJK OFF)
+set(NEARPOINT_BENCH_HAVE_COAL OFF)
+if(NOT NEARPOINT_PEERS_DIR)
+  message(WARNING "bench peers: NEARPOINT_PEERS_DIR is not set (-DNEARPOINT_PEERS_DIR=DIR or the "
+                  "environment variable): the bench runs without openGJK and coal "
+                  "(bench/README.md, \"Peers built from source\", says how to make the snapshots)")
+  return()
+endif()
 get_filename_component(_peers_dir "${NEARPOINT_PEERS_DIR}" ABSOLUTE)
+if(NOT IS_DIRECTORY "${_peers_dir}")
+  message(WARNING "bench peers: NEARPOINT_PEERS_DIR=${_peers_dir} is not a folder: the bench "
+                  "runs without openGJK and coal")
+  return()
+endif()
 set(_peers_build "${CMAKE_BINARY_DIR}/peers")
 file(MAKE_DIRECTORY "${_peers_build}")
 

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bench_scene.hpp"
+#include "nearpoint/model/percentile.hpp"
 #include "nearpoint_distance.grpc.pb.h"
 
 namespace bench_support {
@@ -24,12 +25,7 @@ inline double micros(std::chrono::steady_clock::duration d) {
 }
 
 /// The q-quantile (0.5: median) of `values`, nearest rank; 0 for none.
-inline double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  const std::size_t index = std::min(values.size() - 1, std::size_t(q * double(values.size())));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(index), values.end());
-  return values[index];
-}
+using ::nearpoint::model::percentile;
 
 /// Now, as "2026-01-31 12:00 UTC", for the results' header.
 inline std::string utc_date() {

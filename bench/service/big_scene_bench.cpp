@@ -41,13 +41,16 @@
 #include <vector>
 
 #include "bench_scene.hpp"
+#include "nearpoint/model/percentile.hpp"
 #include "nearpoint/server/scene_service.hpp"
 #include "proto_convert.hpp"
 
 namespace {
 
 using namespace nearpoint::server;
+namespace model = nearpoint::model;
 using Vec3 = Eigen::Vector3d;
+using nearpoint::model::percentile;
 
 struct Settings {
   std::vector<std::size_t> sizes{100, 1000};
@@ -71,16 +74,16 @@ std::vector<std::string> split(const std::string& text) {
 std::vector<std::string> register_geometries(SceneService& service) {
   std::vector<std::string> ids;
   for (const std::vector<Vec3>& vertices : bench_scene::paper_like_polytopes()) {
-    GeometryInput geometry;
-    PolytopeInput polytope;
+    model::GeometryInput geometry;
+    model::PolytopeInput polytope;
     for (const Vec3& v : vertices) polytope.vertices.push_back(0.25 * v);
     geometry.pieces.emplace_back().shape = std::move(polytope);
     ids.push_back(service.register_geometry(geometry)->geometry_id);
   }
-  GeometryInput box;
+  model::GeometryInput box;
   box.pieces.emplace_back().shape = nearpoint::Box<double>{Vec3(0.3, 0.2, 0.15)};
   ids.push_back(service.register_geometry(box)->geometry_id);
-  GeometryInput capsule;
+  model::GeometryInput capsule;
   capsule.pieces.emplace_back().shape =
       nearpoint::Segment<double>{Vec3(-0.2, 0, 0), Vec3(0.2, 0, 0)};
   capsule.pieces.back().radius = 0.1;
@@ -102,9 +105,9 @@ std::vector<Vec3> homes(std::size_t n, double spacing) {
 }
 
 /// Object i at `step`: around its home, drifting 0.4 m and turning (smooth, period ~1000 steps).
-PoseInput pose_at(const Vec3& home, std::size_t i, int step) {
+model::PoseInput pose_at(const Vec3& home, std::size_t i, int step) {
   const auto [q, offset] = bench_scene::object_pose(int(i % 10), step, double(i));
-  PoseInput pose;
+  model::PoseInput pose;
   pose.rotation_wxyz = {q.w(), q.x(), q.y(), q.z()};
   // object_pose circles 3.2 m around the origin; keep only its drift, scaled to ±0.4 m.
   const double theta = 2 * std::numbers::pi * double(i % 10) / 10;
@@ -123,7 +126,7 @@ struct Row {
 /// What a row keeps of one report (not its pairs: 500,000 of them are 115 MB).
 struct Sample {
   double server_us = 0;
-  ReportCounts counts;
+  model::ReportCounts counts;
   std::size_t pairs = 0;     // selected in the scene
   std::size_t reported = 0;  // in the report
   std::size_t bytes = 0;     // nearpoint.v1.DistanceReport on the wire
@@ -134,13 +137,6 @@ Sample sample(const Report& report) {
   to_proto(report, message);
   return Sample{report.timing.server_us, report.counts, report.scene->pairs.size(),
                 report.pairs.size(), message.ByteSizeLong()};
-}
-
-double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  const std::size_t index = std::min(values.size() - 1, std::size_t(q * double(values.size())));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(index), values.end());
-  return values[index];
 }
 
 Row summarise(const std::vector<Sample>& reports) {
@@ -172,11 +168,11 @@ Row summarise(const std::vector<Sample>& reports) {
 std::vector<Sample> run_stream(SceneService& service, const std::string& scene,
                                const std::vector<Vec3>& home, std::size_t k, int updates,
                                std::optional<double> cutoff, Sample* first,
-                               ReportMode mode = ReportMode::unspecified) {
+                               model::ReportMode mode = model::ReportMode::unspecified) {
   std::unique_ptr<PoseStream> stream = std::move(service.open_stream().value());
   std::vector<Sample> reports;
   for (int u = 0; u <= updates; ++u) {
-    PoseUpdateInput update;
+    model::PoseUpdateInput update;
     update.scene_id = scene;
     update.sequence = std::uint64_t(u) + 1;
     update.options.distance_cutoff = cutoff;
@@ -205,7 +201,7 @@ std::vector<Sample> run_queries(SceneService& service, const std::string& scene,
                                 std::optional<double> cutoff) {
   std::vector<Sample> reports;
   for (int u = 1; u <= updates; ++u) {
-    QueryInput query;
+    model::QueryInput query;
     query.scene_id = scene;
     query.options.distance_cutoff = cutoff;
     query.options.warm_start = false;
@@ -276,9 +272,9 @@ int main(int argc, char** argv) {
     const std::vector<Vec3> home = homes(n, settings.spacing);
     // The scene for `k` moving objects (with --selection moving, its pairs depend on k).
     auto create = [&](std::size_t k) {
-      SceneInput input;
+      model::SceneInput input;
       for (std::size_t i = 0; i < n; ++i) {
-        ObjectInput& object = input.objects.emplace_back();
+        model::ObjectInput& object = input.objects.emplace_back();
         object.id = "o" + std::to_string(i);
         object.geometry_id = geometries[i % geometries.size()];
         object.pose = pose_at(home[i], i, 0);
@@ -288,14 +284,14 @@ int main(int argc, char** argv) {
           object.mask = i < k ? 3u : 1u;
         }
       }
-      Expected<SceneInfo> scene = service.create_scene(input);
+      Expected<model::SceneInfo> scene = service.create_scene(input);
       if (!scene) {
         std::fprintf(stderr, "scene refused: %s\n", scene.error().describe().c_str());
         std::exit(1);
       }
       return scene.value();
     };
-    std::optional<SceneInfo> scene;
+    std::optional<model::SceneInfo> scene;
     if (!settings.moving_selection) scene = create(n);
     auto print = [&](std::size_t k, const char* mode, const Row& row) {
       std::printf(
@@ -330,16 +326,16 @@ int main(int argc, char** argv) {
                                  settings.cutoff, &first)));
       print(k, "moved+bp, within",
             summarise(run_stream(service, scene->scene_id, home, k, settings.updates,
-                                 settings.cutoff, nullptr, ReportMode::within_cutoff)));
+                                 settings.cutoff, nullptr, model::ReportMode::within_cutoff)));
       print(k, "moved+bp, changed",
             summarise(run_stream(service, scene->scene_id, home, k, settings.updates,
-                                 settings.cutoff, nullptr, ReportMode::changed)));
+                                 settings.cutoff, nullptr, model::ReportMode::changed)));
       print(k, "moved+bp, nearest",
             summarise(run_stream(service, scene->scene_id, home, k, settings.updates,
-                                 settings.cutoff, nullptr, ReportMode::nearest_per_object)));
+                                 settings.cutoff, nullptr, model::ReportMode::nearest_per_object)));
       print(k, "moved+bp, global",
             summarise(run_stream(service, scene->scene_id, home, k, settings.updates,
-                                 settings.cutoff, nullptr, ReportMode::global_minimum)));
+                                 settings.cutoff, nullptr, model::ReportMode::global_minimum)));
       print(k, "bp only",
             summarise(
                 run_queries(service, scene->scene_id, home, k, settings.updates, settings.cutoff)));

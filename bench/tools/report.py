@@ -766,7 +766,7 @@ class Report:
                "openGJK 174d3aa (scalar, double, `compute_minimum_distance` on vertices posed in the "
                "call), coal cf75966 (`GJKSolver::shapeDistance` on `coal::Convex<coal::Triangle>` "
                "from the hulls, GJK only, tolerance 1e-12 and 1e-6; openGJK and coal built from "
-               f"the snapshots in `{m.get('peers_dir', '../shared/peers')}`, when there: see "
+               "the snapshots of bench/README.md, 'Peers built from source', when given: see "
                "'Not measured' below). "
                f"nearpoint runs with its defaults (ε = {num(self.meta.get('default_epsilon')):.3g}, "
                f"max_iterations {self.meta.get('default_max_iterations', '?')}), near points on, and "

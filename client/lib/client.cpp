@@ -194,6 +194,34 @@ class ClientImpl final : public Client, public detail::SessionHost {
     return out;
   }
 
+  Expected<ServerInfo> server_info() override {
+    v1::ServerInfo response;
+    const grpc::Status status =
+        stub_->GetServerInfo(context().get(), v1::GetServerInfoRequest{}, &response);
+    if (!status.ok()) return from_grpc(status);
+    ServerInfo info;
+    info.version = response.version();
+    info.build = {response.build().grpc(), response.build().dds(), response.build().metrics()};
+    const v1::ServerInfo::Transports& t = response.transports();
+    info.transports = {t.grpc_listen(), t.grpc_port(),  t.tls(),        t.token_required(),
+                       t.dds(),         t.dds_domain(), t.dds_prefix(), t.metrics_listen(),
+                       t.metrics_port()};
+    const v1::ServerInfo::Limits& l = response.limits();
+    info.limits = {l.max_geometries(),
+                   l.max_pieces_per_geometry(),
+                   l.max_vertices_per_geometry(),
+                   l.max_scenes(),
+                   l.max_objects_per_scene(),
+                   l.max_pairs_per_scene(),
+                   l.max_piece_pairs_per_scene(),
+                   l.max_streams(),
+                   l.max_in_flight_per_stream(),
+                   l.max_concurrent_queries(),
+                   l.max_message_bytes(),
+                   l.workers()};
+    return info;
+  }
+
   /// CreateScene with the routing header, carrying inline every geometry of this client's that
   /// the scene uses (keyed by the id the objects name), so that the scene is whole on whichever
   /// replica the header leads to. Other geometry ids go as they are.
@@ -247,6 +275,23 @@ class ClientImpl final : public Client, public detail::SessionHost {
       scenes_.originals.erase(scene_id);
     }
     return from_grpc(status);
+  }
+
+  Expected<std::vector<SceneSummary>> list_scenes() override {
+    v1::ListScenesResponse response;
+    const grpc::Status status =
+        stub_->ListScenes(context().get(), v1::ListScenesRequest{}, &response);
+    if (!status.ok()) return from_grpc(status);
+    std::vector<SceneSummary> out;
+    for (const v1::SceneSummary& scene : response.scenes()) {
+      SceneSummary& summary = out.emplace_back();
+      summary.scene_id = scene.scene_id();
+      summary.name = scene.name();
+      summary.pair_count = scene.pair_count();
+      for (const v1::SceneObject& object : scene.objects())
+        summary.objects.push_back(detail::from_proto(object));
+    }
+    return out;
   }
 
   Expected<Report> query(const std::string& scene_id, const std::vector<ObjectPose>& poses,

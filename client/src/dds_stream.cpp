@@ -13,6 +13,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "nearpoint/model/percentile.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 
 namespace nearpoint::cli {
@@ -20,6 +21,7 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 using Clock = std::chrono::steady_clock;
+using model::percentile;
 
 dds_duration_t to_dds(Clock::duration d) {
   return std::max<dds_duration_t>(0,
@@ -30,17 +32,24 @@ Json vec(const nearpoint_msg_dds__Vector3_& v) {
   return Json::array({v.x, v.y, v.z});
 }
 
+// One schema for every report the CLI prints (client/schema/report.schema.json), the same keys as
+// remote_common.cpp's to_json over gRPC: a change here needs the same change there and in the
+// schema.
 Json report_json(const DistanceReportSample& report) {
   Json out;
   out["sequence"] = report.sequence_number;
   if (report.status != 0) {
     out["status"] = "error";
-    out["code"] = model::status_code_spelling(report.status);
-    out["field"] = report.error_field ? report.error_field : "";
-    out["message"] = report.message ? report.message : "";
+    out["error"] = {{"code", model::status_code_spelling(report.status)},
+                    {"field", report.error_field ? report.error_field : ""},
+                    {"message", report.message ? report.message : ""}};
     return out;
   }
   out["status"] = "ok";
+  // A report's mode is never unspecified; 0 (an older server) means every pair.
+  const std::string_view mode =
+      model::spelling_of(model::from_dds<model::ReportMode>(report.report_mode));
+  out["report_mode"] = mode.empty() ? model::spelling_of(model::ReportMode::all_pairs) : mode;
   Json pairs = Json::array();
   for (std::uint32_t i = 0; i < report.pairs._length; ++i) {
     const nearpoint_msg_dds__PairDistance_& p = report.pairs._buffer[i];
@@ -63,33 +72,30 @@ Json report_json(const DistanceReportSample& report) {
     pairs.push_back(std::move(pair));
   }
   out["pairs"] = std::move(pairs);
-  out["coalesced_updates"] = report.coalesced_updates;
-  if (report.coalesced_updates > 0) out["coalesced_from_sequence"] = report.coalesced_from_sequence;
-  out["server_us"] = report.timing.server_us;
-  out["report_mode"] = report.report_mode;
-  if (report.events._length > 0) {
-    Json events = Json::array();
-    for (std::uint32_t i = 0; i < report.events._length; ++i) {
-      const nearpoint_msg_dds__ThresholdEvent_& e = report.events._buffer[i];
-      events.push_back(
-          {{"threshold", e.threshold ? e.threshold : ""},
-           {"threshold_index", e.threshold_index},
-           {"object_a", e.object_a ? e.object_a : ""},
-           {"object_b", e.object_b ? e.object_b : ""},
-           {"crossing", model::spelling_of(model::from_dds<model::Crossing>(e.crossing))},
-           {"distance", e.distance},
-           {"sequence", e.sequence_number}});
-    }
-    out["events"] = std::move(events);
+  Json events = Json::array();
+  for (std::uint32_t i = 0; i < report.events._length; ++i) {
+    const nearpoint_msg_dds__ThresholdEvent_& e = report.events._buffer[i];
+    events.push_back(
+        {{"threshold", e.threshold ? e.threshold : ""},
+         {"threshold_index", e.threshold_index},
+         {"object_a", e.object_a ? e.object_a : ""},
+         {"object_b", e.object_b ? e.object_b : ""},
+         {"crossing", model::spelling_of(model::from_dds<model::Crossing>(e.crossing))},
+         {"distance", e.distance},
+         {"sequence", e.sequence_number}});
   }
+  out["events"] = std::move(events);
+  out["coalesced_updates"] = report.coalesced_updates;
+  out["coalesced_from_sequence"] =
+      report.coalesced_updates > 0 ? report.coalesced_from_sequence : std::uint64_t(0);
+  out["counts"] = {{"pairs_evaluated", report.counts.pairs_evaluated},
+                   {"pairs_pruned", report.counts.pairs_pruned},
+                   {"pairs_unmoved", report.counts.pairs_unmoved}};
+  out["server_us"] = report.timing.server_us;
+  out["queue_us"] = report.timing.queue_us;
+  out["evaluation_us"] = report.timing.evaluation_us;
+  out["geometry_us"] = report.timing.geometry_us;
   return out;
-}
-
-double percentile(std::vector<double> values, double q) {
-  if (values.empty()) return 0;
-  const std::size_t index = std::min(values.size() - 1, std::size_t(q * double(values.size())));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(index), values.end());
-  return values[index];
 }
 
 }  // namespace
@@ -99,7 +105,7 @@ double percentile(std::vector<double> values, double q) {
 std::unique_ptr<DdsPoseClient> DdsPoseClient::create(const Config& config, std::string& error) {
   if (error = dds::check_configuration(config.allow_default_config); !error.empty()) return nullptr;
   if (std::string problem = dds::check_topic_prefix(config.topic_prefix); !problem.empty()) {
-    error = "--prefix '" + config.topic_prefix + "' " + problem;
+    error = "--dds-prefix '" + config.topic_prefix + "' " + problem;
     return nullptr;
   }
   std::unique_ptr<DdsPoseClient> self(new DdsPoseClient());
@@ -292,9 +298,13 @@ struct ReportCheck {
   std::uint64_t last_ok_sequence = 0;
   std::size_t reports = 0, rejected = 0, coalesced = 0, problems = 0;
 
-  void take(const DistanceReportSample& report, std::ostream& out, std::ostream& err) {
+  void take(const DistanceReportSample& report, const Trajectory& trajectory, std::ostream& out,
+            std::ostream& err) {
     const std::uint64_t sequence = report.sequence_number;
     Json line = report_json(report);
+    // The step's trajectory time, as `nearpoint stream --json` prints it over gRPC.
+    if (sequence >= 1 && sequence <= trajectory.steps.size())
+      line["t"] = trajectory.steps[sequence - 1].time;
     const auto found = outstanding.find(sequence);
     if (found == outstanding.end()) {
       err << kPrefix << "report for sequence " << sequence
@@ -303,11 +313,11 @@ struct ReportCheck {
     } else {
       const double us =
           std::chrono::duration<double, std::micro>(Clock::now() - found->second).count();
-      line["round_trip_us"] = us;
       if (report.status != 0) {
         ++rejected;  // error reports may overtake earlier updates still being evaluated
         outstanding.erase(found);
       } else {
+        line["round_trip_us"] = us;  // ok reports only, as over gRPC
         round_trips_us.push_back(us);
         answered(report, sequence, err);
       }
@@ -348,9 +358,14 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
                    std::ostream& err) {
   if (options.scene_id.empty()) {
     err << kPrefix << "--scene is required (the scene id on the server)\n";
-    return kStreamCannotRun;
+    return kStreamBadConfiguration;
   }
   std::string error;
+  // A missing DDS configuration is the user's to fix (exit 2); the failures below may pass.
+  if (error = dds::check_configuration(options.dds.allow_default_config); !error.empty()) {
+    err << kPrefix << error << '\n';
+    return kStreamBadConfiguration;
+  }
   std::unique_ptr<DdsPoseClient> client = DdsPoseClient::create(options.dds, error);
   if (!client) {
     err << kPrefix << error << '\n';
@@ -366,7 +381,9 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
   // Run: publish up to `window` steps ahead of the reports, check each report as it arrives.
   StepPublisher publisher(trajectory, options);
   ReportCheck check;
-  auto on_report = [&](const DistanceReportSample& report) { check.take(report, out, err); };
+  auto on_report = [&](const DistanceReportSample& report) {
+    check.take(report, trajectory, out, err);
+  };
   std::uint64_t next = 0;  // index of the next step to publish
   while (next < total || !check.outstanding.empty()) {
     while (next < total && check.outstanding.size() < window) {

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "nearpoint/model/exit_codes.hpp"
 #include "nearpoint/model/scene_types.hpp"
 #include "nearpoint_dds.hpp"
 #include "trajectory.hpp"
@@ -91,20 +92,20 @@ struct DdsStreamOptions {
   std::chrono::milliseconds report_timeout{10000};
 };
 
-/// Exit codes of `nearpoint stream --dds`.
-inline constexpr int kStreamOk = 0;          ///< every update answered, in order, none rejected
-inline constexpr int kStreamIncomplete = 1;  ///< rejected updates, or reports missing/out of order
-inline constexpr int kStreamCannotRun = 2;   ///< no configuration, no server matched, DDS failed
+/// Exit codes of `nearpoint stream --dds` (the table of model/exit_codes.hpp).
+inline constexpr int kStreamOk =
+    model::kExitOk;  ///< every update answered, in order, none rejected
+inline constexpr int kStreamIncomplete = model::kExitFailure;      ///< rejected updates, or reports
+                                                                   ///< missing or out of order
+inline constexpr int kStreamBadConfiguration = model::kExitUsage;  ///< no scene id, no DDS config
+inline constexpr int kStreamCannotRun = model::kExitUnavailable;  ///< no server matched, DDS failed
 
 /// Publishes one PoseUpdate_ per trajectory step (sequence numbers 1, 2, …) and writes one JSON
-/// line per report to `out`:
-///   {"sequence": n, "status": "ok", "pairs": [{"object_a", "object_b", "status", "distance",
-///    "distance_lower_bound", "error_bound", "iterations", "warm_started", ["point_a", "point_b",
-///    "normal"], ["penetration_bound"]}...], "coalesced_updates": k, "coalesced_from_sequence": s,
-///    "server_us": t, "round_trip_us": t, "report_mode": m, ["events": [{"threshold",
-///    "threshold_index", "object_a", "object_b", "crossing": "enter"|"exit", "distance",
-///    "sequence"}...]]}
-///   {"sequence": n, "status": "error", "code": "not_found", "field": "scene_id", "message": "…"}
+/// line per report to `out`, in the schema of every report the CLI prints, over gRPC as well
+/// (client/schema/report.schema.json): "sequence", "status" ("ok" or "error"), then either the
+/// pairs (each with distance, distance_lower_bound and error_bound), events, coalescing, counts
+/// and server timings (*_us), or "error": {"code", "field", "message"}; plus the step's "t" and,
+/// for ok reports, "round_trip_us".
 /// Checks that every update is answered exactly once — by its report, an error report, or as
 /// merged into a later report (coalesced_from_sequence) — and that reports come in sequence
 /// order; problems and a summary go to `err`.

@@ -14,6 +14,7 @@
 
 #include "local_server.hpp"
 #include "nearpoint/scenes/moving_object.hpp"
+#include "scene_lease.hpp"
 
 namespace nearpoint::cli {
 namespace {
@@ -67,6 +68,7 @@ Pass stream_path(client::Client& client, const std::string& scene_id, int steps,
   }
   const auto start = Clock::now();
   for (int t = 0; t <= steps; ++t) {
+    if (interrupt_signal() != 0) break;  // Ctrl-C: run_demo cleans up and exits
     const double s = double(t) / steps;
     auto pushed = (*session)->push({demo_pose(s)}, Clock::now() + std::chrono::seconds(30));
     if (!pushed) {
@@ -284,6 +286,7 @@ int run_demo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
     return kExitBadInput;
   }
   const int steps = options.steps;
+  install_interrupt_handlers();
   LocalServer local;
   std::string target = options.target;
   if (target.empty()) {
@@ -304,12 +307,21 @@ int run_demo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
     return exit_code_for(created.status());
   }
   const std::string scene_id = *created;
+  // A server of our own goes away with its scenes; on a --target server the scene is deleted.
+  SceneLease lease(*client, scene_id, !options.target.empty(), options.keep_scene, "nearpoint demo",
+                   err);
 
   if (!options.json)
     err << "== streaming " << steps + 1
         << " poses with warm starts, then with single-point starts\n";
   const Pass warm = stream_path(*client, scene_id, steps, true);
-  const Pass cold = warm.error.ok() ? stream_path(*client, scene_id, steps, false) : Pass{};
+  const Pass cold = warm.error.ok() && interrupt_signal() == 0
+                        ? stream_path(*client, scene_id, steps, false)
+                        : Pass{};
+  if (interrupt_signal() != 0) {
+    err << "nearpoint demo: interrupted\n";
+    return interrupted_exit_code();
+  }
   for (const Pass* pass : {&warm, &cold}) {
     if (!pass->error.ok()) {
       err << "nearpoint demo: streaming the path: " << pass->error.describe() << "\n";

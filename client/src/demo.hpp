@@ -25,6 +25,8 @@ struct DemoOptions {
   /// directory when that is not writable). "-": no plot.
   std::string plot_path;
   bool json = false;
+  /// With --target: keep the demo scene on that server rather than delete it at the end.
+  bool keep_scene = false;
 };
 
 struct CollisionInterval {

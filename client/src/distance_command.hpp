@@ -21,6 +21,7 @@
 #include <string_view>
 
 #include "json_shapes.hpp"
+#include "nearpoint/model/exit_codes.hpp"
 #include "nearpoint/result.hpp"
 
 namespace nearpoint::cli {
@@ -33,9 +34,9 @@ struct DistanceCommandOptions {
   std::string input_name = "<stdin>";
 };
 
-/// Exit codes of the command.
-inline constexpr int kExitOk = 0;       ///< every line was read and answered (error lines included)
-inline constexpr int kExitIoError = 2;  ///< the input could not be read or the output not written
+/// Exit codes of the command (from the one table of both binaries, model/exit_codes.hpp).
+inline constexpr int kExitOk = model::kExitOk;  ///< every line answered (error lines included)
+inline constexpr int kExitIoError = model::kExitUsage;  ///< input unreadable or output unwritable
 
 /// Answers the lines of one input stream, in order, keeping the warm-start state between them.
 ///

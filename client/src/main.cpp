@@ -14,21 +14,21 @@
 #include <sstream>
 #include <string>
 
+#include <unistd.h>
 #include <CLI/CLI.hpp>
 
 #include "distance_command.hpp"
 #ifdef NEARPOINT_WITH_REMOTE
 #include "demo.hpp"
+#include "manage_commands.hpp"
 #include "remote_commands.hpp"
 #endif
+#include "nearpoint/model/exit_codes.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/options.hpp"
+#include "nearpoint/version.hpp"
 #if NEARPOINT_HAVE_DDS
 #include "dds_stream.hpp"
-#endif
-
-#ifndef NEARPOINT_VERSION
-#define NEARPOINT_VERSION "unknown"
 #endif
 
 namespace {
@@ -36,7 +36,12 @@ namespace {
 using nearpoint::cli::kExitIoError;
 using nearpoint::cli::kExitOk;
 
-constexpr int kExitUsage = 2;  // as for an I/O failure: the command could not do its work
+using nearpoint::model::kExitUsage;
+
+// Progress lines rewrite themselves with '\r': on a terminal only, never into a log or a pipe.
+bool stderr_is_terminal() {
+  return isatty(STDERR_FILENO) == 1;
+}
 
 // Pads an option's name and default to the column where the help text describes it.
 std::string pad(std::string text) {
@@ -151,12 +156,16 @@ struct DdsStreamArguments {
 
 void add_dds_stream_options(CLI::App& command, DdsStreamArguments& args) {
   nearpoint::cli::DdsStreamOptions& options = args.options;
-  command.add_option("--domain", options.dds.domain_id, "--dds: DDS domain id")
+  // The same names as nearpointd's; --domain and --prefix, this command's spellings before 1.0,
+  // are still accepted.
+  command
+      .add_option("--dds-domain,--domain", options.dds.domain_id,
+                  "--dds: DDS domain id, as nearpointd --dds-domain (--domain: deprecated)")
       ->capture_default_str()
       ->check(CLI::Range(0, 230));
   command
-      .add_option("--prefix", options.dds.topic_prefix,
-                  "--dds: topic prefix (as nearpointd --dds-prefix)")
+      .add_option("--dds-prefix,--prefix", options.dds.topic_prefix,
+                  "--dds: topic prefix, as nearpointd --dds-prefix (--prefix: deprecated)")
       ->capture_default_str();
   command.add_option("--client-id", options.client_id,
                      "--dds: echoed in this client's reports (default nearpoint-cli-PID)");
@@ -203,7 +212,8 @@ With --dds the updates go over DDS to `nearpointd --dds` (SCENE must be a scene 
 e.g. one preloaded with `nearpointd --scene FILE`): one JSON line per report, a check that every
 update is answered once and in order, and a summary on stderr. DDS needs CYCLONEDDS_URI, e.g.
 file://$PWD/deploy/cyclonedds-loopback.xml (loopback only). Exit status with --dds: 0 all
-answered; 1 rejected updates or missing / out-of-order reports; 2 cannot run.
+answered; 1 rejected updates or missing / out-of-order reports; 2 no scene id or no DDS
+configuration; 3 no server matched, or DDS failed.
   nearpoint stream --dds scene-1 examples/dds_trajectory.jsonl
 )";
 #endif
@@ -212,12 +222,8 @@ answered; 1 rejected updates or missing / out-of-order reports; 2 cannot run.
 
 using nearpoint::cli::RemoteOptions;
 
-constexpr const char* kRemoteExitCodes = R"(
-Exit status: 0 success; 1 the server answered with an error (its message is printed, naming the
-field); 2 bad command line, or an unreadable or malformed file (the message names the line or
-field); 3 the server could not be reached (UNAVAILABLE, DEADLINE_EXCEEDED) or nearpointd could
-not be started.
-)";
+// The exit-status table both binaries share (model/exit_codes.hpp), after each verb's help.
+const std::string kRemoteExitCodes = std::string("\n") + nearpoint::model::kExitStatusHelp;
 
 // --target, --json and --timeout-ms, shared by the server-facing verbs.
 void add_remote_options(CLI::App& command, RemoteOptions& remote) {
@@ -264,6 +270,23 @@ server answers. nearpointd answers without a token; TLS flags apply as for the o
   });
 }
 
+void add_info_subcommand(CLI::App& app, int& exit_code) {
+  auto remote = std::make_shared<RemoteOptions>();
+  CLI::App* command = app.add_subcommand(
+      "info", "What a nearpointd is: version, build options, transports and limits");
+  add_remote_options(*command, *remote);
+  command->footer(std::string(R"(
+Prints the server's version (as `nearpointd --version`), what its build compiled in (gRPC, DDS,
+metrics), the transports this process serves (gRPC address and TLS, DDS domain and prefix,
+metrics port) and the limits it enforces (nearpointd's --max-* flags).
+  nearpoint info --target 127.0.0.1:50051
+  nearpoint info --json
+)") + kRemoteExitCodes);
+  command->callback([remote, &exit_code] {
+    exit_code = nearpoint::cli::run_info(*remote, std::cout, std::cerr);
+  });
+}
+
 void add_register_subcommand(CLI::App& app, int& exit_code) {
   auto options = std::make_shared<nearpoint::cli::RegisterOptions>();
   CLI::App* command = app.add_subcommand(
@@ -286,7 +309,7 @@ a SHAPE, an array of SHAPEs, or {"name": "...", "pieces": [SHAPE, ...]} (SHAPE a
 `nearpoint distance --help`). Prints the geometry id the server assigned.
 
 Examples:
-  nearpoint register tests/data/cube.obj
+  nearpoint register examples/cube.obj
   nearpoint register --json gripper.json
   nearpoint register part-1.stl part-2.stl --name bracket
 )") + kRemoteExitCodes);
@@ -321,6 +344,13 @@ Example:
   create->callback([options, &exit_code] {
     exit_code = nearpoint::cli::run_scene_create(*options, std::cout, std::cerr);
   });
+  nearpoint::cli::add_scene_management(*scene, exit_code, add_remote_options, kRemoteExitCodes);
+}
+
+void add_keep_scene_flag(CLI::App& command, bool& keep_scene) {
+  command.add_flag("--keep-scene", keep_scene,
+                   "Keep the scene this command creates (printed on stderr) instead of deleting "
+                   "it when the command ends");
 }
 
 void add_report_mode_options(CLI::App& command, nearpoint::cli::ReportModeFlags& flags) {
@@ -353,7 +383,11 @@ void add_query_subcommand(CLI::App& app, int& exit_code) {
                       "none | bound (d⁻, a certified lower bound on the penetration depth)");
   add_report_mode_options(*command, options->report);
   add_remote_options(*command, options->remote);
+  add_keep_scene_flag(*command, options->keep_scene);
   command->footer(std::string(R"(
+A scene file is created on the server for this query and deleted afterwards (--keep-scene keeps
+it). Output with --json: one report (client/schema/report.schema.json) with "scene_id".
+
 Examples:
   nearpoint query examples/scene.json --pose gripper=0.2,0,0.5
   nearpoint query cell-1 --pose gripper=0,0,0.3,0.7071,0,0,0.7071 --near-points --json
@@ -391,6 +425,7 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
       "[,name=N]; reports carry ENTER when a pair comes closer than D, EXIT when it gets "
       "farther than D + H (--cutoff must be at least D + H)");
   add_remote_options(*command, options->remote);
+  add_keep_scene_flag(*command, options->keep_scene);
 #if NEARPOINT_HAVE_DDS
   command->add_flag("--dds", *use_dds, "Stream over DDS (nearpointd --dds) instead of gRPC");
   add_dds_stream_options(*command, *dds);
@@ -401,8 +436,11 @@ TRAJECTORY, one of:
   JSON Lines: {"t": 0.0, "poses": {"OBJ": {"rotation": [w,x,y,z], "translation": [x,y,z]}}}
 Objects not listed at a step keep their previous pose.
 
-Output: with --json one JSON object per report (JSON Lines, in order, with the step's "t");
-otherwise a progress line on stderr and a summary per pair (minimum distance and when, steps in
+A scene file is created on the server for this stream and deleted when it ends, also on Ctrl-C
+(SIGINT/SIGTERM: exit 130/143 once the updates in flight are answered); --keep-scene keeps it.
+Output: with --json one JSON object per report (JSON Lines, in order, with the step's "t"; the
+schema is client/schema/report.schema.json, the same over --dds);
+otherwise a progress line on stderr (a terminal) and a summary per pair (minimum distance and when, steps in
 contact) with the round-trip latency, and with --threshold every ENTER/EXIT event (in JSON:
 "events" of each report, each with the sequence of the update that crossed). A dropped
 connection is retried (the scene is replayed on the restarted server); updates in flight at the
@@ -442,10 +480,12 @@ Examples:
                                          options->near_points);
       return;
     }
+    if (!stderr_is_terminal()) options->progress_every = 0;
     exit_code = nearpoint::cli::run_stream(*options, std::cout, std::cerr);
   });
 #else
   command->callback([options, &exit_code] {
+    if (!stderr_is_terminal()) options->progress_every = 0;
     exit_code = nearpoint::cli::run_stream(*options, std::cout, std::cerr);
   });
 #endif
@@ -470,14 +510,18 @@ void add_load_subcommand(CLI::App& app, int& exit_code) {
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
   add_remote_options(*command, options->remote);
+  add_keep_scene_flag(*command, options->keep_scene);
   command->footer(std::string(R"(
-Prints a progress line on stderr while it runs, then the number of reports, updates/s and the
+The scene it creates (the demo scene, or SCENE when it is a file) is deleted at the end, also on
+Ctrl-C (exit 130/143); --keep-scene keeps it.
+Prints a progress line on stderr while it runs (when stderr is a terminal), then the number of reports, updates/s and the
 push-to-report latency p50/p90/p99/max over all streams.
 
 Example:
   nearpoint load --streams 4 --duration 5
 )") + kRemoteExitCodes);
   command->callback([options, &exit_code] {
+    if (!stderr_is_terminal()) options->progress_every = 0;
     exit_code = nearpoint::cli::run_load(*options, std::cout, std::cerr);
   });
 }
@@ -498,7 +542,10 @@ void add_demo_subcommand(CLI::App& app, int& exit_code) {
                       "SVG of the distance curves (default demo.svg in the working directory, "
                       "else in the temporary directory; - for none)");
   command->add_flag("--json", options->json, "Machine-readable output (JSON)");
+  add_keep_scene_flag(*command, options->keep_scene);
   command->footer(std::string(R"(
+With --target the demo scene is deleted from that server at the end (also on Ctrl-C: exit
+130/143) unless --keep-scene.
 A moving object made of two convex pieces passes five obstacles along a straight line, turning by
 a slerp (the paper's Fig. 5; the same scene as bench's Table I). The path is streamed twice to the
 server, with warm starts and with single-point starts. Printed per obstacle: the minimum distance
@@ -557,27 +604,16 @@ int main(int argc, char** argv) {
         "nearpoint: distances between convex shapes by the GJK algorithm (Gilbert, Johnson and "
         "Keerthi, 1988)",
         "nearpoint"};
-    app.set_version_flag("--version", std::string("nearpoint ") + NEARPOINT_VERSION);
+    app.set_version_flag("--version", std::string("nearpoint ") + nearpoint::kVersion);
     app.require_subcommand(1);
-    app.footer(R"(
-Run 'nearpoint COMMAND --help' for the details of a command. `distance` runs locally; the other
-commands talk to nearpointd (--target, default $NEARPOINT_TARGET or 127.0.0.1:50051), and `demo`
-starts one of its own when given no --target.
-
-Exit status: 0 success; 1 the server answered with an error; 2 bad command line or input file;
-3 the server could not be reached (or nearpointd not started).
-
-Examples:
-  nearpoint demo
-  nearpoint distance examples/pairs.jsonl
-  echo '{"a": {"sphere": {}, "radius": 1}, "b": {"sphere": {}, "radius": 1, "pose": {"translation": [3,0,0]}}}' | nearpoint distance
-)");
     int exit_code = kExitOk;
     add_distance_subcommand(app, exit_code);
 #ifdef NEARPOINT_WITH_REMOTE
     add_register_subcommand(app, exit_code);
     add_health_subcommand(app, exit_code);
+    add_info_subcommand(app, exit_code);
     add_scene_subcommand(app, exit_code);
+    nearpoint::cli::add_geometry_subcommand(app, exit_code, add_remote_options, kRemoteExitCodes);
     add_query_subcommand(app, exit_code);
     add_stream_subcommand(app, exit_code);
     add_load_subcommand(app, exit_code);
@@ -585,6 +621,18 @@ Examples:
 #elif NEARPOINT_HAVE_DDS
     add_stream_subcommand(app, exit_code);
 #endif
+    // Set after the subcommands, which would otherwise inherit it: `nearpoint scene --help`
+    // must not repeat the top-level examples.
+    app.footer(std::string(R"(
+Run 'nearpoint COMMAND --help' for the details of a command. `distance` runs locally; the other
+commands talk to nearpointd (--target, default $NEARPOINT_TARGET or 127.0.0.1:50051), and `demo`
+starts one of its own when given no --target.
+
+Examples:
+  nearpoint demo
+  nearpoint distance examples/pairs.jsonl
+  echo '{"a": {"sphere": {}, "radius": 1}, "b": {"sphere": {}, "radius": 1, "pose": {"translation": [3,0,0]}}}' | nearpoint distance
+)") + "\n" + nearpoint::model::kExitStatusHelp);
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
@@ -594,6 +642,6 @@ Examples:
     return exit_code;
   } catch (const std::exception& e) {
     std::cerr << "nearpoint: " << e.what() << '\n';
-    return kExitIoError;
+    return nearpoint::model::kExitFailure;
   }
 }

@@ -14,27 +14,20 @@
 
 #include "demo.hpp"
 #include "local_server.hpp"
+#include "nearpoint/model/percentile.hpp"
 #include "nearpoint/model/vocabulary.hpp"
+#include "scene_lease.hpp"
 #include "trajectory.hpp"
 
 namespace nearpoint::cli {
 namespace {
 
 using client::Clock;
+using model::percentile;
 
-/// A client with the --tls-* and --token-file files loaded, or nullptr (the reason printed to
-/// `err`) when one cannot be read.
-std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err) {
-  client::ClientOptions options;
-  options.call_timeout = remote.timeout;
-  options.tls_server_name = remote.tls_server_name;
-  const client::Status loaded = client::load_credentials(options, remote.tls_ca, remote.tls_cert,
-                                                         remote.tls_key, remote.token_file);
-  if (!loaded.ok()) {
-    err << "nearpoint: " << loaded.message << "\n";
-    return nullptr;
-  }
-  return client::Client::connect(remote.target, options);
+/// "1 pair", "2 pairs": a count and its noun, singular for one.
+std::string counted(std::uint64_t n, const std::string& noun) {
+  return std::to_string(n) + " " + noun + (n == 1 ? "" : "s");
 }
 
 bool is_mesh_file(const std::filesystem::path& file) {
@@ -44,14 +37,27 @@ bool is_mesh_file(const std::filesystem::path& file) {
   return extension == ".obj" || extension == ".stl" || extension == ".off" || extension == ".ply";
 }
 
+// True when the server already holds `scene_id` (false when it cannot tell, e.g. a server
+// without ListScenes).
+bool scene_exists(client::Client& client, const std::string& scene_id) {
+  auto scenes = client.list_scenes();
+  return scenes && std::any_of(scenes->begin(), scenes->end(), [&](const client::SceneSummary& s) {
+           return s.scene_id == scene_id;
+         });
+}
+
 // Registers a scene file's geometries and creates its scene. Returns the exit code (0 on success).
+// `existed`: the file names a scene id the server held already (CreateScene then answers the
+// same request again idempotently): the caller must not delete it as its own.
 int create_scene_from_file(client::Client& client, const std::string& path, std::ostream& err,
-                           client::SceneInfo& created) {
+                           client::SceneInfo& created, bool* existed = nullptr) {
   formats::SceneFile file;
   if (std::string error = formats::load_scene_file(path, mesh_loader(), file); !error.empty()) {
     err << "nearpoint: " << error << "\n";
     return kExitBadInput;
   }
+  if (existed != nullptr)
+    *existed = !file.scene.requested_id.empty() && scene_exists(client, file.scene.requested_id);
   std::map<std::string, std::string> ids;
   for (const auto& [name, geometry] : file.geometries) {
     auto info = client.register_geometry(geometry);
@@ -74,14 +80,19 @@ int create_scene_from_file(client::Client& client, const std::string& path, std:
   return 0;
 }
 
-// A scene argument: an existing file is created first; anything else is a scene id.
+// A scene argument: an existing file is created first (`created` set: the caller owns it);
+// anything else is a scene id.
 int resolve_scene(client::Client& client, const std::string& scene, std::ostream& err,
-                  std::string& scene_id) {
+                  std::string& scene_id, bool& created) {
+  created = false;
   std::error_code ignored;
   if (std::filesystem::is_regular_file(scene, ignored)) {
-    client::SceneInfo created;
-    if (int code = create_scene_from_file(client, scene, err, created); code != 0) return code;
-    scene_id = created.scene_id;
+    client::SceneInfo info;
+    bool existed = false;
+    if (int code = create_scene_from_file(client, scene, err, info, &existed); code != 0)
+      return code;
+    scene_id = info.scene_id;
+    created = !existed;
     return 0;
   }
   scene_id = scene;
@@ -142,12 +153,9 @@ void print_pairs(const client::Report& report, std::ostream& out) {
   }
 }
 
-double percentile(std::vector<double>& values, double q) {
-  if (values.empty()) return 0;
-  const std::size_t k =
-      std::min(values.size() - 1, std::size_t(q * double(values.size() - 1) + 0.5));
-  std::nth_element(values.begin(), values.begin() + std::ptrdiff_t(k), values.end());
-  return values[k];
+/// Push (or query) to report, client side, microseconds.
+double round_trip_us(const client::Report& report) {
+  return std::chrono::duration<double, std::micro>(report.received - report.sent).count();
 }
 
 client::ObjectPose to_object_pose(const ObjectPose& pose) {
@@ -178,6 +186,85 @@ int run_health(const HealthOptions& options, std::ostream& out, std::ostream& er
   else
     out << *status << "\n";
   return *status == "SERVING" ? 0 : kExitServerError;
+}
+
+// ---- info ----
+
+int run_info(const RemoteOptions& remote, std::ostream& out, std::ostream& err) {
+  auto client = connect(remote, err);
+  if (!client) return kExitBadInput;
+  auto info = client->server_info();
+  if (!info) {
+    err << "nearpoint info: " << info.status().describe() << "\n";
+    return exit_code_for(info.status());
+  }
+  const client::ServerInfo::Transports& t = info->transports;
+  const client::ServerInfo::Limits& l = info->limits;
+  if (remote.json) {
+    Json transports = {{"grpc",
+                        {{"listen", t.grpc_listen},
+                         {"port", t.grpc_port},
+                         {"tls", t.tls},
+                         {"token_required", t.token_required}}},
+                       {"dds", {{"enabled", t.dds}}},
+                       {"metrics", {{"enabled", !t.metrics_listen.empty()}}}};
+    if (t.dds) {
+      transports["dds"]["domain"] = t.dds_domain;
+      transports["dds"]["prefix"] = t.dds_prefix;
+    }
+    if (!t.metrics_listen.empty()) {
+      transports["metrics"]["listen"] = t.metrics_listen;
+      transports["metrics"]["port"] = t.metrics_port;
+    }
+    out << Json{{"target", remote.target},
+                {"version", info->version},
+                {"build",
+                 {{"grpc", info->build.grpc},
+                  {"dds", info->build.dds},
+                  {"metrics", info->build.metrics}}},
+                {"transports", std::move(transports)},
+                {"limits",
+                 {{"max_geometries", l.max_geometries},
+                  {"max_pieces_per_geometry", l.max_pieces_per_geometry},
+                  {"max_vertices_per_geometry", l.max_vertices_per_geometry},
+                  {"max_scenes", l.max_scenes},
+                  {"max_objects_per_scene", l.max_objects_per_scene},
+                  {"max_pairs_per_scene", l.max_pairs_per_scene},
+                  {"max_piece_pairs_per_scene", l.max_piece_pairs_per_scene},
+                  {"max_streams", l.max_streams},
+                  {"max_in_flight_per_stream", l.max_in_flight_per_stream},
+                  {"max_concurrent_queries", l.max_concurrent_queries},
+                  {"max_message_bytes", l.max_message_bytes},
+                  {"workers", l.workers}}}}
+               .dump()
+        << "\n";
+    return 0;
+  }
+  auto on_off = [](bool on) { return on ? "yes" : "no"; };
+  out << "nearpointd " << info->version << " at " << remote.target << "\n"
+      << "built with:   gRPC " << on_off(info->build.grpc) << ", DDS " << on_off(info->build.dds)
+      << ", metrics " << on_off(info->build.metrics) << "\n"
+      << "gRPC:         " << t.grpc_listen << " (port " << t.grpc_port << "), TLS " << t.tls
+      << ", token " << (t.token_required ? "required" : "off") << "\n"
+      << "DDS:          ";
+  if (t.dds)
+    out << "on, domain " << t.dds_domain << ", prefix " << t.dds_prefix << "\n";
+  else
+    out << "off\n";
+  out << "metrics:      ";
+  if (t.metrics_listen.empty())
+    out << "off\n";
+  else
+    out << t.metrics_listen << " (port " << t.metrics_port << ", /metrics)\n";
+  out << "limits:       " << l.max_scenes << " scenes, " << l.max_geometries << " geometries ("
+      << l.max_pieces_per_geometry << " pieces, " << l.max_vertices_per_geometry
+      << " vertices each), " << l.max_objects_per_scene << " objects, " << l.max_pairs_per_scene
+      << " pairs and " << l.max_piece_pairs_per_scene << " piece pairs per scene\n"
+      << "              " << l.max_streams << " streams (" << l.max_in_flight_per_stream
+      << " updates in flight each), " << l.max_concurrent_queries << " concurrent queries, "
+      << l.max_message_bytes << "-byte messages, " << l.workers
+      << (l.workers == 1 ? " worker thread\n" : " worker threads\n");
+  return 0;
 }
 
 int run_register(const RegisterOptions& options, std::ostream& out, std::ostream& err) {
@@ -276,8 +363,12 @@ int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostrea
     return kExitBadInput;
   auto client = connect(options.remote, err);
   if (!client) return kExitBadInput;
+  install_interrupt_handlers();
   std::string scene_id;
-  if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) return code;
+  bool created = false;
+  if (int code = resolve_scene(*client, options.scene, err, scene_id, created); code != 0)
+    return code;
+  SceneLease lease(*client, scene_id, created, options.keep_scene, "nearpoint query", err);
   auto report = client->query(scene_id, poses, query_options);
   if (!report) {
     err << "nearpoint query: " << report.status().describe() << "\n";
@@ -285,14 +376,16 @@ int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostrea
   }
   if (options.remote.json) {
     Json json = to_json(*report);
+    json["round_trip_us"] = round_trip_us(*report);
     json["scene_id"] = scene_id;
     out << json.dump() << "\n";
   } else {
-    out << "scene " << scene_id << ": " << report->pairs.size() << " pairs, "
+    out << "scene " << scene_id << ": " << counted(report->pairs.size(), "pair") << ", "
         << number(report->timing.server_us, 4) << " µs on the server\n";
     print_pairs(*report, out);
   }
-  return 0;
+  lease.release();
+  return interrupt_signal() != 0 ? interrupted_exit_code() : 0;
 }
 
 // ---- stream: parse → run → print ----
@@ -376,9 +469,9 @@ bool parse_stream(const StreamCommandOptions& options, Trajectory& trajectory,
 void print_stream_summary(StreamTally& tally, const Trajectory& trajectory,
                           const std::string& scene_id, double wall, std::uint64_t reconnects,
                           bool watched, std::ostream& out) {
-  out << "scene " << scene_id << ": " << tally.reports << " reports for " << trajectory.steps.size()
-      << " updates in " << number(wall, 3) << " s";
-  if (reconnects > 0) out << " (" << reconnects << " reconnects)";
+  out << "scene " << scene_id << ": " << counted(tally.reports, "report") << " for "
+      << counted(trajectory.steps.size(), "update") << " in " << number(wall, 3) << " s";
+  if (reconnects > 0) out << " (" << counted(reconnects, "reconnect") << ")";
   out << "; round trip p50 " << number(percentile(tally.latencies_us, 0.5), 4) << " µs, p99 "
       << number(percentile(tally.latencies_us, 0.99), 4) << " µs\n";
   out << std::left << std::setw(24) << "pair" << std::setw(16) << "min distance" << std::setw(12)
@@ -391,10 +484,11 @@ void print_stream_summary(StreamTally& tally, const Trajectory& trajectory,
     if (s.intersecting_steps == 0)
       out << "never\n";
     else
-      out << s.intersecting_steps << " steps, first at t = " << number(s.first_hit) << "\n";
+      out << counted(s.intersecting_steps, "step") << ", first at t = " << number(s.first_hit)
+          << "\n";
   }
   if (!watched) return;
-  out << tally.events.size() << " threshold events\n";
+  out << counted(tally.events.size(), "threshold event") << "\n";
   for (const client::ThresholdEvent& e : tally.events) {
     out << "  t = " << std::left << std::setw(10) << number(step_time(trajectory, e.sequence))
         << (e.crossing == client::Crossing::enter ? "ENTER " : "EXIT  ")
@@ -411,8 +505,13 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
   if (!parse_stream(options, trajectory, session_options, err)) return kExitBadInput;
   auto client = connect(options.remote, err);
   if (!client) return kExitBadInput;
+  install_interrupt_handlers();
   std::string scene_id;
-  if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) return code;
+  bool created = false;
+  if (int code = resolve_scene(*client, options.scene, err, scene_id, created); code != 0)
+    return code;
+  // Declared before the session: the stream is closed before the scene is deleted.
+  SceneLease lease(*client, scene_id, created, options.keep_scene, "nearpoint stream", err);
 
   // Run: every step pushed (the window bounds what is in flight), each report tallied as it comes.
   std::mutex mutex;
@@ -425,6 +524,7 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
     if (options.remote.json) {
       Json json = to_json(report);
       json["t"] = time;
+      if (report.error.ok()) json["round_trip_us"] = round_trip_us(report);
       out << json.dump() << "\n";
     }
     if (!tally.add(report, time)) return;
@@ -441,6 +541,8 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
     return exit_code_for(session.status());
   }
   for (const TrajectoryStep& step : trajectory.steps) {
+    // Ctrl-C: stop sending; the updates in flight are still answered (and printed) by close().
+    if (interrupt_signal() != 0) break;
     std::vector<client::ObjectPose> poses;
     for (const ObjectPose& pose : step.poses) poses.push_back(to_object_pose(pose));
     auto pushed = (*session)->push(poses, Clock::now() + options.remote.timeout);
@@ -461,6 +563,11 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
   if (!tally.first_error.empty())
     err << "nearpoint stream: " << tally.errors
         << " updates rejected; the first: " << tally.first_error << "\n";
+  if (interrupt_signal() != 0) {
+    err << "nearpoint stream: interrupted after " << tally.reports << " of "
+        << trajectory.steps.size() << " updates\n";
+    return interrupted_exit_code();  // the session ends before the lease deletes the scene
+  }
   if (!closed.ok()) {
     err << "nearpoint stream: " << closed.describe() << "\n";
     return exit_code_for(closed);
@@ -554,7 +661,7 @@ LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
       }
       // Streams start at different points of the path, so they do not run in lock step.
       std::size_t step = std::size_t(k) * path.size() / std::size_t(options.streams);
-      while (Clock::now() < stop_at) {
+      while (Clock::now() < stop_at && interrupt_signal() == 0) {
         auto pushed =
             (*session)->push(path[step % path.size()], stop_at + std::chrono::seconds(10));
         if (!pushed) {
@@ -573,7 +680,7 @@ LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
   }
   // The progress line, until the streams are done.
   if (options.progress_every > 0) {
-    while (Clock::now() < stop_at) {
+    while (Clock::now() < stop_at && interrupt_signal() == 0) {
       std::this_thread::sleep_for(
           std::min(std::chrono::duration_cast<Clock::duration>(
                        std::chrono::duration<double>(options.progress_every)),
@@ -616,9 +723,9 @@ void print_load_summary(LoadResult& result, const std::string& scene_id,
         << "\n";
     return;
   }
-  out << "scene " << scene_id << ": " << options.streams << " streams × " << options.window
-      << " in flight for " << number(options.duration_s, 3) << " s: " << count << " reports, "
-      << number(rate, 5) << " updates/s\n"
+  out << "scene " << scene_id << ": " << counted(options.streams, "stream") << " × "
+      << options.window << " in flight for " << number(options.duration_s, 3)
+      << " s: " << counted(count, "report") << ", " << number(rate, 5) << " updates/s\n"
       << "round-trip latency (push to report): p50 " << number(p50, 4) << " µs, p90 "
       << number(p90, 4) << " µs, p99 " << number(p99, 4) << " µs, max " << number(max, 4)
       << " µs\n";
@@ -631,19 +738,28 @@ int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream&
   if (!parse_load(options, path, err)) return kExitBadInput;
   auto client = connect(options.remote, err);
   if (!client) return kExitBadInput;
+  install_interrupt_handlers();
   std::string scene_id;
+  bool created = false;
   if (options.scene.empty()) {
-    auto created = create_demo_scene(*client);
-    if (!created) {
-      err << "nearpoint load: " << options.remote.target << ": " << created.status().describe()
+    auto demo = create_demo_scene(*client);
+    if (!demo) {
+      err << "nearpoint load: " << options.remote.target << ": " << demo.status().describe()
           << "\n";
-      return exit_code_for(created.status());
+      return exit_code_for(demo.status());
     }
-    scene_id = *created;
-  } else if (int code = resolve_scene(*client, options.scene, err, scene_id); code != 0) {
+    scene_id = *demo;
+    created = true;
+  } else if (int code = resolve_scene(*client, options.scene, err, scene_id, created); code != 0) {
     return code;
   }
+  SceneLease lease(*client, scene_id, created, options.keep_scene, "nearpoint load", err);
   LoadResult result = run_load_streams(*client, scene_id, path, options, err);
+  lease.release();
+  if (interrupt_signal() != 0) {
+    err << "nearpoint load: interrupted\n";
+    return interrupted_exit_code();
+  }
   print_load_summary(result, scene_id, options, out);
   if (result.errors > 0) {
     err << "nearpoint load: " << result.errors << " errors; the first: " << result.first_error

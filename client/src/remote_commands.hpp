@@ -32,6 +32,10 @@ struct HealthOptions {
 };
 int run_health(const HealthOptions& options, std::ostream& out, std::ostream& err);
 
+/// `nearpoint info`: the server's version, build options, transports and limits (GetServerInfo),
+/// as text or, with --json, one JSON object.
+int run_info(const RemoteOptions& remote, std::ostream& out, std::ostream& err);
+
 struct SceneCreateOptions {
   RemoteOptions remote;
   std::string file;
@@ -53,6 +57,8 @@ struct QueryCommandOptions {
   bool near_points = false;
   std::string penetration;  // "", none, bound
   ReportModeFlags report;
+  /// A scene created from a file is deleted at the end unless this is set (--keep-scene).
+  bool keep_scene = false;
 };
 int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostream& err);
 
@@ -68,6 +74,8 @@ struct StreamCommandOptions {
   std::vector<std::string> thresholds;
   /// Seconds between progress lines on `err` (human mode); 0: none.
   double progress_every = 0.5;
+  /// A scene created from a file is deleted at the end unless this is set (--keep-scene).
+  bool keep_scene = false;
 };
 int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostream& err);
 
@@ -81,6 +89,9 @@ struct LoadCommandOptions {
   double duration_s = 3;
   std::size_t window = 1;  // 1: one update in flight per stream (latency); more: throughput
   double progress_every = 0.5;
+  /// The scene created here (the demo scene, or from a file) is deleted at the end unless this
+  /// is set (--keep-scene).
+  bool keep_scene = false;
 };
 int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream& err);
 

@@ -3,7 +3,10 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <ostream>
 #include <sstream>
+
+#include "nearpoint/model/vocabulary.hpp"
 
 #ifdef NEARPOINT_WITH_MESH_IMPORT
 #include "nearpoint/client/mesh_import.hpp"
@@ -23,6 +26,19 @@ int exit_code_for(const client::Status& status) {
   return status.code == client::kUnavailable || status.code == client::kDeadlineExceeded
              ? kExitUnreachable
              : kExitServerError;
+}
+
+std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err) {
+  client::ClientOptions options;
+  options.call_timeout = remote.timeout;
+  options.tls_server_name = remote.tls_server_name;
+  const client::Status loaded = client::load_credentials(options, remote.tls_ca, remote.tls_cert,
+                                                         remote.tls_key, remote.token_file);
+  if (!loaded.ok()) {
+    err << "nearpoint: " << loaded.message << "\n";
+    return nullptr;
+  }
+  return client::Client::connect(remote.target, options);
 }
 
 std::string default_target() {
@@ -71,27 +87,31 @@ Json to_json(const client::GeometryInfo& info) {
   return out;
 }
 
+// One schema for every report the CLI prints (client/schema/report.schema.json), the same keys as
+// dds_stream.cpp's report_json: a change here needs the same change there and in the schema.
 Json to_json(const client::Report& report) {
   Json out;
   out["sequence"] = report.sequence;
   if (!report.error.ok()) {
-    out["error"] = {{"code", report.error.code_name()},
+    out["status"] = "error";
+    out["error"] = {{"code", model::status_code_spelling(report.error.code)},
                     {"field", report.error_field},
                     {"message", report.error.message}};
     return out;
   }
+  out["status"] = "ok";
+  out["report_mode"] = client::to_string(report.mode);
   Json pairs = Json::array();
   for (const client::PairDistance& p : report.pairs) {
     Json pair;
     pair["object_a"] = p.object_a;
     pair["object_b"] = p.object_b;
     pair["status"] = client::to_string(p.status);
-    if (p.status == client::PairStatus::beyond_cutoff) {
-      pair["distance_lower_bound"] = p.distance_lower_bound;
-    } else {
-      pair["distance"] = p.distance;
-      pair["error_bound"] = p.error_bound;
-    }
+    // The bound on every pair, whatever its status (beyond_cutoff: distance_lower_bound is the
+    // meaningful value; the others say what the server sent).
+    pair["distance"] = p.distance;
+    pair["distance_lower_bound"] = p.distance_lower_bound;
+    pair["error_bound"] = p.error_bound;
     pair["iterations"] = p.iterations;
     pair["warm_started"] = p.warm_started;
     if (p.near_points) {
@@ -104,22 +124,26 @@ Json to_json(const client::Report& report) {
     pairs.push_back(std::move(pair));
   }
   out["pairs"] = std::move(pairs);
-  out["report_mode"] = client::to_string(report.mode);
-  if (!report.events.empty()) {
-    Json events = Json::array();
-    for (const client::ThresholdEvent& e : report.events)
-      events.push_back({{"threshold", e.threshold},
-                        {"threshold_index", e.threshold_index},
-                        {"object_a", e.object_a},
-                        {"object_b", e.object_b},
-                        {"crossing", client::to_string(e.crossing)},
-                        {"distance", e.distance},
-                        {"sequence", e.sequence}});
-    out["events"] = std::move(events);
-  }
+  Json events = Json::array();
+  for (const client::ThresholdEvent& e : report.events)
+    events.push_back({{"threshold", e.threshold},
+                      {"threshold_index", e.threshold_index},
+                      {"object_a", e.object_a},
+                      {"object_b", e.object_b},
+                      {"crossing", client::to_string(e.crossing)},
+                      {"distance", e.distance},
+                      {"sequence", e.sequence}});
+  out["events"] = std::move(events);
+  out["coalesced_updates"] = report.coalesced_updates;
+  out["coalesced_from_sequence"] =
+      report.coalesced_updates > 0 ? report.coalesced_from_sequence : 0;
+  out["counts"] = {{"pairs_evaluated", report.counts.pairs_evaluated},
+                   {"pairs_pruned", report.counts.pairs_pruned},
+                   {"pairs_unmoved", report.counts.pairs_unmoved}};
   out["server_us"] = report.timing.server_us;
+  out["queue_us"] = report.timing.queue_us;
+  out["evaluation_us"] = report.timing.evaluation_us;
   out["geometry_us"] = report.timing.geometry_us;
-  if (report.coalesced_updates > 0) out["coalesced_updates"] = report.coalesced_updates;
   return out;
 }
 

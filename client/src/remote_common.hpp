@@ -5,19 +5,22 @@
 
 #include <chrono>
 #include <iosfwd>
+#include <memory>
 #include <string>
 
 #include "json_shapes.hpp"
 #include "nearpoint/client/client.hpp"
 #include "nearpoint/formats/scene_file.hpp"
+#include "nearpoint/model/exit_codes.hpp"
 
 namespace nearpoint::cli {
 
-/// Exit codes of the server-facing verbs (also in `nearpoint --help` and the README).
-inline constexpr int kExitServerError = 1;  ///< the server answered with an error (message printed)
-inline constexpr int kExitBadInput = 2;     ///< bad command line, unreadable or malformed file
-inline constexpr int kExitUnreachable = 3;  ///< no server (UNAVAILABLE, DEADLINE_EXCEEDED), or
-                                            ///< nearpointd could not be started
+/// Exit codes of the server-facing verbs: the one table of both binaries
+/// (nearpoint/model/exit_codes.hpp), under the names these verbs' code reads best with.
+inline constexpr int kExitServerError = model::kExitFailure;      ///< the server answered an error
+inline constexpr int kExitBadInput = model::kExitUsage;           ///< bad command line or file
+inline constexpr int kExitUnreachable = model::kExitUnavailable;  ///< no server, or nearpointd
+                                                                  ///< could not be started
 
 /// The exit code for a failed call: 3 when the server could not be reached, else 1.
 int exit_code_for(const client::Status& status);
@@ -37,6 +40,10 @@ struct RemoteOptions {
   std::string tls_key;
   std::string token_file;
 };
+
+/// A client with the --tls-* and --token-file files loaded, or nullptr (the reason printed to
+/// `err`) when one cannot be read.
+std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err);
 
 /// Mesh files → convex pieces (nearpoint_mesh_import), or an error when built without it.
 formats::MeshLoader mesh_loader();

@@ -142,111 +142,173 @@ bool read_pair_list(const Json& value, const std::string& path,
   return true;
 }
 
-std::string parse_scene_or_throw(const Json& value, const std::filesystem::path& base_dir,
-                                 const MeshLoader& meshes, SceneFile& out) {
-  if (!value.is_object())
-    return "a scene file must hold an object (got " + describe_type(value) + ")";
-  SceneFile file;
+// The file's top level: "id" and "name" read, every other key one of the sections below.
+std::string read_scene_keys(const Json& value, model::SceneInput& scene) {
   for (const auto& [key, part] : value.items()) {
     if (key == "id") {
-      if (std::string error = read_string(part, "id", file.scene.requested_id); !error.empty())
+      if (std::string error = read_string(part, "id", scene.requested_id); !error.empty())
         return error;
     } else if (key == "name") {
-      if (std::string error = read_string(part, "name", file.scene.name); !error.empty())
-        return error;
+      if (std::string error = read_string(part, "name", scene.name); !error.empty()) return error;
     } else if (key != "geometries" && key != "objects" && key != "pairs" && key != "options" &&
                key != "thresholds") {
       return unknown_key("", key, "id, name, geometries, objects, pairs, options, thresholds");
     }
   }
-  if (value.contains("geometries")) {
-    const Json& geometries = value["geometries"];
-    if (!geometries.is_object())
-      return "\"geometries\" must be an object {\"NAME\": GEOMETRY, ...}";
-    for (const auto& [name, geometry] : geometries.items()) {
-      model::GeometryInput input;
-      if (std::string error =
-              parse_geometry(geometry, member("geometries", name), base_dir, meshes, input);
-          !error.empty())
-        return error;
-      if (input.name.empty()) input.name = name;
-      file.geometries.emplace_back(name, std::move(input));
+  return {};
+}
+
+// "geometries": {"NAME": GEOMETRY, ...}; a geometry without a name of its own takes its key.
+std::string read_geometries(const Json& geometries, const std::filesystem::path& base_dir,
+                            const MeshLoader& meshes, SceneFile& file) {
+  if (!geometries.is_object()) return "\"geometries\" must be an object {\"NAME\": GEOMETRY, ...}";
+  for (const auto& [name, geometry] : geometries.items()) {
+    model::GeometryInput input;
+    if (std::string error =
+            parse_geometry(geometry, member("geometries", name), base_dir, meshes, input);
+        !error.empty())
+      return error;
+    if (input.name.empty()) input.name = name;
+    file.geometries.emplace_back(name, std::move(input));
+  }
+  return {};
+}
+
+// One object's keys; `geometry_name` gets its "geometry" (a key of "geometries"), if any.
+std::string read_object_keys(const Json& object, const std::string& path, model::ObjectInput& input,
+                             std::string& geometry_name) {
+  for (const auto& [key, part] : object.items()) {
+    const std::string field = member(path, key);
+    std::string error;
+    if (key == "id") {
+      error = read_string(part, field, input.id);
+    } else if (key == "geometry") {
+      error = read_string(part, field, geometry_name);
+    } else if (key == "geometry_id") {
+      error = read_string(part, field, input.geometry_id);
+    } else if (key == "pose") {
+      Vec3<double> translation;
+      error = parse_pose_parts(part, field, input.pose.rotation_wxyz, translation);
+      input.pose.translation = translation;
+    } else if (key == "group" || key == "mask") {
+      std::uint32_t bits = 0;
+      error = read_uint32(part, field, bits);
+      (key == "group" ? input.group : input.mask) = bits;
+    } else if (key == "padding" || key == "self_padding") {
+      // The server checks the value (finite, >= 0) and names the field.
+      if (!part.is_number()) {
+        error = quoted(field) + " must be a number";
+      } else {
+        (key == "padding" ? input.padding : input.self_padding) = part.get<double>();
+      }
+    } else if (key == "body") {
+      error = read_string(part, field, input.body);
+    } else {
+      error = unknown_key(path, key,
+                          "id, geometry, geometry_id, pose, group, mask, padding, self_padding, "
+                          "body");
     }
+    if (!error.empty()) return error;
+  }
+  return {};
+}
+
+// One object: its keys, then what only the file can check (its geometry names a key of
+// "geometries", read before the objects).
+std::string read_object(const Json& object, const std::string& path, SceneFile& file) {
+  if (!object.is_object()) return quoted(path) + " must be an object";
+  model::ObjectInput input;
+  std::string geometry_name;
+  if (std::string error = read_object_keys(object, path, input, geometry_name); !error.empty())
+    return error;
+  if (input.id.empty()) return quoted(member(path, "id")) + " is missing (a non-empty string)";
+  if (geometry_name.empty() == input.geometry_id.empty())
+    return quoted(path) +
+           " must name exactly one of \"geometry\" (a key of \"geometries\") and "
+           "\"geometry_id\" (a geometry already registered on the server)";
+  if (!geometry_name.empty()) {
+    bool known = false;
+    for (const auto& [name, ignored] : file.geometries) known = known || name == geometry_name;
+    if (!known)
+      return quoted(member(path, "geometry")) + ": no geometry " + user_key(geometry_name) +
+             " in \"geometries\"";
+  }
+  file.geometry_names.push_back(geometry_name);
+  file.scene.objects.push_back(std::move(input));
+  return {};
+}
+
+// "pairs": "all", {"listed": [["a","b"], ...]} or {"excluded": [...]}.
+std::string read_pairs(const Json& pairs, model::PairSelectionInput& selection) {
+  std::string error;
+  if (pairs.is_string() && pairs.get<std::string>() == "all") {
+    selection.mode = model::PairSelectionInput::Mode::all_pairs;
+  } else if (pairs.is_object() && pairs.size() == 1 && pairs.contains("listed")) {
+    selection.mode = model::PairSelectionInput::Mode::listed_pairs;
+    if (!read_pair_list(pairs["listed"], "pairs.listed", selection.pairs, error)) return error;
+  } else if (pairs.is_object() && pairs.size() == 1 && pairs.contains("excluded")) {
+    selection.mode = model::PairSelectionInput::Mode::excluded_pairs;
+    if (!read_pair_list(pairs["excluded"], "pairs.excluded", selection.pairs, error)) return error;
+  } else {
+    return "\"pairs\" must be \"all\", {\"listed\": [[\"a\",\"b\"], ...]} or "
+           "{\"excluded\": [[\"a\",\"b\"], ...]}";
+  }
+  return {};
+}
+
+// "thresholds": [{"name", "distance", "hysteresis", "object_a", "object_b", "groups"}, ...] as in
+// nearpoint.v1.Threshold; the server checks the values and names the field.
+std::string read_thresholds(const Json& thresholds, std::vector<model::ThresholdInput>& out) {
+  if (!thresholds.is_array()) return "\"thresholds\" must be an array of objects";
+  for (std::size_t t = 0; t < thresholds.size(); ++t) {
+    const std::string path = "thresholds[" + std::to_string(t) + "]";
+    if (!thresholds[t].is_object()) return quoted(path) + " must be an object";
+    model::ThresholdInput& threshold = out.emplace_back();
+    for (const auto& [key, part] : thresholds[t].items()) {
+      const std::string field = member(path, key);
+      std::string error;
+      if (key == "distance" || key == "hysteresis") {
+        if (!part.is_number()) return quoted(field) + " must be a number";
+        (key == "distance" ? threshold.distance : threshold.hysteresis) = part.get<double>();
+      } else if (key == "name" || key == "object_a" || key == "object_b") {
+        error = read_string(part, field,
+                            key == "name"       ? threshold.name
+                            : key == "object_a" ? threshold.object_a
+                                                : threshold.object_b);
+      } else if (key == "groups") {
+        error = read_uint32(part, field, threshold.groups);
+      } else {
+        error = unknown_key(path, key, "name, distance, hysteresis, object_a, object_b, groups");
+      }
+      if (!error.empty()) return error;
+    }
+  }
+  return {};
+}
+
+// The sections in the order their errors are reported: the top-level keys, then geometries
+// (objects refer to them), objects, pairs, options and thresholds.
+std::string parse_scene_or_throw(const Json& value, const std::filesystem::path& base_dir,
+                                 const MeshLoader& meshes, SceneFile& out) {
+  if (!value.is_object())
+    return "a scene file must hold an object (got " + describe_type(value) + ")";
+  SceneFile file;
+  if (std::string error = read_scene_keys(value, file.scene); !error.empty()) return error;
+  if (value.contains("geometries")) {
+    if (std::string error = read_geometries(value["geometries"], base_dir, meshes, file);
+        !error.empty())
+      return error;
   }
   if (!value.contains("objects") || !value["objects"].is_array() || value["objects"].empty())
     return "\"objects\" must be a non-empty array of objects";
   const Json& objects = value["objects"];
   for (std::size_t i = 0; i < objects.size(); ++i) {
-    const Json& object = objects[i];
-    const std::string path = element("objects", i);
-    if (!object.is_object()) return quoted(path) + " must be an object";
-    model::ObjectInput input;
-    std::string geometry_name;
-    for (const auto& [key, part] : object.items()) {
-      const std::string field = member(path, key);
-      std::string error;
-      if (key == "id") {
-        error = read_string(part, field, input.id);
-      } else if (key == "geometry") {
-        error = read_string(part, field, geometry_name);
-      } else if (key == "geometry_id") {
-        error = read_string(part, field, input.geometry_id);
-      } else if (key == "pose") {
-        Vec3<double> translation;
-        error = parse_pose_parts(part, field, input.pose.rotation_wxyz, translation);
-        input.pose.translation = translation;
-      } else if (key == "group" || key == "mask") {
-        std::uint32_t bits = 0;
-        error = read_uint32(part, field, bits);
-        (key == "group" ? input.group : input.mask) = bits;
-      } else if (key == "padding" || key == "self_padding") {
-        // The server checks the value (finite, >= 0) and names the field.
-        if (!part.is_number()) {
-          error = quoted(field) + " must be a number";
-        } else {
-          (key == "padding" ? input.padding : input.self_padding) = part.get<double>();
-        }
-      } else if (key == "body") {
-        error = read_string(part, field, input.body);
-      } else {
-        error = unknown_key(path, key,
-                            "id, geometry, geometry_id, pose, group, mask, padding, self_padding, "
-                            "body");
-      }
-      if (!error.empty()) return error;
-    }
-    if (input.id.empty()) return quoted(member(path, "id")) + " is missing (a non-empty string)";
-    if (geometry_name.empty() == input.geometry_id.empty())
-      return quoted(path) +
-             " must name exactly one of \"geometry\" (a key of \"geometries\") and "
-             "\"geometry_id\" (a geometry already registered on the server)";
-    if (!geometry_name.empty()) {
-      bool known = false;
-      for (const auto& [name, ignored] : file.geometries) known = known || name == geometry_name;
-      if (!known)
-        return quoted(member(path, "geometry")) + ": no geometry " + user_key(geometry_name) +
-               " in \"geometries\"";
-    }
-    file.geometry_names.push_back(geometry_name);
-    file.scene.objects.push_back(std::move(input));
+    if (std::string error = read_object(objects[i], element("objects", i), file); !error.empty())
+      return error;
   }
   if (value.contains("pairs")) {
-    const Json& pairs = value["pairs"];
-    auto& selection = file.scene.pair_selection;
-    std::string error;
-    if (pairs.is_string() && pairs.get<std::string>() == "all") {
-      selection.mode = model::PairSelectionInput::Mode::all_pairs;
-    } else if (pairs.is_object() && pairs.size() == 1 && pairs.contains("listed")) {
-      selection.mode = model::PairSelectionInput::Mode::listed_pairs;
-      if (!read_pair_list(pairs["listed"], "pairs.listed", selection.pairs, error)) return error;
-    } else if (pairs.is_object() && pairs.size() == 1 && pairs.contains("excluded")) {
-      selection.mode = model::PairSelectionInput::Mode::excluded_pairs;
-      if (!read_pair_list(pairs["excluded"], "pairs.excluded", selection.pairs, error))
-        return error;
-    } else {
-      return "\"pairs\" must be \"all\", {\"listed\": [[\"a\",\"b\"], ...]} or "
-             "{\"excluded\": [[\"a\",\"b\"], ...]}";
-    }
+    if (std::string error = read_pairs(value["pairs"], file.scene.pair_selection); !error.empty())
+      return error;
   }
   if (value.contains("options")) {
     if (std::string error =
@@ -255,33 +317,9 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
       return error;
   }
   if (value.contains("thresholds")) {
-    // [{"name", "distance", "hysteresis", "object_a", "object_b", "groups"}, ...] as in
-    // nearpoint.v1.Threshold; the server checks the values and names the field.
-    const Json& thresholds = value["thresholds"];
-    if (!thresholds.is_array()) return "\"thresholds\" must be an array of objects";
-    for (std::size_t t = 0; t < thresholds.size(); ++t) {
-      const std::string path = "thresholds[" + std::to_string(t) + "]";
-      if (!thresholds[t].is_object()) return quoted(path) + " must be an object";
-      model::ThresholdInput& threshold = file.scene.thresholds.emplace_back();
-      for (const auto& [key, part] : thresholds[t].items()) {
-        const std::string field = member(path, key);
-        std::string error;
-        if (key == "distance" || key == "hysteresis") {
-          if (!part.is_number()) return quoted(field) + " must be a number";
-          (key == "distance" ? threshold.distance : threshold.hysteresis) = part.get<double>();
-        } else if (key == "name" || key == "object_a" || key == "object_b") {
-          error = read_string(part, field,
-                              key == "name"       ? threshold.name
-                              : key == "object_a" ? threshold.object_a
-                                                  : threshold.object_b);
-        } else if (key == "groups") {
-          error = read_uint32(part, field, threshold.groups);
-        } else {
-          error = unknown_key(path, key, "name, distance, hysteresis, object_a, object_b, groups");
-        }
-        if (!error.empty()) return error;
-      }
-    }
+    if (std::string error = read_thresholds(value["thresholds"], file.scene.thresholds);
+        !error.empty())
+      return error;
   }
   out = std::move(file);
   return {};

@@ -186,6 +186,10 @@ std::vector<model::ThresholdInput> read_thresholds(
 
 }  // namespace
 
+model::ObjectInput from_proto(const v1::SceneObject& object) {
+  return read_object(object);
+}
+
 void to_proto(const model::Vec3d& v, v1::Vector3& out) {
   out.set_x(v.x());
   out.set_y(v.y());

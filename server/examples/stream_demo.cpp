@@ -1,11 +1,14 @@
 // SPDX-License-Identifier: Apache-2.0
 // nearpoint_stream_demo: the smallest complete client of nearpointd. It registers three
 // geometries (a box as a polytope, a capsule, a cylinder), creates a scene, streams a box sliding
-// past the other two and prints one line per report.
+// past the other two, prints one line per report and deletes its scene. It talks to the wire API
+// (the generated nearpoint.v1 stubs) directly, as a client in another language would; the
+// `nearpoint` CLI and nearpoint::client do the same for real use.
 //
-//   nearpoint_stream_demo [--target 127.0.0.1:50051] [--updates 40]
+//   nearpoint_stream_demo [--target HOST:PORT] [--updates 40]   (--help for more)
 #include <grpcpp/grpcpp.h>
 
+#include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -51,13 +54,23 @@ std::string register_geometry(v1::DistanceService::Stub& stub, const v1::Geometr
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string target = "127.0.0.1:50051";
+  // The same default as the nearpoint CLI: $NEARPOINT_TARGET, else the server's default address.
+  const char* env_target = std::getenv("NEARPOINT_TARGET");
+  std::string target =
+      env_target != nullptr && *env_target != '\0' ? env_target : "127.0.0.1:50051";
   int updates = 40;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string flag = argv[i];
-    if (flag == "--target") target = argv[i + 1];
-    if (flag == "--updates") updates = std::max(1, std::atoi(argv[i + 1]));
-  }
+  CLI::App app(
+      "The smallest complete client of nearpointd: registers a cube, a capsule and a cylinder, "
+      "creates a scene, streams the cube past the other two (one line per report) and deletes "
+      "the scene.",
+      "nearpoint_stream_demo");
+  app.add_option("--target", target,
+                 "nearpointd address host:port (default $NEARPOINT_TARGET or 127.0.0.1:50051)")
+      ->capture_default_str();
+  app.add_option("--updates", updates, "Pose updates to stream")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
   auto stub =
       v1::DistanceService::NewStub(grpc::CreateChannel(target, grpc::InsecureChannelCredentials()));
 
@@ -127,9 +140,15 @@ int main(int argc, char** argv) {
   }
   stream->WritesDone();
   const grpc::Status status = stream->Finish();
+  // The scene was made for this run only: leave the server as it was found.
+  v1::DeleteSceneRequest remove;
+  remove.set_scene_id(created.scene_id());
+  v1::DeleteSceneResponse removed;
+  const bool deleted =
+      check(stub->DeleteScene(context_with_deadline(10).get(), remove, &removed), "DeleteScene");
   std::printf(
       "\nstream ended: %s (* = warm-started from the previous update; smooth shapes such as "
       "the cylinder have no vertices to cache)\n",
       status.ok() ? "OK" : status.error_message().c_str());
-  return status.ok() ? 0 : 1;
+  return status.ok() && deleted ? 0 : 1;
 }

@@ -1,9 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
-// Content ids: SHA-256 (FIPS 180-4) over a canonical byte form, so that the same geometry gets the
-// same id on every replica and on every registration (registering twice is idempotent, and a
-// client that re-creates its scene on another replica after a failover names the same ids).
-// Not a security boundary: ids are public; SHA-256 only makes accidental collisions impossible in
-// practice (128 bits are kept).
+// Content ids: SHA-256 (FIPS 180-4, OpenSSL's implementation) over a canonical byte form, so that
+// the same geometry gets the same id on every replica and on every registration (registering twice
+// is idempotent, and a client that re-creates its scene on another replica after a failover names
+// the same ids). Not a security boundary: ids are public; SHA-256 only makes accidental collisions
+// impossible in practice (128 bits are kept).
 #pragma once
 
 #include <array>
@@ -13,23 +13,24 @@
 
 #include "nearpoint/server/report.hpp"
 
+struct evp_md_ctx_st;  // OpenSSL's EVP_MD_CTX, kept out of the including files
+
 namespace nearpoint::server {
 
-/// Incremental SHA-256.
+/// Incremental SHA-256, OpenSSL's EVP (libcrypto, linked for gRPC's TLS anyway).
 class Sha256 {
  public:
   Sha256();
+  ~Sha256();
+  Sha256(const Sha256&) = delete;
+  Sha256& operator=(const Sha256&) = delete;
   void update(const void* data, std::size_t size);
   void update(std::string_view bytes) { update(bytes.data(), bytes.size()); }
   /// The digest; the object is spent afterwards.
   std::array<std::uint8_t, 32> finish();
 
  private:
-  void block(const std::uint8_t* chunk);
-  std::array<std::uint32_t, 8> state_;
-  std::array<std::uint8_t, 64> buffer_{};
-  std::size_t buffered_ = 0;
-  std::uint64_t length_ = 0;
+  evp_md_ctx_st* context_;
 };
 
 /// Lower-case hex of the first `bytes` bytes of `digest`.

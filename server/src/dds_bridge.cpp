@@ -4,12 +4,14 @@
 #include <algorithm>
 #include <array>
 #include <condition_variable>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <map>
 #include <mutex>
 #include <optional>
+#include <string_view>
 #include <thread>
 #include <vector>
 
@@ -18,7 +20,6 @@
 #include "nearpoint/server/log.hpp"
 #include "nearpoint_dds.hpp"
 #include "validation.hpp"
-#include "wire_numbers.hpp"
 
 namespace nearpoint::server {
 namespace {
@@ -554,7 +555,7 @@ struct DdsBridge::Impl {
     ReportSample sample{};
     address(pending.to, sample);
     sample.sequence_number = pending.sequence;
-    sample.status = wire::status_code(pending.error.code);
+    sample.status = status_code(pending.error.code);
     sample.error_field = borrow(pending.error.field);
     sample.message = borrow(pending.error.message);
     sample.pairs._release = false;
@@ -595,16 +596,33 @@ DdsBridge::~DdsBridge() {
   shutdown();
 }
 
-Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
-                                                      const DdsConfig& config) {
+Outcome check_dds_config(const DdsConfig& config) {
   if (std::string problem = dds::check_configuration(config.allow_default_config); !problem.empty())
     return Error{ErrorCode::failed_precondition, "CYCLONEDDS_URI", problem};
+  // A configuration file that is not there would otherwise surface later as Cyclone's bare
+  // "dds_create_participant failed"; several comma-separated URIs are left to Cyclone.
+  if (const char* uri = std::getenv("CYCLONEDDS_URI");
+      uri != nullptr && std::string_view(uri).starts_with("file://") &&
+      std::string_view(uri).find(',') == std::string_view::npos) {
+    const std::string path(std::string_view(uri).substr(7));
+    if (std::FILE* file = std::fopen(path.c_str(), "r"))
+      std::fclose(file);
+    else
+      return Error{ErrorCode::failed_precondition, "CYCLONEDDS_URI",
+                   text("names the file '", path, "', which cannot be read")};
+  }
   if (config.domain_id > kMaxDomainId)
     return invalid_argument(
         "dds.domain",
         text("is ", config.domain_id, "; Cyclone DDS's port mapping allows 0-", kMaxDomainId));
   if (std::string problem = dds::check_topic_prefix(config.topic_prefix); !problem.empty())
     return invalid_argument("dds.prefix", problem);
+  return {};
+}
+
+Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
+                                                      const DdsConfig& config) {
+  if (Outcome checked = check_dds_config(config); !checked) return checked.error();
 
   std::unique_ptr<DdsBridge> self(new DdsBridge());
   self->impl_ = std::make_unique<Impl>(scenes, config);

@@ -58,6 +58,12 @@ struct DdsBridgeStats {
   std::size_t open_streams = 0;
 };
 
+/// The configuration checks of DdsBridge::start, without starting anything: CYCLONEDDS_URI set
+/// (or --dds-allow-default-config) and, when it names a file (file://PATH), that file readable;
+/// the domain id and topic prefix valid. nearpointd runs them before any transport binds, so
+/// that a bad DDS configuration stops it before it signals readiness.
+Outcome check_dds_config(const DdsConfig& config);
+
 class DdsBridge {
  public:
   /// Creates the participant, topics, reader and writer and starts the bridge thread, or says

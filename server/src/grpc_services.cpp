@@ -588,6 +588,36 @@ void delete_scene(SceneService& scenes, DeleteSceneCall& call) {
   call.finish(grpc::Status::OK);
 }
 
+using ListScenesCall = UnaryCall<v1::ListScenesRequest, v1::ListScenesResponse>;
+void list_scenes(SceneService& scenes, ListScenesCall& call) {
+  for (const auto& scene : scenes.list_scenes()) {
+    v1::SceneSummary& summary = *call.response.add_scenes();
+    summary.set_scene_id(scene->id);
+    summary.set_name(scene->name);
+    summary.set_pair_count(std::uint32_t(scene->pairs.size()));
+    for (const SceneObject& object : scene->objects) {
+      v1::SceneObject& out = *summary.add_objects();
+      out.set_id(object.id);
+      out.set_geometry_id(object.geometry->info.geometry_id);
+      const Eigen::Quaterniond q(object.initial_pose.rotation);
+      v1::Quaternion& rotation = *out.mutable_pose()->mutable_rotation();
+      rotation.set_w(q.w());
+      rotation.set_x(q.x());
+      rotation.set_y(q.y());
+      rotation.set_z(q.z());
+      v1::Vector3& translation = *out.mutable_pose()->mutable_translation();
+      translation.set_x(object.initial_pose.translation.x());
+      translation.set_y(object.initial_pose.translation.y());
+      translation.set_z(object.initial_pose.translation.z());
+      out.set_group(object.group);
+      out.set_mask(object.mask);
+      out.set_padding(object.padding);
+      out.set_self_padding(object.self_padding);
+    }
+  }
+  call.finish(grpc::Status::OK);
+}
+
 using QueryCall = UnaryCall<v1::QueryRequest, v1::DistanceReport>;
 void query(SceneService& scenes, std::size_t max_message_bytes,
            const std::shared_ptr<QueryCall>& call) {
@@ -651,6 +681,25 @@ grpc::ServerUnaryReactor* DistanceServiceImpl::DeleteScene(grpc::CallbackServerC
   return serve_unary<v1::DeleteSceneRequest, v1::DeleteSceneResponse>(
       calls_, context, "DeleteScene", request, response,
       [this](const auto& call) { delete_scene(scenes_, *call); });
+}
+
+grpc::ServerUnaryReactor* DistanceServiceImpl::GetServerInfo(grpc::CallbackServerContext* context,
+                                                             const grpc::ByteBuffer* request,
+                                                             grpc::ByteBuffer* response) {
+  return serve_unary<v1::GetServerInfoRequest, v1::ServerInfo>(
+      calls_, context, "GetServerInfo", request, response, [this](const auto& call) {
+        call->response = server_info_;
+        call->response.mutable_transports()->set_grpc_port(std::uint32_t(port_.load()));
+        call->finish(grpc::Status::OK);
+      });
+}
+
+grpc::ServerUnaryReactor* DistanceServiceImpl::ListScenes(grpc::CallbackServerContext* context,
+                                                          const grpc::ByteBuffer* request,
+                                                          grpc::ByteBuffer* response) {
+  return serve_unary<v1::ListScenesRequest, v1::ListScenesResponse>(
+      calls_, context, "ListScenes", request, response,
+      [this](const auto& call) { list_scenes(scenes_, *call); });
 }
 
 grpc::ServerUnaryReactor* DistanceServiceImpl::Query(grpc::CallbackServerContext* context,

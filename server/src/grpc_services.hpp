@@ -58,9 +58,11 @@ using RawDistanceService = v1::DistanceService::WithRawCallbackMethod_RegisterGe
         v1::DistanceService::WithRawCallbackMethod_ListGeometries<
             v1::DistanceService::WithRawCallbackMethod_CreateScene<
                 v1::DistanceService::WithRawCallbackMethod_DeleteScene<
-                    v1::DistanceService::WithRawCallbackMethod_Query<
-                        v1::DistanceService::WithRawCallbackMethod_StreamPoses<
-                            v1::DistanceService::Service>>>>>>>;
+                    v1::DistanceService::WithRawCallbackMethod_ListScenes<
+                        v1::DistanceService::WithRawCallbackMethod_Query<
+                            v1::DistanceService::WithRawCallbackMethod_StreamPoses<
+                                v1::DistanceService::WithRawCallbackMethod_GetServerInfo<
+                                    v1::DistanceService::Service>>>>>>>>>;
 
 class DistanceServiceImpl final : public RawDistanceService {
  public:
@@ -86,6 +88,9 @@ class DistanceServiceImpl final : public RawDistanceService {
   grpc::ServerUnaryReactor* DeleteScene(grpc::CallbackServerContext* context,
                                         const grpc::ByteBuffer* request,
                                         grpc::ByteBuffer* response) override;
+  grpc::ServerUnaryReactor* ListScenes(grpc::CallbackServerContext* context,
+                                       const grpc::ByteBuffer* request,
+                                       grpc::ByteBuffer* response) override;
   grpc::ServerUnaryReactor* Query(grpc::CallbackServerContext* context,
                                   const grpc::ByteBuffer* request,
                                   grpc::ByteBuffer* response) override;
@@ -93,6 +98,15 @@ class DistanceServiceImpl final : public RawDistanceService {
   /// with INVALID_ARGUMENT once the updates read before it are answered.
   grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* StreamPoses(
       grpc::CallbackServerContext* context) override;
+  /// Answers set_server_info()'s description with the bound port filled in.
+  grpc::ServerUnaryReactor* GetServerInfo(grpc::CallbackServerContext* context,
+                                          const grpc::ByteBuffer* request,
+                                          grpc::ByteBuffer* response) override;
+
+  /// What GetServerInfo answers (set once, before the server starts); `port`: the bound gRPC
+  /// port, known only after the bind, so set apart.
+  void set_server_info(v1::ServerInfo info) { server_info_ = std::move(info); }
+  void set_port(int port) { port_.store(port); }
 
   SceneService& scenes() { return scenes_; }
   CallRegistry& calls() { return calls_; }
@@ -103,6 +117,8 @@ class DistanceServiceImpl final : public RawDistanceService {
   const std::size_t max_message_bytes_;
   CallRegistry calls_;
   std::atomic<std::uint64_t> next_stream_number_{1};
+  v1::ServerInfo server_info_;
+  std::atomic<int> port_{0};
 };
 
 class DiagnosticsServiceImpl final : public v1::Diagnostics::CallbackService {

@@ -11,8 +11,15 @@
 //
 // Both transports serve one SceneService: a scene created over gRPC is streamed to over DDS.
 // Logs one key=value line per event to stderr. SIGTERM or SIGINT: graceful shutdown (stop
-// accepting, drain streams), exit status 0. Exit status 1: could not start; 2: bad flags.
+// accepting, drain streams), exit status 0. Other exit statuses: the table both binaries share
+// (nearpoint/model/exit_codes.hpp): 2 bad flags or configuration, 3 an address, a port or DDS
+// unavailable, 1 any other failure. Every configured transport is checked and bound before any
+// readiness signal (the port files, the `listening` line, health SERVING), so a supervisor never
+// sees a start that then fails.
+#include <netdb.h>
 #include <signal.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -22,9 +29,11 @@
 #include <thread>
 
 #include "metrics.hpp"
+#include "nearpoint/model/exit_codes.hpp"
 #include "nearpoint/server/log.hpp"
 #include "nearpoint/server/scene_service.hpp"
 #include "nearpoint/server/server.hpp"
+#include "nearpoint/version.hpp"
 #include "scene_file.hpp"
 #if NEARPOINT_HAVE_DDS
 #include "dds_bridge.hpp"
@@ -32,6 +41,9 @@
 
 namespace {
 
+using nearpoint::model::kExitOk;
+using nearpoint::model::kExitUnavailable;
+using nearpoint::model::kExitUsage;
 using nearpoint::server::LogLevel;
 using nearpoint::server::SceneService;
 using nearpoint::server::ServerConfig;
@@ -48,6 +60,37 @@ bool write_port_file(const std::string& path, int port) {
   std::filesystem::rename(temporary, path, error);
   return !error;
 }
+
+#if NEARPOINT_HAVE_GRPC
+/// Whether `listen` (host:port, [v6]:port) can be bound right now; asked only after gRPC failed to
+/// start with TLS, to tell an address in use (exit 3) from a key that does not match its
+/// certificate (exit 2), which gRPC reports alike.
+bool address_bindable(const std::string& listen) {
+  const auto colon = listen.rfind(':');
+  if (colon == std::string::npos) return false;
+  std::string host = listen.substr(0, colon);
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']')
+    host = host.substr(1, host.size() - 2);
+  addrinfo hints{};
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE;
+  addrinfo* found = nullptr;
+  if (getaddrinfo(host.empty() ? nullptr : host.c_str(), listen.substr(colon + 1).c_str(), &hints,
+                  &found) != 0)
+    return false;
+  bool bound = false;
+  for (addrinfo* a = found; a != nullptr && !bound; a = a->ai_next) {
+    const int fd = socket(a->ai_family, a->ai_socktype, a->ai_protocol);
+    if (fd < 0) continue;
+    const int on = 1;
+    setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &on, sizeof on);
+    bound = bind(fd, a->ai_addr, a->ai_addrlen) == 0;
+    close(fd);
+  }
+  freeaddrinfo(found);
+  return bound;
+}
+#endif
 
 /// nearpointd's command line, as parsed.
 struct Flags {
@@ -196,7 +239,7 @@ int apply_flags(Flags& flags) {
       nearpoint::server::log_error("start_failed")
           .kv("flag", security.error().field)
           .kv("message", security.error().message);
-      return 2;
+      return kExitUsage;
     }
     flags.config.security = std::move(security.value());
   }
@@ -208,7 +251,7 @@ int apply_flags(Flags& flags) {
     nearpoint::server::log_error("start_failed")
         .kv("flag", "--metrics-listen")
         .kv("message", shape.error().message);
-    return 2;
+    return kExitUsage;
   }
   if (!flags.metrics_listen.empty() && !flags.security.insecure &&
       !nearpoint::server::is_loopback_listen(flags.metrics_listen)) {
@@ -217,7 +260,7 @@ int apply_flags(Flags& flags) {
         .kv("message", "'" + flags.metrics_listen +
                            "' is not a loopback address and metrics are plaintext HTTP: pass "
                            "--insecure to serve them there");
-    return 2;
+    return kExitUsage;
   }
 #endif
   if (!flags.metrics_listen.empty() && !nearpoint::server::metrics::built_with_metrics()) {
@@ -226,14 +269,54 @@ int apply_flags(Flags& flags) {
         .kv("message",
             "this nearpointd was built without metrics (NEARPOINT_WITH_METRICS=OFF): install "
             "prometheus-cpp-dev and rebuild, or drop --metrics-listen");
-    return 2;
+    return kExitUsage;
   }
 
-  return 0;
+  // The port files' directories, so that a path that cannot be written stops the start before
+  // anything binds rather than after one port file is already out.
+  for (const std::string* path : {&flags.port_file, &flags.metrics_port_file}) {
+    if (path->empty()) continue;
+    const std::string probe = *path + ".tmp";
+    if (!std::ofstream(probe, std::ios::app)) {
+      nearpoint::server::log_error("start_failed")
+          .kv("flag", path == &flags.port_file ? "--port-file" : "--metrics-port-file")
+          .kv("message", "cannot write '" + probe + "'");
+      return kExitUsage;
+    }
+    std::error_code ignored;
+    std::filesystem::remove(probe, ignored);
+  }
+
+#if NEARPOINT_HAVE_DDS
+  // DDS's configuration now, before anything binds: `--dds` without CYCLONEDDS_URI must not
+  // first write the port file and log `listening`.
+  if (flags.dds) {
+    if (nearpoint::server::Outcome checked = nearpoint::server::check_dds_config(flags.dds_config);
+        !checked) {
+      nearpoint::server::log_error("start_failed")
+          .kv("transport", "dds")
+          .kv("field", checked.error().field)
+          .kv("message", checked.error().message);
+      return kExitUsage;
+    }
+  }
+#endif
+#if NEARPOINT_HAVE_DDS && !NEARPOINT_HAVE_GRPC
+  if (!flags.dds) {
+    nearpoint::server::log_error("start_failed")
+        .kv("message",
+            "this nearpointd was built without gRPC (NEARPOINT_WITH_GRPC=OFF): pass "
+            "--dds to serve pose streams over DDS");
+    return kExitUsage;
+  }
+#endif
+
+  return kExitOk;
 }
 
 /// Loads the --scene files into `scenes` (before any transport serves, so that a client's first
-/// update finds them); 1 after logging why one could not be.
+/// update finds them); exit status 2 after logging why one could not be: a scene file that is
+/// missing (refused by the flag's check) and one that is malformed are the same kind of failure.
 int preload_scenes(SceneService& scenes, const std::vector<std::string>& files) {
   for (const std::string& file : files) {
     auto preloaded = nearpoint::server::preload_scene_file(scenes, file);
@@ -241,7 +324,7 @@ int preload_scenes(SceneService& scenes, const std::vector<std::string>& files) 
       nearpoint::server::log_error("start_failed")
           .kv("scene_file", file)
           .kv("message", preloaded.error().describe());
-      return 1;
+      return kExitUsage;
     }
     nearpoint::server::log_info("scene_loaded")
         .kv("scene_file", file)
@@ -249,34 +332,69 @@ int preload_scenes(SceneService& scenes, const std::vector<std::string>& files) 
         .kv("pairs", preloaded->pair_count);
   }
 
-  return 0;
+  return kExitOk;
 }
 
-/// Serves the metrics endpoint when --metrics-listen asks for it; the exit status (1, or 2 for a
-/// bad address) after logging why it could not.
-int start_metrics_endpoint(const Flags& flags, SceneService& scenes) {
+/// Binds the metrics endpoint when --metrics-listen asks for it (its port goes to `port`); the
+/// exit status after logging why it could not: 2 for a bad address, 3 when it cannot be bound.
+int start_metrics_endpoint(const Flags& flags, SceneService& scenes, int& port) {
   if (!flags.metrics_listen.empty()) {
     auto serving = nearpoint::server::metrics::start_metrics(flags.metrics_listen, scenes);
     if (!serving) {
       nearpoint::server::log_error("start_failed")
           .kv("flag", serving.error().field)
           .kv("message", serving.error().message);
-      return serving.error().code == nearpoint::server::ErrorCode::invalid_argument ? 2 : 1;
+      return serving.error().code == nearpoint::server::ErrorCode::invalid_argument
+                 ? kExitUsage
+                 : kExitUnavailable;
     }
-    if (!flags.metrics_port_file.empty() &&
-        !write_port_file(flags.metrics_port_file, serving.value())) {
-      nearpoint::server::log_error("start_failed")
-          .kv("metrics_port_file", flags.metrics_port_file)
-          .kv("message", "cannot write the metrics port file");
-      return 1;
-    }
-    nearpoint::server::log_info("metrics_listening")
-        .kv("metrics_listen", flags.metrics_listen)
-        .kv("port", serving.value())
-        .kv("path", "/metrics");
+    port = serving.value();
   }
 
-  return 0;
+  return kExitOk;
+}
+
+/// The readiness signals, once every transport is up: the metrics and gRPC port files, then the
+/// log lines. kExitUsage when a port file cannot be written (its path is configuration).
+int announce(const Flags& flags, const SceneService& scenes, int metrics_port, int grpc_port) {
+  if (!flags.metrics_listen.empty() && !flags.metrics_port_file.empty() &&
+      !write_port_file(flags.metrics_port_file, metrics_port)) {
+    nearpoint::server::log_error("start_failed")
+        .kv("metrics_port_file", flags.metrics_port_file)
+        .kv("message", "cannot write the metrics port file");
+    return kExitUsage;
+  }
+#if NEARPOINT_HAVE_GRPC
+  if (!flags.port_file.empty() && !write_port_file(flags.port_file, grpc_port)) {
+    nearpoint::server::log_error("start_failed")
+        .kv("port_file", flags.port_file)
+        .kv("message", "cannot write the port file");
+    return kExitUsage;
+  }
+#endif
+  if (!flags.metrics_listen.empty())
+    nearpoint::server::log_info("metrics_listening")
+        .kv("metrics_listen", flags.metrics_listen)
+        .kv("port", metrics_port)
+        .kv("path", "/metrics");
+#if NEARPOINT_HAVE_GRPC
+  nearpoint::server::log_info("listening")
+      .kv("version", nearpoint::kVersion)
+      .kv("listen", flags.config.listen)
+      .kv("port", grpc_port)
+      .kv("workers", scenes.worker_count())
+      .kv("max_streams", flags.config.limits.max_streams)
+      .kv("max_in_flight", flags.config.limits.max_in_flight_per_stream)
+      .kv("max_message_bytes", flags.config.max_message_bytes)
+      .kv("tls", !flags.config.security.tls()                      ? "off"
+                 : flags.config.security.tls_client_ca_pem.empty() ? "on"
+                                                                   : "mutual")
+      .kv("token", flags.config.security.token.empty() ? "off" : "required");
+#else
+  (void)grpc_port;
+  (void)scenes;
+#endif
+  return kExitOk;
 }
 
 /// Serves until SIGTERM or SIGINT, then shuts down gracefully; the exit status.
@@ -289,40 +407,27 @@ int serve(Flags& flags) {
   sigaddset(&shutdown_signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &shutdown_signals, nullptr);
 
+  nearpoint::server::log_info("starting")
+      .kv("version", nearpoint::kVersion)
+      .kv("grpc", nearpoint::kBuildOptions.grpc)
+      .kv("dds", nearpoint::kBuildOptions.dds)
+      .kv("metrics", nearpoint::kBuildOptions.metrics);
   // A scene whose reports could not be sent in one gRPC message is refused at creation.
   flags.config.limits.max_report_bytes = flags.config.max_message_bytes;
   auto scenes = std::make_shared<SceneService>(flags.config.limits, flags.config.workers);
-  if (int code = preload_scenes(*scenes, flags.scene_files); code != 0) return code;
-  if (int code = start_metrics_endpoint(flags, *scenes); code != 0) return code;
+  if (int code = preload_scenes(*scenes, flags.scene_files); code != kExitOk) return code;
+  // Every transport is bound before any readiness signal: metrics, DDS, then gRPC, whose health
+  // service reports SERVING as soon as it starts.
+  int metrics_port = 0;
+  if (int code = start_metrics_endpoint(flags, *scenes, metrics_port); code != kExitOk) return code;
 
-#if NEARPOINT_HAVE_GRPC
-  auto started = nearpoint::server::GrpcServer::start(flags.config, scenes);
-  if (!started) {
-    nearpoint::server::log_error("start_failed")
-        .kv("listen", flags.config.listen)
-        .kv("message", started.error().message);
-    return 1;
-  }
-  nearpoint::server::GrpcServer& server = *started.value();
-  if (!flags.port_file.empty() && !write_port_file(flags.port_file, server.port())) {
-    nearpoint::server::log_error("start_failed")
-        .kv("port_file", flags.port_file)
-        .kv("message", "cannot write the port file");
-    server.shutdown();
-    return 1;
-  }
-  nearpoint::server::log_info("listening")
-      .kv("listen", flags.config.listen)
-      .kv("port", server.port())
-      .kv("workers", scenes->worker_count())
-      .kv("max_streams", flags.config.limits.max_streams)
-      .kv("max_in_flight", flags.config.limits.max_in_flight_per_stream)
-      .kv("max_message_bytes", flags.config.max_message_bytes)
-      .kv("tls", !flags.config.security.tls()                      ? "off"
-                 : flags.config.security.tls_client_ca_pem.empty() ? "on"
-                                                                   : "mutual")
-      .kv("token", flags.config.security.token.empty() ? "off" : "required");
-#endif
+  nearpoint::server::ProcessDescription& process = flags.config.process;
+  process.version = nearpoint::kVersion;
+  process.built_grpc = nearpoint::kBuildOptions.grpc;
+  process.built_dds = nearpoint::kBuildOptions.dds;
+  process.built_metrics = nearpoint::kBuildOptions.metrics;
+  process.metrics_listen = flags.metrics_listen;
+  process.metrics_port = metrics_port;
 #if NEARPOINT_HAVE_DDS
   std::unique_ptr<nearpoint::server::DdsBridge> bridge;
   if (flags.dds) {
@@ -332,23 +437,49 @@ int serve(Flags& flags) {
           .kv("transport", "dds")
           .kv("field", bridged.error().field)
           .kv("message", bridged.error().message);
-#if NEARPOINT_HAVE_GRPC
-      server.shutdown();
-#endif
-      return 1;
+      nearpoint::server::metrics::stop_metrics();
+      return bridged.error().code == nearpoint::server::ErrorCode::unavailable ? kExitUnavailable
+                                                                               : kExitUsage;
     }
     bridge = std::move(bridged.value());
+    process.dds = true;
+    process.dds_domain = int(flags.dds_config.domain_id);
+    process.dds_prefix = flags.dds_config.topic_prefix;
   }
-#if !NEARPOINT_HAVE_GRPC
-  if (!bridge) {
+#endif
+  // Whatever fails from here on undoes what started.
+  auto stop_all = [&] {
+#if NEARPOINT_HAVE_DDS
+    if (bridge) bridge->shutdown();
+#endif
+    nearpoint::server::metrics::stop_metrics();
+  };
+
+  int grpc_port = 0;
+#if NEARPOINT_HAVE_GRPC
+  auto started = nearpoint::server::GrpcServer::start(flags.config, scenes);
+  if (!started) {
+    // Unavailable (retry later) when the address is taken; with TLS, gRPC fails the same way for
+    // a key that does not match its certificate, which is configuration.
+    const bool bad_key = flags.config.security.tls() && address_bindable(flags.config.listen);
     nearpoint::server::log_error("start_failed")
-        .kv("message",
-            "this nearpointd was built without gRPC (NEARPOINT_WITH_GRPC=OFF): pass "
-            "--dds to serve pose streams over DDS");
-    return 2;
+        .kv("listen", flags.config.listen)
+        .kv("message", bad_key ? "the TLS key (--tls-key) does not match the certificate "
+                                 "(--tls-cert), or gRPC refused them"
+                               : started.error().message);
+    stop_all();
+    return bad_key ? kExitUsage : kExitUnavailable;
   }
+  nearpoint::server::GrpcServer& server = *started.value();
+  grpc_port = server.port();
 #endif
+  if (int code = announce(flags, *scenes, metrics_port, grpc_port); code != kExitOk) {
+#if NEARPOINT_HAVE_GRPC
+    server.shutdown();
 #endif
+    stop_all();
+    return code;
+  }
 
   int signal_number = 0;
   sigwait(&shutdown_signals, &signal_number);
@@ -363,22 +494,25 @@ int serve(Flags& flags) {
 #endif
   // Last: a scrape during the drain still sees the streams end.
   nearpoint::server::metrics::stop_metrics();
-  return 0;
+  return kExitOk;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   Flags flags;
-  CLI::App app{"nearpointd: distances between registered geometries, over gRPC and DDS"};
+  CLI::App app{"nearpointd: distances between registered geometries, over gRPC and DDS",
+               "nearpointd"};
+  app.set_version_flag("--version", std::string("nearpointd ") + nearpoint::kVersion);
+  app.footer(std::string("\n") + nearpoint::model::kExitStatusHelp);
   add_transport_flags(app, flags);
   add_service_flags(app, flags);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& error) {
-    const int code = app.exit(error);
-    return code == 0 ? 0 : 2;
+    const int code = app.exit(error);  // prints the help, the version or what is wrong
+    return code == 0 ? kExitOk : kExitUsage;
   }
-  if (int code = apply_flags(flags); code != 0) return code;
+  if (int code = apply_flags(flags); code != kExitOk) return code;
   return serve(flags);
 }

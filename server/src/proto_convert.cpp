@@ -7,31 +7,30 @@
 #include "content_hash.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/scene_service.hpp"
-#include "wire_numbers.hpp"
 
 namespace nearpoint::server {
 namespace {
 
-// wire_numbers.hpp writes the status codes as numbers, for the DDS bridge as well; these checks
-// keep it in step with grpc::StatusCode. (The API enums' numbers are checked in proto/convert.)
+// errors.hpp writes the status codes as ErrorCode's values, for the DDS bridge as well; these
+// checks keep them in step with grpc::StatusCode. (The API enums' numbers are checked in
+// proto/convert.)
 constexpr bool same(std::int64_t wire_value, std::int64_t generated) {
   return wire_value == generated;
 }
-static_assert(same(wire::status_code(ErrorCode::invalid_argument),
-                   grpc::StatusCode::INVALID_ARGUMENT));
-static_assert(same(wire::status_code(ErrorCode::not_found), grpc::StatusCode::NOT_FOUND));
-static_assert(same(wire::status_code(ErrorCode::already_exists), grpc::StatusCode::ALREADY_EXISTS));
-static_assert(same(wire::status_code(ErrorCode::resource_exhausted),
+static_assert(same(status_code(ErrorCode::invalid_argument), grpc::StatusCode::INVALID_ARGUMENT));
+static_assert(same(status_code(ErrorCode::not_found), grpc::StatusCode::NOT_FOUND));
+static_assert(same(status_code(ErrorCode::already_exists), grpc::StatusCode::ALREADY_EXISTS));
+static_assert(same(status_code(ErrorCode::resource_exhausted),
                    grpc::StatusCode::RESOURCE_EXHAUSTED));
-static_assert(same(wire::status_code(ErrorCode::failed_precondition),
+static_assert(same(status_code(ErrorCode::failed_precondition),
                    grpc::StatusCode::FAILED_PRECONDITION));
-static_assert(same(wire::status_code(ErrorCode::internal), grpc::StatusCode::INTERNAL));
-static_assert(same(wire::status_code(ErrorCode::unavailable), grpc::StatusCode::UNAVAILABLE));
+static_assert(same(status_code(ErrorCode::internal), grpc::StatusCode::INTERNAL));
+static_assert(same(status_code(ErrorCode::unavailable), grpc::StatusCode::UNAVAILABLE));
 
 }  // namespace
 
 grpc::Status to_grpc_status(const Error& error) {
-  return grpc::Status(grpc::StatusCode(wire::status_code(error.code)), error.describe());
+  return grpc::Status(grpc::StatusCode(status_code(error.code)), error.describe());
 }
 
 model::PoseInput to_input(const v1::Pose& pose) {

@@ -5,7 +5,6 @@
 #include "nearpoint/server/scene_service.hpp"
 
 #include "nearpoint/model/vocabulary.hpp"
-#include "wire_numbers.hpp"
 
 namespace nearpoint::server {
 
@@ -15,7 +14,7 @@ SceneService::SceneService(const ServiceLimits& limits, std::size_t workers)
 SceneService::~SceneService() = default;
 
 std::string to_string(ErrorCode code) {
-  return model::status_code_spelling(wire::status_code(code));
+  return model::status_code_spelling(status_code(code));
 }
 
 std::string quoted(std::string_view value, std::size_t max_bytes) {

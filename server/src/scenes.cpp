@@ -344,6 +344,18 @@ std::shared_ptr<Scene> SceneService::find_scene(const std::string& scene_id) con
   return found == scenes_.end() ? nullptr : found->second;
 }
 
+std::vector<std::shared_ptr<const SceneDefinition>> SceneService::list_scenes() const {
+  std::vector<std::shared_ptr<const SceneDefinition>> out;
+  {
+    std::shared_lock lock(scenes_mutex_);
+    out.reserve(scenes_.size());
+    for (const auto& [id, scene] : scenes_) out.push_back(scene->definition());
+  }
+  // The map's order is arbitrary: sort, so that a listing is stable from call to call.
+  std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a->id < b->id; });
+  return out;
+}
+
 Expected<std::vector<Pose<double>>> SceneService::apply_poses(
     const SceneDefinition& scene, std::vector<Pose<double>> poses,
     const std::vector<model::ObjectPoseInput>& updates, const char* field) const {

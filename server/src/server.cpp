@@ -13,6 +13,50 @@
 
 namespace nearpoint::server {
 
+namespace {
+
+/// GetServerInfo's answer, all but the bound port: the process's description, the gRPC
+/// transport's security and the limits the scene service enforces.
+v1::ServerInfo describe_server(const ServerConfig& config, const ServiceLimits& limits,
+                               std::size_t workers) {
+  const ProcessDescription& process = config.process;
+  v1::ServerInfo info;
+  info.set_version(process.version);
+  v1::ServerInfo::BuildOptions& build = *info.mutable_build();
+  build.set_grpc(process.built_grpc);
+  build.set_dds(process.built_dds);
+  build.set_metrics(process.built_metrics);
+  v1::ServerInfo::Transports& transports = *info.mutable_transports();
+  transports.set_grpc_listen(config.listen);
+  transports.set_tls(!config.security.tls()                      ? "off"
+                     : config.security.tls_client_ca_pem.empty() ? "on"
+                                                                 : "mutual");
+  transports.set_token_required(!config.security.token.empty());
+  transports.set_dds(process.dds);
+  if (process.dds) {
+    transports.set_dds_domain(std::uint32_t(process.dds_domain));
+    transports.set_dds_prefix(process.dds_prefix);
+  }
+  transports.set_metrics_listen(process.metrics_listen);
+  transports.set_metrics_port(std::uint32_t(process.metrics_port));
+  v1::ServerInfo::Limits& out = *info.mutable_limits();
+  out.set_max_geometries(limits.max_geometries);
+  out.set_max_pieces_per_geometry(limits.max_pieces_per_geometry);
+  out.set_max_vertices_per_geometry(limits.max_vertices_per_geometry);
+  out.set_max_scenes(limits.max_scenes);
+  out.set_max_objects_per_scene(limits.max_objects_per_scene);
+  out.set_max_pairs_per_scene(limits.max_pairs_per_scene);
+  out.set_max_piece_pairs_per_scene(limits.max_piece_pairs_per_scene);
+  out.set_max_streams(limits.max_streams);
+  out.set_max_in_flight_per_stream(limits.max_in_flight_per_stream);
+  out.set_max_concurrent_queries(limits.max_concurrent_queries);
+  out.set_max_message_bytes(config.max_message_bytes);
+  out.set_workers(std::uint32_t(workers));
+  return info;
+}
+
+}  // namespace
+
 struct GrpcServer::Impl {
   ServerConfig config;
   // Destroyed in reverse order: the gRPC server first (no call can reach the services any more),
@@ -45,6 +89,8 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
   }
   impl.scenes = std::move(scenes);
   impl.distance = std::make_unique<DistanceServiceImpl>(*impl.scenes, config.max_message_bytes);
+  impl.distance->set_server_info(
+      describe_server(config, impl.scenes->limits(), impl.scenes->worker_count()));
   if (config.diagnostics) impl.diagnostics = std::make_unique<DiagnosticsServiceImpl>();
 
   grpc::EnableDefaultHealthCheckService(true);
@@ -69,6 +115,7 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
         text("cannot listen on '", config.listen, "' (malformed, or the address is in use",
              config.security.tls() ? ", or the TLS key does not match the certificate" : "", ")")};
   }
+  impl.distance->set_port(impl.port);
   if (grpc::HealthCheckServiceInterface* health = impl.server->GetHealthCheckService()) {
     health->SetServingStatus(true);
     health->SetServingStatus("nearpoint.v1.DistanceService", true);

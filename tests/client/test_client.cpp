@@ -866,7 +866,9 @@ TEST_F(WithServer, SceneCreateQueryAndStreamAgreeWithGeometry) {
   query.remote = remote();
   query.scene = (kSource / "examples/scene.json").string();  // created on the fly
   query.poses = {"gripper=0,0,0.3"};
+  query.keep_scene = true;  // kept: the idempotent re-create below needs it on the server
   ASSERT_EQ(run_query(query, out, err), 0) << err.str();
+  EXPECT_NE(err.str().find("kept scene cell-1"), std::string::npos) << err.str();
   Json report = parse_json(out.str());
   EXPECT_EQ(report["scene_id"], "cell-1");
   ASSERT_EQ(report["pairs"].size(), 3u);
@@ -886,10 +888,10 @@ TEST_F(WithServer, SceneCreateQueryAndStreamAgreeWithGeometry) {
     std::ifstream in(query.scene);
     text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   }
-  const std::string mesh = "\"../tests/data/cube.obj\"";
+  const std::string mesh = "\"cube.obj\"";  // beside the scene file
   ASSERT_NE(text.find(mesh), std::string::npos);
   text.replace(text.find(mesh), mesh.size(),
-               "\"" + (kSource / "tests/data/cube.obj").string() + "\"");
+               "\"" + (kSource / "examples/cube.obj").string() + "\"");
   const std::string pose = "[0.6, 0.3, 0]";
   ASSERT_NE(text.find(pose), std::string::npos);
   text.replace(text.find(pose), pose.size(), "[0.7, 0.3, 0]");

@@ -30,6 +30,7 @@ inline constexpr std::uint32_t kDomainNoConfiguration = 105;
 inline constexpr std::uint32_t kDomainEvents = 106;
 inline constexpr std::uint32_t kDomainEndToEnd = 111;
 inline constexpr std::uint32_t kDomainPreloaded = 112;
+// 121: tests/cli/check_scene_lifecycle.py (cli.report_schema).
 
 inline std::string unique_prefix(const std::string& test) {
   return "rt/nearpoint_test_" + std::to_string(getpid()) + "_" + test + "/";

@@ -65,9 +65,9 @@ std::vector<std::string> client_command(const std::string& scene, const std::str
   return {NEARPOINT_CLI_PATH,
           "stream",
           "--dds",
-          "--domain",
+          "--dds-domain",
           std::to_string(kDomainEndToEnd),
-          "--prefix",
+          "--dds-prefix",
           prefix,
           "--window",
           "4",
@@ -200,8 +200,8 @@ TEST(DdsEndToEnd, TwoProcessesStreamATrajectoryAndBadSamplesGetErrorReports) {
       const Json report = Json::parse(lines[k]);
       EXPECT_EQ(report.at("sequence").get<std::uint64_t>(), k + 1);
       EXPECT_EQ(report.at("status"), "error");
-      EXPECT_EQ(report.at("code"), "not_found");
-      EXPECT_EQ(report.at("field"), "scene_id");
+      EXPECT_EQ(report.at("error").at("code"), "not_found");
+      EXPECT_EQ(report.at("error").at("field"), "scene_id");
     }
   }
   // An update the server must refuse though the client's reader accepts it: it names an object
@@ -224,8 +224,8 @@ TEST(DdsEndToEnd, TwoProcessesStreamATrajectoryAndBadSamplesGetErrorReports) {
     ASSERT_EQ(by_sequence.size(), 3u);
     EXPECT_EQ(by_sequence[1].at("status"), "ok");
     EXPECT_EQ(by_sequence[2].at("status"), "error");
-    EXPECT_EQ(by_sequence[2].at("code"), "not_found");
-    EXPECT_EQ(by_sequence[2].at("field"), "poses[1].object_id");
+    EXPECT_EQ(by_sequence[2].at("error").at("code"), "not_found");
+    EXPECT_EQ(by_sequence[2].at("error").at("field"), "poses[1].object_id");
     EXPECT_EQ(by_sequence[3].at("status"), "ok");
   }
 
@@ -252,8 +252,8 @@ TEST(DdsEndToEnd, PureDdsClientStreamsToAPreloadedScene) {
       << server.stderr_text();
 
   const std::string trajectory = NEARPOINT_SOURCE_DIR "/examples/dds_trajectory.jsonl";
-  ChildProcess client({NEARPOINT_CLI_PATH, "stream", "--dds", "--domain",
-                       std::to_string(kDomainPreloaded), "--prefix", prefix, "dds-demo",
+  ChildProcess client({NEARPOINT_CLI_PATH, "stream", "--dds", "--dds-domain",
+                       std::to_string(kDomainPreloaded), "--dds-prefix", prefix, "dds-demo",
                        trajectory});
   ASSERT_TRUE(client.started());
   ASSERT_EQ(client.wait_exit(std::chrono::seconds(90)), 0) << client.stderr_text() << "\nserver:\n"
@@ -306,8 +306,8 @@ TEST(DdsEndToEnd, PureDdsClientStreamsToAPreloadedScene) {
   // The same path with --mode global and a threshold on the mover's pairs, over DDS: each
   // report holds one pair and names mode 4, and the events are exactly the rule applied to the
   // closed-form distances (ENTER below 0.3, EXIT above 0.3 + 0.1), each with its sequence.
-  ChildProcess watcher({NEARPOINT_CLI_PATH, "stream", "--dds", "--domain",
-                        std::to_string(kDomainPreloaded), "--prefix", prefix, "dds-demo",
+  ChildProcess watcher({NEARPOINT_CLI_PATH, "stream", "--dds", "--dds-domain",
+                        std::to_string(kDomainPreloaded), "--dds-prefix", prefix, "dds-demo",
                         trajectory, "--mode", "global", "--threshold",
                         "0.3,hysteresis=0.1,object=mover,name=near"});
   ASSERT_TRUE(watcher.started());
@@ -318,7 +318,7 @@ TEST(DdsEndToEnd, PureDdsClientStreamsToAPreloadedScene) {
   std::vector<std::string> expected, got;
   for (std::size_t k = 0; k < watched.size(); ++k) {
     const Json report = Json::parse(watched[k]);
-    EXPECT_EQ(report.at("report_mode"), 4) << watched[k];
+    EXPECT_EQ(report.at("report_mode"), "global") << watched[k];
     EXPECT_EQ(report.at("pairs").size(), 1u) << watched[k];
     const Json& mover = steps[k].at("poses").at("mover");
     const double w = mover.at("rotation")[0], qz = mover.at("rotation")[3];

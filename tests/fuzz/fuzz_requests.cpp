@@ -51,7 +51,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       case 0: {
         v1::RegisterGeometryRequest request;
         if (!request.ParseFromString(bytes)) break;
-        server::Expected<server::GeometryInfo> info =
+        server::Expected<model::GeometryInfo> info =
             service.register_geometry(server::to_input(request.geometry()));
         if (!info) {
           fuzz::check_error(info.error(), "RegisterGeometry");
@@ -70,14 +70,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         if (!request.ParseFromString(bytes)) break;
         for (v1::SceneObject& object : *request.mutable_objects())
           object.set_geometry_id(stored_id(object.geometry_id(), registered));
-        server::Expected<server::SceneInfo> info = service.create_scene(server::to_input(request));
+        server::Expected<model::SceneInfo> info = service.create_scene(server::to_input(request));
         if (!info) fuzz::check_error(info.error(), "CreateScene");
         break;
       }
       case 2: {
         v1::QueryRequest request;
         if (!request.ParseFromString(bytes)) break;
-        const server::QueryInput query = server::to_input(request);
+        const model::QueryInput query = server::to_input(request);
         fuzz::ReportWaiter waiter;
         server::Outcome started = service.query(query, server::Clock::now(), waiter.callback());
         if (!started) {
@@ -98,7 +98,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           }
           stream = std::move(opened.value());
         }
-        const server::PoseUpdateInput update = server::to_input(request);
+        const model::PoseUpdateInput update = server::to_input(request);
         server::Expected<server::PreparedUpdate> prepared =
             stream->prepare(update, server::Clock::now());
         if (!prepared) {

@@ -59,12 +59,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   static server::SceneService service(fuzz::small_limits(), 1);
   struct Empty {
     ~Empty() {
-      for (const server::GeometryInfo& info : service.list_geometries())
+      for (const model::GeometryInfo& info : service.list_geometries())
         NEARPOINT_FUZZ_CHECK(service.remove_geometry(info.geometry_id).ok(),
                              "a stored geometry could not be removed");
     }
   } empty_after;
-  server::Expected<server::SceneInfo> scene = server::preload_scene_file(service, file.string());
+  server::Expected<model::SceneInfo> scene = server::preload_scene_file(service, file.string());
   if (!scene) {
     fuzz::check_error(scene.error(), "preload_scene_file");
     NEARPOINT_FUZZ_CHECK(scene.error().describe().find(file.string()) != std::string::npos,
@@ -77,7 +77,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       NEARPOINT_FUZZ_CHECK(service.delete_scene(id).ok(), "the scene could not be deleted");
     }
   } delete_after{scene->scene_id};
-  server::QueryInput query;
+  model::QueryInput query;
   query.scene_id = scene->scene_id;
   fuzz::ReportWaiter waiter;
   server::Outcome started = service.query(query, server::Clock::now(), waiter.callback());

@@ -155,7 +155,7 @@ def engine_seeds():
         engine_pair(f"paper-family-{n}", (("polytope", a), {}), (), (("polytope", b), {}), (q, t),
                     flags=2 | (64 if i % 2 else 0), use_float=bool(i == 3))
     # The extended layout: the classes an outside fuzzer with an exact reference found
-    # (/work/shared/findings/engine-2026-12-03/README.md), one seed each.
+    # (tests/data/engine-findings/README.md), one seed each.
     seg = ("segment", (-7.75, -7.9, -0.25), (-3.625, -0.25, -7.9))
     # A degenerate segment 2^663 (~1e200) from its local origin, cancelled exactly by a
     # permutation pose, 9 units from a small one (the default options: today's engine answers it;

@@ -69,13 +69,13 @@ inline void check_report_pairs(const server::Report& report, bool unary, const c
            " pairs";
   };
   NEARPOINT_FUZZ_CHECK(
-      report.mode != server::ReportMode::unspecified && report.mode != server::ReportMode::unknown,
+      report.mode != model::ReportMode::unspecified && report.mode != model::ReportMode::unknown,
       "a report whose mode was not resolved; " + where());
-  const bool cutoff_mode = report.mode == server::ReportMode::within_cutoff ||
-                           report.mode == server::ReportMode::nearest_per_object ||
-                           report.mode == server::ReportMode::global_minimum;
+  const bool cutoff_mode = report.mode == model::ReportMode::within_cutoff ||
+                           report.mode == model::ReportMode::nearest_per_object ||
+                           report.mode == model::ReportMode::global_minimum;
   std::size_t next = 0;  // the first scene pair an entry may still be
-  for (const server::PairReport& p : report.pairs) {
+  for (const model::PairReport& p : report.pairs) {
     while (next < selected.size() &&
            (selected[next].object_a != p.object_a || selected[next].object_b != p.object_b))
       ++next;
@@ -84,23 +84,23 @@ inline void check_report_pairs(const server::Report& report, bool unary, const c
                          "scene's order; " +
                              where());
     ++next;
-    NEARPOINT_FUZZ_CHECK(!cutoff_mode || p.status != server::PairStatus::beyond_cutoff,
+    NEARPOINT_FUZZ_CHECK(!cutoff_mode || p.status != model::PairStatus::beyond_cutoff,
                          "a BEYOND_CUTOFF entry in a mode that leaves them out; " + where());
   }
   switch (report.mode) {
-    case server::ReportMode::all_pairs:
+    case model::ReportMode::all_pairs:
       NEARPOINT_FUZZ_CHECK(report.pairs.size() == selected.size(),
                            "a report without one entry per pair; " + where());
       break;
-    case server::ReportMode::changed:
+    case model::ReportMode::changed:
       NEARPOINT_FUZZ_CHECK(!unary || report.pairs.size() == selected.size(),
                            "a unary query in changed mode without every pair; " + where());
       break;
-    case server::ReportMode::nearest_per_object:
+    case model::ReportMode::nearest_per_object:
       NEARPOINT_FUZZ_CHECK(report.pairs.size() <= report.scene->objects.size(),
                            "more nearest pairs than objects; " + where());
       break;
-    case server::ReportMode::global_minimum:
+    case model::ReportMode::global_minimum:
       NEARPOINT_FUZZ_CHECK(report.pairs.size() <= 1, "more than one global minimum; " + where());
       break;
     default:
@@ -113,12 +113,12 @@ inline void check_report_pairs(const server::Report& report, bool unary, const c
 inline void check_report(const server::Report& report, bool unary, const char* what) {
   NEARPOINT_FUZZ_CHECK(report.scene != nullptr, std::string(what) + ": a report without its scene");
   check_report_pairs(report, unary, what);
-  for (const server::PairReport& p : report.pairs) {
+  for (const model::PairReport& p : report.pairs) {
     const std::string where = std::string(what) + ": pair " + std::to_string(p.object_a) + "-" +
                               std::to_string(p.object_b) + ", distance " +
                               std::to_string(p.distance) + ", error_bound " +
                               std::to_string(p.error_bound);
-    if (p.status == server::PairStatus::engine_error) {
+    if (p.status == model::PairStatus::engine_error) {
       NEARPOINT_FUZZ_CHECK(p.engine_message != nullptr && *p.engine_message != '\0',
                            "an engine error without a message; " + where);
       continue;
@@ -131,7 +131,7 @@ inline void check_report(const server::Report& report, bool unary, const char* w
                          "a non-finite number in a report; " + where);
     NEARPOINT_FUZZ_CHECK(
         p.distance >= 0 && p.error_bound >= 0 && p.distance_lower_bound >= 0 &&
-            (p.distance_lower_bound <= p.distance || p.status == server::PairStatus::beyond_cutoff),
+            (p.distance_lower_bound <= p.distance || p.status == model::PairStatus::beyond_cutoff),
         "negative distance or bound, or lower bound above distance; " + where);
   }
   v1::DistanceReport message;

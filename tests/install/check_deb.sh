@@ -17,6 +17,15 @@ fail() { echo "FAIL: $*"; exit 1; }
 contents() { dpkg-deb -c "$1" | awk '{print $6}'; }
 contents "$runtime" | grep -qx './usr/bin/nearpointd' || fail "nearpointd not in $runtime"
 contents "$runtime" | grep -qx './usr/bin/nearpoint' || fail "the CLI not in $runtime"
+# The examples with the mesh scene.json names, and the man pages when the build made them.
+for file in share/nearpoint/examples/scene.json share/nearpoint/examples/cube.obj; do
+  contents "$runtime" | grep -qx "./usr/$file" || fail "/usr/$file not in $runtime"
+done
+for page in nearpoint nearpointd; do
+  if [[ -f "$build/man/$page.1" ]]; then
+    contents "$runtime" | grep -qx "./usr/share/man/man1/$page.1" || fail "$page.1 not in $runtime"
+  fi
+done
 contents "$dev" | grep -qx './usr/include/nearpoint/distance.hpp' || fail "headers not in $dev"
 contents "$dev" | grep -q '/usr/lib/.*cmake/nearpoint/nearpoint-config.cmake' ||
   fail "CMake package not in $dev"
@@ -26,6 +35,12 @@ for pair in "$runtime:nearpoint" "$dev:nearpoint-dev"; do
   for file in copyright LICENSE NOTICE THIRD_PARTY_NOTICES.md; do
     contents "$deb" | grep -qx "$doc/$file" || fail "$doc/$file not in $deb"
   done
+done
+# One version: the packages' is what the packaged nearpointd prints (project(VERSION) for both).
+version=$("$build/server/nearpointd" --version | awk '{print $2}')
+for deb in "$runtime" "$dev"; do
+  [[ "$(dpkg-deb -f "$deb" Version)" == "$version" ]] ||
+    fail "$deb has Version $(dpkg-deb -f "$deb" Version), nearpointd --version says $version"
 done
 depends=$(dpkg-deb -f "$runtime" Depends)
 echo "nearpoint Depends: $depends"

@@ -14,7 +14,8 @@ prefix="$work/prefix"
 
 echo "== cmake --install $build --prefix $prefix"
 "$cmake_bin" --install "$build" --prefix "$prefix" >"$work/install.log"
-for f in include/nearpoint/distance.hpp lib/cmake/nearpoint/nearpoint-config.cmake \
+for f in include/nearpoint/distance.hpp include/nearpoint/version.hpp \
+         lib/cmake/nearpoint/nearpoint-config.cmake \
          lib/pkgconfig/nearpoint-core.pc bin/nearpointd; do
   [[ -e "$prefix/$f" ]] || { echo "FAIL: $f not installed"; exit 1; }
 done

@@ -98,6 +98,18 @@ class PythonClientTest(unittest.TestCase):
 
     # --- tests ---
 
+    def test_version_is_the_servers_and_the_builds(self):
+        # One version: the package's __version__ (generated from CMake's project version),
+        # `nearpointd --version` and the server's GetServerInfo agree.
+        printed = subprocess.run([ARGS.nearpointd, "--version"], capture_output=True, text=True,
+                                 check=True).stdout.split()
+        self.assertEqual(printed, ["nearpointd", npc.__version__])
+        self.assertRegex(npc.__version__, r"^\d+\.\d+\.\d+$")
+        info = self.client.server_info()
+        self.assertEqual(info.version, npc.__version__)
+        self.assertEqual(info.limits.workers, 2)
+        self.assertTrue(info.build.grpc)
+
     def test_example_two_boxes_prints_the_analytic_distances(self):
         env = dict(os.environ, PYTHONPATH=ARGS.pythonpath)
         run = subprocess.run([sys.executable, ARGS.example, self.target], env=env,

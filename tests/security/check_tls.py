@@ -11,7 +11,7 @@ CASE is one of
               listening): missing or unreadable certificate, key, client CA or token file
               (also through $NEARPOINT_TOKEN_FILE), a token without TLS, a non-loopback --listen
               without TLS or --insecure (checked before binding: nothing binds there); and a key
-              that does not match the certificate (exit 1).
+              that does not match the certificate (exit 2 as well: configuration).
   tls         TLS with a token: the Python client and the CLI (the C++ client) with the right
               token succeed; a wrong or missing token is UNAUTHENTICATED; the health service
               answers without a token; plaintext to the TLS port, and a client that does not trust
@@ -189,8 +189,8 @@ def case_bad_config(d):
     # A key that does not belong to the certificate passes the file checks; gRPC refuses it when
     # the port is bound (127.0.0.1 only).
     code, err = run_start_failure(d, ["--tls-cert", p("server.pem"), "--tls-key", p("client.key")])
-    check(code == 1 and "start_failed" in err and "TLS key" in err,
-          f"bad-config: mismatched key: exit 1 (exit {code}: {err.strip()[:300]})")
+    check(code == 2 and "start_failed" in err and "TLS key" in err and "listening" not in err,
+          f"bad-config: mismatched key: exit 2 (exit {code}: {err.strip()[:300]})")
 
 
 def health_check(channel):

@@ -284,6 +284,43 @@ TEST_F(GrpcServerTest, DeletedSceneRejectsFurtherUpdates) {
   EXPECT_TRUE(stream.finish().ok());
 }
 
+// ListScenes: every live scene, ordered by id, with its name, pair count and objects (id,
+// geometry id, initial pose); a deleted scene is no longer listed.
+TEST_F(GrpcServerTest, ListScenesShowsLiveScenesUntilDeleted) {
+  const LocalScene first = make_scene(stub());
+  const LocalScene second = make_scene(stub());
+  ASSERT_NE(first.scene_id, second.scene_id);
+  auto list = [&] {
+    v1::ListScenesResponse listed;
+    EXPECT_TRUE(stub().ListScenes(make_context().get(), v1::ListScenesRequest{}, &listed).ok());
+    return listed;
+  };
+  v1::ListScenesResponse listed = list();
+  ASSERT_EQ(listed.scenes_size(), 2);
+  const bool first_is_lower = first.scene_id < second.scene_id;
+  const v1::SceneSummary& a = listed.scenes(first_is_lower ? 0 : 1);
+  EXPECT_EQ(a.scene_id(), first.scene_id);
+  EXPECT_EQ(listed.scenes(first_is_lower ? 1 : 0).scene_id(), second.scene_id);
+  EXPECT_EQ(a.name(), "paper-like");
+  EXPECT_EQ(a.pair_count(), first.pair_count);
+  ASSERT_EQ(std::size_t(a.objects_size()), first.size());
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    const v1::SceneObject& object = a.objects(int(i));
+    EXPECT_EQ(object.id(), first.object_ids[i]);
+    EXPECT_EQ(object.geometry_id(), first.geometry_ids[std::size_t(first.object_geometry[i])]);
+    // Created without a pose: the identity.
+    EXPECT_DOUBLE_EQ(std::abs(object.pose().rotation().w()), 1.0);
+    EXPECT_DOUBLE_EQ(object.pose().translation().x(), 0.0);
+  }
+  v1::DeleteSceneRequest remove;
+  remove.set_scene_id(first.scene_id);
+  v1::DeleteSceneResponse removed;
+  ASSERT_TRUE(stub().DeleteScene(make_context().get(), remove, &removed).ok());
+  listed = list();
+  ASSERT_EQ(listed.scenes_size(), 1);
+  EXPECT_EQ(listed.scenes(0).scene_id(), second.scene_id);
+}
+
 // Flow control, BLOCK (the default): a client that keeps writing without reading any report
 // gets every update answered, in order — the server stops reading (HTTP/2 flow control then
 // holds the writer back) instead of buffering without bound or dropping.

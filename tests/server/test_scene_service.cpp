@@ -2,6 +2,7 @@
 // The scene API without any transport: what the gRPC service (and later the DDS bridge) adapts.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <future>
 #include <random>
 #include <set>
@@ -141,6 +142,59 @@ TEST(SceneService, GeometryIdsAreContentHashesAndRegisteringTwiceIsIdempotent) {
   // Removed, then registered again: the same id.
   ASSERT_TRUE(service.remove_geometry(first.geometry_id).ok());
   EXPECT_EQ(service.register_geometry(box_input()).value().geometry_id, first.geometry_id);
+}
+
+// The ids a deployment already holds must survive a change of SHA-256 implementation: these were
+// computed by the hand-written SHA-256 that content_hash.cpp carried before it used OpenSSL's EVP.
+// One geometry per shape kind, a compound, an offset and a rounded piece.
+TEST(SceneService, GeometryIdsAreThoseOfEarlierReleases) {
+  std::vector<std::pair<GeometryInput, std::string>> known;
+  known.emplace_back(box_input(), "geom-3154ff650986d7795458a153e7043ce3");
+  known.emplace_back(box_input(0.25), "geom-f1063c417b29750100d0833187550e6c");
+  GeometryInput kinds;
+  kinds.name = "every kind";
+  kinds.pieces.resize(6);
+  kinds.pieces[0].shape = Point{};
+  kinds.pieces[0].radius = 0.5;
+  kinds.pieces[1].shape = Segment<double>{Vec3d(0, 0, -1), Vec3d(0, 0, 1)};
+  kinds.pieces[1].radius = 0.2;
+  kinds.pieces[2].shape = Box<double>{Vec3d(1, 0.5, 0.25)};
+  kinds.pieces[2].offset.translation = Vec3d(1, 2, 3);
+  kinds.pieces[2].offset.rotation_wxyz = {0.7071067811865476, 0, 0.7071067811865476, 0};
+  kinds.pieces[3].shape = Cylinder<double>{0.3, 0.6};
+  kinds.pieces[4].shape = Cone<double>{0.5, 0.5};
+  kinds.pieces[5].shape = Ellipsoid<double>{Vec3d(1, 0.5, 0.5)};
+  known.emplace_back(kinds, "geom-9b5860bb8f28de72f13e15707f52da70");
+  GeometryInput unnamed;  // empty name, one tiny-number piece
+  unnamed.pieces.emplace_back().shape = Box<double>{Vec3d(1e-300, 5e-324, 1)};
+  known.emplace_back(unnamed, "geom-1b42b12bb38ba01d311c5f48ffd1ebdb");
+  for (const auto& [geometry, id] : known)
+    EXPECT_EQ(geometry_content_id(geometry), id) << "geometry '" << geometry.name << "'";
+}
+
+// SHA-256 against a peer implementation: coreutils' sha256sum over the same bytes (every byte
+// value, more than one block, an odd length).
+TEST(SceneService, Sha256AgreesWithSha256sum) {
+  std::string bytes;
+  for (int i = 0; i < 3001; ++i) bytes.push_back(char((i * 7 + i / 256) & 0xff));
+  const std::string path = ::testing::TempDir() + "nearpoint_sha256_bytes";
+  {
+    std::FILE* file = std::fopen(path.c_str(), "wb");
+    ASSERT_NE(file, nullptr);
+    ASSERT_EQ(std::fwrite(bytes.data(), 1, bytes.size(), file), bytes.size());
+    std::fclose(file);
+  }
+  std::FILE* pipe = ::popen(("sha256sum '" + path + "'").c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  char line[128] = {};
+  const bool read = std::fgets(line, sizeof line, pipe) != nullptr;
+  const int status = ::pclose(pipe);
+  std::remove(path.c_str());
+  if (!read || status != 0) GTEST_SKIP() << "sha256sum (coreutils) did not run";
+  Sha256 hash;
+  hash.update(bytes.substr(0, 1000));  // in pieces, across block boundaries
+  hash.update(bytes.substr(1000));
+  EXPECT_EQ(hex_prefix(hash.finish(), 32), std::string(line, 64));
 }
 
 // Inline geometries (issue 24): one call makes a scene whole, on whichever replica receives it.

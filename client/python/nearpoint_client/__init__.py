@@ -14,6 +14,7 @@ from proto/nearpoint/v1 by the CMake target `nearpoint_python`, which puts them 
 in build/client/python (add that directory to PYTHONPATH).
 """
 
+from ._version import __version__
 from .client import (
     DEFAULT_MAX_MESSAGE_BYTES,
     DEFAULT_TIMEOUT,
@@ -39,6 +40,7 @@ from .client import (
 )
 
 __all__ = [
+    "__version__",
     "DEFAULT_MAX_MESSAGE_BYTES", "DEFAULT_TIMEOUT", "Client", "NearpointError", "PairDistance", "Report", "ThresholdEvent",
     "Update",
     "UpdateError", "box", "capsule", "cone", "connect", "cylinder", "ellipsoid", "polytope",

@@ -21,6 +21,7 @@ import nearpoint_distance_pb2 as distance_pb
 import nearpoint_distance_pb2_grpc as distance_grpc
 import nearpoint_geometry_pb2 as geometry_pb
 import nearpoint_scene_pb2 as scene_pb
+import nearpoint_vocabulary as vocabulary
 
 Vec3 = Tuple[float, float, float]
 Quat = Tuple[float, float, float, float]
@@ -127,15 +128,28 @@ def ellipsoid(radii: Sequence[float], rounding: float = 0.0,
     return _piece(rounding, offset, ellipsoid=geometry_pb.Ellipsoid(radii=_vec(radii)))
 
 
+# --- the API enums' spellings ----------------------------------------------------------------
+
+
+def _numbers_by_spelling(enum) -> dict:
+    """A generated protobuf enum's numbers by how the CLI and the scene files spell its values.
+
+    The spellings are model/vocabulary.hpp's table (written out by the build as
+    nearpoint_vocabulary, keyed by enumerator name), the numbers the generated enum's own
+    (EnumTypeWrapper.Value, which fails at import if the two ever name different enumerators).
+    """
+    return {spelling: enum.Value(name)
+            for name, spelling in vocabulary.SPELLINGS[enum.DESCRIPTOR.name].items()}
+
+
+def _spellings_by_number(enum) -> dict:
+    return {number: spelling for spelling, number in _numbers_by_spelling(enum).items()}
+
+
 # --- reports --------------------------------------------------------------------------------
 
-_STATUS_NAMES = {
-    distance_pb.PAIR_STATUS_SEPARATED: "separated",
-    distance_pb.PAIR_STATUS_INTERSECTING: "intersecting",
-    distance_pb.PAIR_STATUS_BEYOND_CUTOFF: "beyond_cutoff",
-    distance_pb.PAIR_STATUS_ITERATION_LIMIT: "iteration_limit",
-    distance_pb.PAIR_STATUS_ENGINE_ERROR: "engine_error",
-}
+_STATUS_NAMES = _spellings_by_number(distance_pb.PairStatus)
+_CROSSING_NAMES = _spellings_by_number(distance_pb.ThresholdCrossing)
 
 
 def _tuple(v: geometry_pb.Vector3) -> Vec3:
@@ -211,8 +225,7 @@ class ThresholdEvent:
     def from_proto(e: distance_pb.ThresholdEvent) -> "ThresholdEvent":
         return ThresholdEvent(threshold=e.threshold, threshold_index=e.threshold_index,
                               object_a=e.object_a, object_b=e.object_b,
-                              crossing="exit" if e.crossing == distance_pb.THRESHOLD_CROSSING_EXIT
-                              else "enter",
+                              crossing=_CROSSING_NAMES.get(e.crossing, "enter"),
                               distance=e.distance, sequence=e.sequence)
 
 
@@ -276,21 +289,11 @@ class Report:
 
 # --- scenes and options ---------------------------------------------------------------------
 
-_PENETRATION = {
-    "none": scene_pb.PENETRATION_MODE_NONE,
-    "bound": scene_pb.PENETRATION_MODE_BOUND,
-    "depth": scene_pb.PENETRATION_MODE_DEPTH,
-}
+_PENETRATION = _numbers_by_spelling(scene_pb.PenetrationMode)
 
 # ReportMode by the CLI's names (nearpoint query/stream --mode).
-_REPORT_MODE = {
-    "all": scene_pb.REPORT_MODE_ALL_PAIRS,
-    "within-cutoff": scene_pb.REPORT_MODE_WITHIN_CUTOFF,
-    "nearest": scene_pb.REPORT_MODE_NEAREST_PER_OBJECT,
-    "global": scene_pb.REPORT_MODE_GLOBAL_MINIMUM,
-    "changed": scene_pb.REPORT_MODE_CHANGED,
-}
-_REPORT_MODE_NAMES = {value: name for name, value in _REPORT_MODE.items()}
+_REPORT_MODE = _numbers_by_spelling(scene_pb.ReportMode)
+_REPORT_MODE_NAMES = _spellings_by_number(scene_pb.ReportMode)
 
 
 def query_options(epsilon: Optional[float] = None, near_points: Optional[bool] = None,
@@ -373,10 +376,7 @@ class Update:
     options: OptionsArg = None
 
 
-_FLOW_CONTROL = {
-    "block": distance_pb.FLOW_CONTROL_BLOCK,
-    "coalesce": distance_pb.FLOW_CONTROL_COALESCE,
-}
+_FLOW_CONTROL = _numbers_by_spelling(distance_pb.FlowControl)
 
 
 #: The routing header of every call about one scene (create, delete, query, stream): a proxy
@@ -425,6 +425,10 @@ class Client:
         geometry_id = self._call(self._stub.RegisterGeometry, request).geometry.geometry_id
         self._geometries[geometry_id] = geometry
         return geometry_id
+
+    def server_info(self):
+        """The server's `ServerInfo` message: version, build options, transports and limits."""
+        return self._call(self._stub.GetServerInfo, distance_pb.GetServerInfoRequest())
 
     def list_geometries(self) -> list:
         """Every stored geometry as a `GeometryInfo` message (id, name, counts, bounding sphere)."""

@@ -35,6 +35,7 @@
 #include <Eigen/Geometry>
 
 #include "nearpoint/model/scene_types.hpp"
+#include "nearpoint/model/vocabulary.hpp"
 
 namespace nearpoint::client {
 
@@ -57,11 +58,14 @@ struct Status {
   static Status error(int code, std::string message) { return {code, std::move(message)}; }
 };
 
-inline constexpr int kDeadlineExceeded = 4;
-inline constexpr int kNotFound = 5;
-inline constexpr int kAlreadyExists = 6;
-inline constexpr int kOutOfRange = 11;
-inline constexpr int kUnavailable = 14;
+// The codes callers test for, by name from model/vocabulary.hpp's status table.
+inline constexpr int kDeadlineExceeded = model::status_code_number("DEADLINE_EXCEEDED");
+inline constexpr int kNotFound = model::status_code_number("NOT_FOUND");
+inline constexpr int kAlreadyExists = model::status_code_number("ALREADY_EXISTS");
+inline constexpr int kOutOfRange = model::status_code_number("OUT_OF_RANGE");
+inline constexpr int kUnavailable = model::status_code_number("UNAVAILABLE");
+static_assert(kDeadlineExceeded > 0 && kNotFound > 0 && kAlreadyExists > 0 && kOutOfRange > 0 &&
+              kUnavailable > 0);
 
 /// True for the end of a stream by a draining server (SIGTERM: UNAVAILABLE, "draining"), and for
 /// the error reports of the updates it had not read: those were never evaluated and can be sent
@@ -107,6 +111,15 @@ using ReportCounts = model::ReportCounts;
 /// or every pair; `groups` filters by SceneObject.group.
 using Threshold = model::ThresholdInput;
 using SceneInfo = model::SceneInfo;
+
+/// One live scene on the server (nearpoint.v1.SceneSummary): its objects as created (body names
+/// are not kept by the server and come back empty).
+struct SceneSummary {
+  std::string scene_id;
+  std::string name;
+  std::size_t pair_count = 0;
+  std::vector<SceneObject> objects;
+};
 
 /// Conversions between Eigen poses and the plain structs' (w, x, y, z) + translation.
 model::PoseInput to_pose_input(const Eigen::Isometry3d& pose);
@@ -318,6 +331,32 @@ Status load_credentials(ClientOptions& options, const std::string& tls_ca_file,
                         const std::string& tls_cert_file, const std::string& tls_key_file,
                         const std::string& token_file);
 
+/// What a nearpointd is (nearpoint.v1.ServerInfo): its release, build, transports and limits.
+struct ServerInfo {
+  std::string version;  ///< "1.0.0", as `nearpointd --version` prints it
+  struct Build {
+    bool grpc = false, dds = false, metrics = false;  ///< compiled in
+  } build;
+  struct Transports {
+    std::string grpc_listen;  ///< --listen as given
+    std::uint32_t grpc_port = 0;
+    std::string tls;  ///< "off", "on" or "mutual"
+    bool token_required = false;
+    bool dds = false;  ///< serving pose streams over DDS
+    std::uint32_t dds_domain = 0;
+    std::string dds_prefix;
+    std::string metrics_listen;  ///< empty: none
+    std::uint32_t metrics_port = 0;
+  } transports;
+  struct Limits {
+    std::uint64_t max_geometries = 0, max_pieces_per_geometry = 0, max_vertices_per_geometry = 0,
+                  max_scenes = 0, max_objects_per_scene = 0, max_pairs_per_scene = 0,
+                  max_piece_pairs_per_scene = 0, max_streams = 0, max_in_flight_per_stream = 0,
+                  max_concurrent_queries = 0, max_message_bytes = 0;
+    std::uint32_t workers = 0;
+  } limits;
+};
+
 class Client {
  public:
   /// A client of the server at `target` ("host:port"). The connection is made lazily, on the
@@ -332,6 +371,8 @@ class Client {
   virtual Expected<GeometryInfo> register_geometry(const Geometry& geometry) = 0;
   virtual Status remove_geometry(const std::string& geometry_id) = 0;
   virtual Expected<std::vector<GeometryInfo>> list_geometries() = 0;
+  /// The server's version, build options, transports and limits (GetServerInfo).
+  virtual Expected<ServerInfo> server_info() = 0;
 
   /// Creates a scene whose objects name geometries by the ids register_geometry returned (or ids
   /// of geometries registered by others). Remembered for replay, like geometries. The scene's id
@@ -342,6 +383,8 @@ class Client {
   /// is whole on whichever replica holds it.
   virtual Expected<SceneInfo> create_scene(const Scene& scene) = 0;
   virtual Status delete_scene(const std::string& scene_id) = 0;
+  /// The server's live scenes, ordered by id (behind a sharding proxy: one replica's).
+  virtual Expected<std::vector<SceneSummary>> list_scenes() = 0;
 
   /// One-shot distances at the given poses (objects not listed are at their initial pose). For a
   /// scene this client created, NOT_FOUND for the scene (a restarted server, or a sharding proxy

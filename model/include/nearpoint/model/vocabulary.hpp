@@ -203,6 +203,15 @@ inline constexpr std::array<std::string_view, 17> kStatusCodeNames{
     "ABORTED",   "OUT_OF_RANGE",   "UNIMPLEMENTED",     "INTERNAL",           "UNAVAILABLE",
     "DATA_LOSS", "UNAUTHENTICATED"};
 
+/// The number of the status code named `name` ("NOT_FOUND" → 5), for constants that name a code
+/// rather than write its number; -1 for a name outside the table (which an unsigned constant
+/// initialised from it refuses to compile).
+constexpr std::int32_t status_code_number(std::string_view name) {
+  for (std::size_t code = 0; code < kStatusCodeNames.size(); ++code)
+    if (kStatusCodeNames[code] == name) return std::int32_t(code);
+  return -1;
+}
+
 /// "INVALID_ARGUMENT" for 3, …; "CODE_<n>" for a code outside the table.
 inline std::string status_code_name(std::int64_t code) {
   if (code >= 0 && code < std::int64_t(kStatusCodeNames.size()))

@@ -4,29 +4,46 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <sstream>
 #include <string>
 #include <string_view>
 #include <utility>
 #include <variant>
 
+#include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/limits.hpp"
 
 namespace nearpoint::server {
 
-/// What kind of failure. Each maps to exactly one gRPC status code.
+/// What kind of failure. Each is exactly one gRPC status code, and its value is that code's number
+/// (google.rpc.Code), taken from model/vocabulary.hpp's status table by name: gRPC statuses and a
+/// rejected DDS update's report carry it (status_code), and proto_convert.cpp checks it against
+/// grpc::StatusCode.
 enum class ErrorCode : unsigned char {
-  invalid_argument,     ///< the request is malformed (names the field)
-  not_found,            ///< an id (geometry, scene, object) is unknown
-  resource_exhausted,   ///< a configured limit was reached
-  failed_precondition,  ///< valid, but not in the current state (e.g. a stream bound elsewhere)
-  unavailable,          ///< the server is shutting down
-  already_exists,       ///< a requested id is taken
-  internal,             ///< a bug: should never be seen
+  /// the request is malformed (names the field)
+  invalid_argument = model::status_code_number("INVALID_ARGUMENT"),
+  /// an id (geometry, scene, object) is unknown
+  not_found = model::status_code_number("NOT_FOUND"),
+  /// a requested id is taken
+  already_exists = model::status_code_number("ALREADY_EXISTS"),
+  /// a configured limit was reached
+  resource_exhausted = model::status_code_number("RESOURCE_EXHAUSTED"),
+  /// valid, but not in the current state (e.g. a stream bound elsewhere)
+  failed_precondition = model::status_code_number("FAILED_PRECONDITION"),
+  /// a bug: should never be seen
+  internal = model::status_code_number("INTERNAL"),
+  /// the server is shutting down
+  unavailable = model::status_code_number("UNAVAILABLE"),
 };
 
+/// The gRPC status code of `code` (google.rpc.Code numbering).
+constexpr std::uint32_t status_code(ErrorCode code) {
+  return static_cast<std::uint32_t>(code);
+}
+
 /// The status code's name in lower case, as logs and metrics label it ("invalid_argument"):
-/// model/vocabulary.hpp's status table, through the code wire_numbers.hpp gives it.
+/// model/vocabulary.hpp's status table.
 std::string to_string(ErrorCode code);
 
 struct Error {

@@ -23,11 +23,6 @@
 #include "nearpoint/server/limits.hpp"
 #include "nearpoint/server/report.hpp"
 #include "nearpoint/server/worker_pool.hpp"
-// The model's types under server:: for tests/fuzz and bench/service only (model_names.hpp); the
-// server's own code and its tests (built with NEARPOINT_SERVER_NO_MODEL_NAMES) name them model::….
-#ifndef NEARPOINT_SERVER_NO_MODEL_NAMES
-#include "nearpoint/server/model_names.hpp"
-#endif
 
 namespace nearpoint::server {
 
@@ -242,6 +237,8 @@ class SceneService {
   Outcome delete_scene(const std::string& scene_id);
   /// The live scene, or nullptr.
   std::shared_ptr<Scene> find_scene(const std::string& scene_id) const;
+  /// Every live scene's definition, ordered by scene id (ListScenes; `nearpoint scene list`).
+  std::vector<std::shared_ptr<const SceneDefinition>> list_scenes() const;
 
   /// Validates the query now (the error, if any, is returned and `done` is never called) and
   /// evaluates it on the pool; `done` runs exactly once, on a pool thread.

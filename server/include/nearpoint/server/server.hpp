@@ -17,6 +17,18 @@
 
 namespace nearpoint::server {
 
+/// What nearpointd is besides its gRPC configuration, for GetServerInfo: its release and build,
+/// and the other transports this process serves. main() fills it; the server only reports it.
+struct ProcessDescription {
+  std::string version;  ///< "1.0.0" (nearpoint/version.hpp)
+  bool built_grpc = false, built_dds = false, built_metrics = false;
+  bool dds = false;  ///< --dds
+  int dds_domain = 0;
+  std::string dds_prefix;
+  std::string metrics_listen;  ///< empty: no metrics endpoint
+  int metrics_port = 0;        ///< the bound metrics port
+};
+
 struct ServerConfig {
   /// host:port to listen on. Port 0 picks a free port (see GrpcServer::port()).
   std::string listen = "127.0.0.1:50051";
@@ -37,6 +49,8 @@ struct ServerConfig {
   bool diagnostics = true;
   /// TLS and the bearer token (load_server_security); empty: plaintext, no token.
   ServerSecurity security;
+  /// Reported by GetServerInfo.
+  ProcessDescription process;
 };
 
 class GrpcServer {

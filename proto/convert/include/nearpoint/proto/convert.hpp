@@ -57,6 +57,9 @@ void to_proto(const model::SceneInput& scene, v1::CreateSceneRequest& out);
 /// Every field, inline geometries included, but the fingerprint.
 model::SceneInput from_proto(const v1::CreateSceneRequest& request);
 
+/// One object of a scene as listed (ListScenes): as in a CreateSceneRequest.
+model::ObjectInput from_proto(const v1::SceneObject& object);
+
 model::PoseUpdateInput from_proto(const v1::PoseUpdate& update);
 model::QueryInput from_proto(const v1::QueryRequest& request);
 
