@@ -953,6 +953,7 @@ TEST_F(WithServer, StreamThresholdsReportEnterAndExitEvents) {
   StreamCommandOptions stream;
   stream.remote = remote();
   stream.scene = scene.string();  // created on the first run, by id afterwards
+  stream.keep_scene = true;        // kept: the runs below stream on it by id
   stream.trajectory = trajectory.string();
   stream.thresholds = {"0.05,hysteresis=0.05,pair=gripper:table,name=near-table"};
   out.str("");
