@@ -33,17 +33,9 @@ import sys
 import tempfile
 import time
 
+from cli_checks import check, fail
+
 ARGS = None
-
-
-def fail(message):
-    print("FAIL: " + message, file=sys.stderr)
-    sys.exit(1)
-
-
-def check(condition, message):
-    if not condition:
-        fail(message)
 
 
 def run(args, env=None, timeout=60):

@@ -13,17 +13,9 @@ import math
 import subprocess
 import sys
 
+from cli_checks import check, fail
+
 SHAPE_KINDS = ("polytope", "sphere", "segment", "box", "ellipsoid", "cylinder", "cone")
-
-
-def fail(message):
-    print("FAIL: " + message, file=sys.stderr)
-    sys.exit(1)
-
-
-def check(condition, message):
-    if not condition:
-        fail(message)
 
 
 def reject_constant(name):

@@ -22,18 +22,10 @@ import resource
 import subprocess
 import sys
 
+from cli_checks import check, fail
+
 LIMIT_BYTES = 2 << 30
 SPHERES = '"a": {"sphere": {}, "radius": 1}, "b": {"sphere": {}, "radius": 0.5, "pose": {"translation": [3, 0, 0]}}'
-
-
-def fail(message):
-    print("FAIL: " + message, file=sys.stderr)
-    sys.exit(1)
-
-
-def check(condition, message):
-    if not condition:
-        fail(message)
 
 
 def address_sanitized(binary):

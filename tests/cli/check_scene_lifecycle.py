@@ -26,17 +26,9 @@ import subprocess
 import sys
 import time
 
+from cli_checks import check, fail
+
 DDS_DOMAIN = 121  # tests/dds/dds_test_support.hpp reserves 101-130 for the tests, one each
-
-
-def fail(message):
-    print("FAIL: " + message, file=sys.stderr)
-    sys.exit(1)
-
-
-def check(condition, message):
-    if not condition:
-        fail(message)
 
 
 class Server:
