@@ -502,8 +502,11 @@ template <class S, class GA, class GB>
   if (!(radius_a + radius_b <= kLargestLength<S>)) return set_invalid(result, kTooLarge);
   const Vec3<S> center_a = detail::Support<GA, S>{ga}.center();
   const Vec3<S> center_b = detail::Support<GB, S>{gb}.center();
-  const Vec3<S> between = (pose_b.rotation * center_b + pose_b.translation) -
-                          (pose_a.rotation * center_a + pose_a.translation);
+  // The centres' offset compensated, as the query forms δ for far centroids: two one-point
+  // segments 4e-53 from their local origins, both placed at 8e301 and turned apart by 3e-54,
+  // had a plainly rounded offset of 0, were scaled by their translations, and came back
+  // "intersecting" with bound 0 (found by fuzz_engine). This is the cold path: exactness first.
+  const Vec3<S> between = detail::compensated_difference(pose_b, center_b, &pose_a, center_a);
   S size = std::max({magnitude<S>(ga), magnitude<S>(gb), between.cwiseAbs().maxCoeff()});
   // Two point cores whose `between` rounded to 0: their places may still differ by less than the
   // subnormals resolve (float points 4e-45 from the origin, B turned by its pose, 6e-46 apart,

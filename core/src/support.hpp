@@ -15,6 +15,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 
 #include "nearpoint/shapes.hpp"
 
@@ -28,6 +29,29 @@ inline bool normalise_direction(const Vec3<S>& d, Vec3<S>& out) {
   if (!(m > 0) || !std::isfinite(m)) return false;  // NaN-safe on purpose: !(m > 0) catches NaN
   out = d / m;
   return true;
+}
+
+/// |v|, not lost to the squares' under- or overflow. An extent enters D(K) (eq. 37) and the
+/// compound's bounding spheres, both of which must not be below the truth: a float box of
+/// half-extents 3.6e-32 had |h|² = 0, its compound piece a bounding sphere of its radius alone, and
+/// the piece that touched the other object was pruned (found by fuzz_engine). The plain norm is
+/// kept where its squares are normal numbers, bit for bit as before.
+template <class S>
+constexpr S power_of_two(int exponent) {
+  S p = 1;
+  for (; exponent > 0; --exponent) p *= 2;
+  for (; exponent < 0; ++exponent) p /= 2;
+  return p;
+}
+template <class S>
+inline S extent_norm(const Vec3<S>& v) {
+  // 2^±(half the exponent range − 10): the squares of such norms are normal numbers.
+  constexpr int half_range = std::numeric_limits<S>::max_exponent / 2 - 10;
+  constexpr S tiny = power_of_two<S>(-half_range), huge = power_of_two<S>(half_range);
+  const S n = v.norm();
+  if (n >= tiny && n <= huge) [[likely]]
+    return n;
+  return v.stableNorm();
 }
 
 /// The two support indices of a PairScan, returned in registers.
@@ -118,7 +142,7 @@ struct Support<Segment<S>, S> {
   Vec3<S> center() const { return S(0.5) * shape.a + S(0.5) * shape.b; }
   Vec3<S> interior() const { return Vec3<S>::Zero(); }
   Vec3<S> end(std::int32_t index) const { return (index == 1 ? shape.b : shape.a) - center(); }
-  S extent() const { return std::max(end(0).norm(), end(1).norm()); }
+  S extent() const { return std::max(extent_norm(end(0)), extent_norm(end(1))); }
   Vec3<S> support(const Vec3<S>& d, std::int32_t& index) const {
     const Vec3<S> a = end(0), b = end(1);
     // Ties and NaN choose a (index 0): any point of the segment is a valid support then.
@@ -141,7 +165,7 @@ struct Support<Box<S>, S> {
   const Box<S>& shape;
   Vec3<S> center() const { return Vec3<S>::Zero(); }
   Vec3<S> interior() const { return Vec3<S>::Zero(); }
-  S extent() const { return shape.half_extents.norm(); }
+  S extent() const { return extent_norm(shape.half_extents); }
   Vec3<S> support(const Vec3<S>& d, std::int32_t& index) const {
     Vec3<S> p;
     index = 0;
