@@ -17,6 +17,19 @@
 
 namespace nearpoint {
 
+namespace {
+// A bound on ‖R‖₂ from the rotation's squared defect ‖RᵀR − I‖_F²: ‖R‖₂² = λ_max(RᵀR) ≤
+// 1 + ‖RᵀR − I‖_F, and √(1 + x) ≤ 1 + x/2 (8ε more for the defect's own rounding). A piece is
+// posed by R exactly as given, so its bounding sphere's radius grows by this factor: a segment
+// 5e173 long under rotations with defects of 1e-8 had a bounding-sphere gap of +1.3e165, and the
+// piece that held the answer was pruned (found by fuzz_engine).
+template <class S>
+S stretch_bound(S defect2) {
+  using std::sqrt;
+  return S(1) + (sqrt(defect2) + S(8) * std::numeric_limits<S>::epsilon()) / S(2);
+}
+}  // namespace
+
 template <class S>
 Compound<S>::Compound(std::vector<Piece<S>> pieces) : pieces_(std::move(pieces)) {
   if (pieces_.empty()) return;  // keeps "compound has no pieces"
@@ -38,7 +51,8 @@ Compound<S>::Compound(std::vector<Piece<S>> pieces) : pieces_(std::move(pieces))
     // translation and of z̄ itself: a piece modelled far from its own origin).
     const Vec3<S> center = core_center(piece.shape);
     centers_.push_back(piece.offset.apply(center));
-    radii_.push_back(core_extent(piece.shape) + piece.shape.radius +
+    radii_.push_back((core_extent(piece.shape) + piece.shape.radius) *
+                         stretch_bound(detail::rotation_defect2(piece.offset.rotation)) +
                      S(8) * std::numeric_limits<S>::epsilon() *
                          (piece.offset.translation.cwiseAbs().sum() + center.cwiseAbs().sum()));
     at_origin_.push_back(piece.offset.rotation == Mat3<S>::Identity() &&
@@ -73,6 +87,8 @@ class CompoundQuery {
     // same rounded place and the nearer one was pruned). A translation of the whole scene changes
     // no distance; near points are moved back at the end. The object whose piece sits at its
     // origin is queried on the caller's poses themselves: exactly the single-shape query.
+    stretch_a_ = stretch_bound(defect2_a);
+    stretch_b_ = stretch_bound(detail::rotation_defect2(pose_b.rotation));
     frame_a_.rotation = pose_a.rotation;
     frame_b_.rotation = pose_b.rotation;
     frame_b_.translation = pose_b.translation - pose_a.translation;
@@ -114,13 +130,15 @@ class CompoundQuery {
   S compute_gap(std::size_t i, std::size_t j) {
     const Vec3<S> ca = detail::apply_pose(frame_a_, a_.sphere_center(i));
     const Vec3<S> cb = detail::apply_pose(frame_b_, b_.sphere_center(j));
-    const S magnitude = ca.cwiseAbs().sum() + cb.cwiseAbs().sum() + a_.sphere_radius(i) +
-                        b_.sphere_radius(j) + frame_b_.translation.cwiseAbs().sum() +
+    const S radius_a = a_.sphere_radius(i) * stretch_a_,
+            radius_b = b_.sphere_radius(j) * stretch_b_;
+    const S magnitude = ca.cwiseAbs().sum() + cb.cwiseAbs().sum() + radius_a + radius_b +
+                        frame_b_.translation.cwiseAbs().sum() +
                         a_.sphere_center(i).cwiseAbs().sum() + b_.sphere_center(j).cwiseAbs().sum();
     gap_roundoff_ = std::max(gap_roundoff_, S(16) * std::numeric_limits<S>::epsilon() * magnitude);
     // Scaled before squaring: centres beyond √max apart overflowed |cb − ca|² to inf, and an
     // infinite gap pruned a pair that was in fact the nearest (found by fuzz_engine in float).
-    return (cb - ca).stableNorm() - a_.sphere_radius(i) - b_.sphere_radius(j);
+    return (cb - ca).stableNorm() - radius_a - radius_b;
   }
   S sphere_gap(std::size_t i, std::size_t j) {
     return keep_gaps() ? gaps_[i * b_.size() + j] : compute_gap(i, j);
@@ -340,6 +358,7 @@ class CompoundQuery {
   bool nearest_in_world_ = false;  // the frame of the best answer's near points
   S gap_roundoff_ = 0;
   S lowest_ = 0;
+  S stretch_a_ = 1, stretch_b_ = 1;  // bounds on ‖R_A‖₂, ‖R_B‖₂ (stretch_bound)
   S gaps_[kStackPairs];
   Saved saved_[kStackPairs];
   std::size_t saved_count_ = 0;
