@@ -507,6 +507,7 @@ template <class S, class GA, class GB>
   // had a plainly rounded offset of 0, were scaled by their translations, and came back
   // "intersecting" with bound 0 (found by fuzz_engine). This is the cold path: exactness first.
   const Vec3<S> between = detail::compensated_difference(pose_b, center_b, &pose_a, center_a);
+  if (!between.allFinite()) return set_invalid(result, kTooLarge);
   S size = std::max({magnitude<S>(ga), magnitude<S>(gb), between.cwiseAbs().maxCoeff()});
   // Two point cores whose `between` rounded to 0: their places may still differ by less than the
   // subnormals resolve (float points 4e-45 from the origin, B turned by its pose, 6e-46 apart,
@@ -556,6 +557,16 @@ template <class S, class GA, class GB>
     S magnitude = 0;
     const auto scaled_ga = scale_geometry<S>(ga, k);
     const auto scaled_gb = scale_geometry<S>(gb, k);
+    // Shapes modelled far from their local origins (centres near the largest number) cannot be
+    // scaled up to a separation far below the subnormals' resolution: their centres or the
+    // translations leave the range. Refused, not answered: the query would see them "at one
+    // place" (float points at 4e36 placed back to 7e-45 apart were "intersecting", bound 0).
+    if (!(detail::Support<std::decay_t<decltype(scaled_ga)>, S>{scaled_ga}.center().allFinite() &&
+          detail::Support<std::decay_t<decltype(scaled_gb)>, S>{scaled_gb}.center().allFinite() &&
+          scaled_a.translation.allFinite() && scaled_b.translation.allFinite()))
+      return set_invalid(result,
+                         "shapes modelled this far from their local origins cannot be measured at "
+                         "so small a separation in this precision");
     const QueryInput<S, std::decay_t<decltype(scaled_ga)>, std::decay_t<decltype(scaled_gb)>>
         scaled{{scaled_ga, scaled_radius_a, scaled_a},
                {scaled_gb, scaled_radius_b, scaled_b},

@@ -165,9 +165,18 @@ Vec3<S> compensated_difference(const Pose<S>& pose_b, const Vec3<S>& z_b, const 
       // Dekker's product with Veltkamp's split: std::fma without the instruction is a slow
       // library emulation.
       constexpr S split = S(1 << ((std::numeric_limits<S>::digits + 1) / 2)) + S(1);
+      // Split scaled down by an exact power of two where split·v would overflow (float vertices
+      // at 4e36: inf − inf made δ NaN and the query answered "intersecting", bound 0; found by
+      // fuzz_engine). The high half scales back exactly, so v = high + low stays exact.
+      constexpr S shrink = S(1) / S(1 << ((std::numeric_limits<S>::digits + 1) / 2 + 1));
       const auto halves = [&](S v, S& high, S& low) {
-        const S c = split * v;
-        high = c - (c - v);
+        if (std::abs(v) <= std::numeric_limits<S>::max() * shrink) [[likely]] {
+          const S c = split * v;
+          high = c - (c - v);
+        } else {
+          const S w = v * shrink, c = split * w;
+          high = (c - (c - w)) / shrink;
+        }
         low = v - high;
       };
       S xh, xl, yh, yl;
