@@ -26,21 +26,7 @@ Report from_proto(const v1::DistanceReport& report) {
     PairDistance& pair = out.pairs.emplace_back();
     pair.object_a = p.object_a();
     pair.object_b = p.object_b();
-    pair.status = model::from_wire<PairStatus>(p.status());
-    pair.distance = p.distance();
-    pair.distance_lower_bound = p.distance_lower_bound();
-    pair.error_bound = p.error_bound();
-    pair.iterations = p.iterations();
-    pair.piece_pairs_evaluated = p.piece_pairs_evaluated();
-    pair.piece_a = p.piece_a();
-    pair.piece_b = p.piece_b();
-    pair.warm_started = p.warm_started();
-    if (p.has_near_points())
-      pair.near_points = PairDistance::NearPoints{from_proto(p.point_a()), from_proto(p.point_b()),
-                                                  from_proto(p.normal())};
-    if (p.has_penetration_bound()) pair.penetration_bound = p.penetration_bound();
-    if (p.has_gradient())
-      pair.gradient = std::pair(from_proto(p.gradient_a()), from_proto(p.gradient_b()));
+    proto::from_proto(p, pair);
     pair.message = p.message();
   }
   out.timing = from_proto(report.timing());

@@ -360,8 +360,9 @@ int run_demo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
       if (hit && !inside) profile.collisions.push_back({s, s, 0});
       if (hit) {
         profile.collisions.back().s1 = s;
-        profile.collisions.back().max_penetration_bound = std::max(
-            profile.collisions.back().max_penetration_bound, pair.penetration_bound.value_or(0));
+        profile.collisions.back().max_penetration_bound =
+            std::max(profile.collisions.back().max_penetration_bound,
+                     pair.has_penetration_bound ? pair.penetration_bound : 0.0);
       }
       inside = hit;
     }

@@ -146,9 +146,8 @@ void print_pairs(const client::Report& report, std::ostream& out) {
       out << "distance > " << number(p.distance_lower_bound);
     else
       out << "distance " << number(p.distance, 12) << " (± " << number(p.error_bound, 2) << ")";
-    if (p.penetration_bound) out << "  d⁻ " << number(*p.penetration_bound);
-    if (p.near_points)
-      out << "  A " << point(p.near_points->point_a) << "  B " << point(p.near_points->point_b);
+    if (p.has_penetration_bound) out << "  d⁻ " << number(p.penetration_bound);
+    if (p.has_near_points) out << "  A " << point(p.point_a) << "  B " << point(p.point_b);
     out << "\n";
   }
 }

@@ -114,12 +114,12 @@ Json to_json(const client::Report& report) {
     pair["error_bound"] = p.error_bound;
     pair["iterations"] = p.iterations;
     pair["warm_started"] = p.warm_started;
-    if (p.near_points) {
-      pair["point_a"] = vec(p.near_points->point_a);
-      pair["point_b"] = vec(p.near_points->point_b);
-      pair["normal"] = vec(p.near_points->normal);
+    if (p.has_near_points) {
+      pair["point_a"] = vec(p.point_a);
+      pair["point_b"] = vec(p.point_b);
+      pair["normal"] = vec(p.normal);
     }
-    if (p.penetration_bound) pair["penetration_bound"] = *p.penetration_bound;
+    if (p.has_penetration_bound) pair["penetration_bound"] = p.penetration_bound;
     if (!p.message.empty()) pair["message"] = p.message;
     pairs.push_back(std::move(pair));
   }

@@ -212,6 +212,58 @@ Eigen::Matrix<double, 6, 1> from_proto(const v1::PoseGradient& g) {
   return out;
 }
 
+void to_proto(const model::PairAnswer& pair, v1::PairDistance& p) {
+  p.set_status(v1::PairStatus(model::to_wire(pair.status)));
+  p.set_distance(pair.distance);
+  p.set_distance_lower_bound(pair.distance_lower_bound);
+  p.set_error_bound(pair.error_bound);
+  p.set_iterations(pair.iterations);
+  p.set_piece_pairs_evaluated(pair.piece_pairs_evaluated);
+  p.set_piece_a(pair.piece_a);
+  p.set_piece_b(pair.piece_b);
+  p.set_warm_started(pair.warm_started);
+  if (pair.has_near_points) {
+    p.set_has_near_points(true);
+    to_proto(pair.point_a, *p.mutable_point_a());
+    to_proto(pair.point_b, *p.mutable_point_b());
+    to_proto(pair.normal, *p.mutable_normal());
+  }
+  if (pair.has_penetration_bound) {
+    p.set_has_penetration_bound(true);
+    p.set_penetration_bound(pair.penetration_bound);
+  }
+  if (pair.has_gradient) {
+    p.set_has_gradient(true);
+    to_proto(pair.gradient_a, *p.mutable_gradient_a());
+    to_proto(pair.gradient_b, *p.mutable_gradient_b());
+  }
+}
+
+void from_proto(const v1::PairDistance& p, model::PairAnswer& pair) {
+  pair.status = model::from_wire<model::PairStatus>(p.status());
+  pair.distance = p.distance();
+  pair.distance_lower_bound = p.distance_lower_bound();
+  pair.error_bound = p.error_bound();
+  pair.iterations = p.iterations();
+  pair.piece_pairs_evaluated = p.piece_pairs_evaluated();
+  pair.piece_a = p.piece_a();
+  pair.piece_b = p.piece_b();
+  pair.warm_started = p.warm_started();
+  pair.has_near_points = p.has_near_points();
+  if (pair.has_near_points) {
+    pair.point_a = from_proto(p.point_a());
+    pair.point_b = from_proto(p.point_b());
+    pair.normal = from_proto(p.normal());
+  }
+  pair.has_penetration_bound = p.has_penetration_bound();
+  if (pair.has_penetration_bound) pair.penetration_bound = p.penetration_bound();
+  pair.has_gradient = p.has_gradient();
+  if (pair.has_gradient) {
+    pair.gradient_a = from_proto(p.gradient_a());
+    pair.gradient_b = from_proto(p.gradient_b());
+  }
+}
+
 void to_proto(const model::PoseInput& pose, v1::Pose& out) {
   v1::Quaternion& q = *out.mutable_rotation();
   q.set_w(pose.rotation_wxyz[0]);

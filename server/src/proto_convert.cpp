@@ -78,30 +78,7 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
     v1::PairDistance& p = *out.add_pairs();
     p.set_object_a(report.scene->objects[pair.object_a].id);
     p.set_object_b(report.scene->objects[pair.object_b].id);
-    p.set_status(v1::PairStatus(model::to_wire(pair.status)));
-    p.set_distance(pair.distance);
-    p.set_distance_lower_bound(pair.distance_lower_bound);
-    p.set_error_bound(pair.error_bound);
-    p.set_iterations(pair.iterations);
-    p.set_piece_pairs_evaluated(pair.piece_pairs_evaluated);
-    p.set_piece_a(pair.piece_a);
-    p.set_piece_b(pair.piece_b);
-    p.set_warm_started(pair.warm_started);
-    if (pair.has_near_points) {
-      p.set_has_near_points(true);
-      proto::to_proto(pair.point_a, *p.mutable_point_a());
-      proto::to_proto(pair.point_b, *p.mutable_point_b());
-      proto::to_proto(pair.normal, *p.mutable_normal());
-    }
-    if (pair.has_penetration_bound) {
-      p.set_has_penetration_bound(true);
-      p.set_penetration_bound(pair.penetration_bound);
-    }
-    if (pair.has_gradient) {
-      p.set_has_gradient(true);
-      proto::to_proto(pair.gradient_a, *p.mutable_gradient_a());
-      proto::to_proto(pair.gradient_b, *p.mutable_gradient_b());
-    }
+    proto::to_proto(pair, p);
     if (pair.engine_message) p.set_message(pair.engine_message);
   }
   proto::to_proto(report.timing, *out.mutable_timing());

@@ -150,27 +150,13 @@ const char* to_string(PairStatus status);
 /// The mode's name as the CLI spells it: all, within-cutoff, nearest, global, changed.
 const char* to_string(ReportMode mode);
 
-/// One object pair's answer (see nearpoint.v1.PairDistance): world frame, metres.
-struct PairDistance {
+/// One object pair's answer (see nearpoint.v1.PairDistance): the engine's answer as the model
+/// holds it (world frame, metres; near points with options.near_points, d⁻ with penetration =
+/// bound, the gradient with options.gradient, each behind its has_ flag), the pair named by the
+/// objects' ids.
+struct PairDistance : model::PairAnswer {
   std::string object_a, object_b;
-  PairStatus status = PairStatus::engine_error;
-  double distance = 0;
-  double distance_lower_bound = 0;
-  double error_bound = 0;
-  std::uint32_t iterations = 0;
-  std::uint32_t piece_pairs_evaluated = 0;
-  std::uint32_t piece_a = 0, piece_b = 0;
-  bool warm_started = false;
-  /// With options.near_points.
-  struct NearPoints {
-    Eigen::Vector3d point_a, point_b, normal;
-  };
-  std::optional<NearPoints> near_points;
-  /// d⁻ (paper eq. 32–33) for intersecting pairs with penetration = bound.
-  std::optional<double> penetration_bound;
-  /// (∂/∂translation, ∂/∂rotation vector) of A's and B's pose, with options.gradient.
-  std::optional<std::pair<Eigen::Matrix<double, 6, 1>, Eigen::Matrix<double, 6, 1>>> gradient;
-  /// For engine_error.
+  /// For engine_error: the server's reason.
   std::string message;
 };
 

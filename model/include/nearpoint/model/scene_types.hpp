@@ -203,11 +203,10 @@ enum class PairStatus : unsigned char {
   engine_error,
 };
 
-/// The answer for one object pair (see nearpoint.v1.PairDistance for every field's meaning).
-struct PairReport {
-  /// Indices into the scene's objects.
-  std::uint32_t object_a = 0;
-  std::uint32_t object_b = 0;
+/// What the engine answered for one object pair, whoever names the pair (see
+/// nearpoint.v1.PairDistance for every field's meaning). The server's PairReport names the
+/// objects by their index in the scene; the client's PairDistance by their ids, as the wire does.
+struct PairAnswer {
   PairStatus status = PairStatus::engine_error;
   double distance = 0;
   double distance_lower_bound = 0;
@@ -229,6 +228,13 @@ struct PairReport {
   /// (∂/∂translation, ∂/∂rotation vector), world frame.
   Eigen::Matrix<double, 6, 1> gradient_a = Eigen::Matrix<double, 6, 1>::Zero();
   Eigen::Matrix<double, 6, 1> gradient_b = Eigen::Matrix<double, 6, 1>::Zero();
+};
+
+/// The answer for one object pair of a scene, as the server computes it.
+struct PairReport : PairAnswer {
+  /// Indices into the scene's objects.
+  std::uint32_t object_a = 0;
+  std::uint32_t object_b = 0;
   /// Static text for engine_error, else nullptr.
   const char* engine_message = nullptr;
 };

@@ -26,6 +26,11 @@ model::Vec3d from_proto(const v1::Vector3& v);
 void to_proto(const Eigen::Matrix<double, 6, 1>& gradient, v1::PoseGradient& out);
 Eigen::Matrix<double, 6, 1> from_proto(const v1::PoseGradient& gradient);
 
+/// One pair's answer ↔ nearpoint.v1.PairDistance, all but the objects' names and the message
+/// (the server names objects by index, the client by id).
+void to_proto(const model::PairAnswer& answer, v1::PairDistance& out);
+void from_proto(const v1::PairDistance& pair, model::PairAnswer& out);
+
 /// Writes both the rotation and the translation; reads the identity for a part not given.
 void to_proto(const model::PoseInput& pose, v1::Pose& out);
 model::PoseInput from_proto(const v1::Pose& pose);
