@@ -50,14 +50,7 @@ struct LoopRange<float> {
   static constexpr int low = -16, high = 16;  // D⁷ within 2^±112 of 1
 };
 
-/// 2^e as a compile-time constant.
-template <class S>
-constexpr S power_of_two(int e) {
-  S x = 1;
-  for (; e > 0; --e) x *= 2;
-  for (; e < 0; ++e) x /= 2;
-  return x;
-}
+using detail::power_of_two;
 
 /// The largest radius sum and size accepted: the answer (a distance, a penetration bound, near
 /// points a radius away from the cores) must stay representable.

@@ -31,11 +31,7 @@ inline bool normalise_direction(const Vec3<S>& d, Vec3<S>& out) {
   return true;
 }
 
-/// |v|, not lost to the squares' under- or overflow. An extent enters D(K) (eq. 37) and the
-/// compound's bounding spheres, both of which must not be below the truth: a float box of
-/// half-extents 3.6e-32 had |h|² = 0, its compound piece a bounding sphere of its radius alone, and
-/// the piece that touched the other object was pruned (found by fuzz_engine). The plain norm is
-/// kept where its squares are normal numbers, bit for bit as before.
+/// 2^exponent as a compile-time constant.
 template <class S>
 constexpr S power_of_two(int exponent) {
   S p = 1;
@@ -43,6 +39,12 @@ constexpr S power_of_two(int exponent) {
   for (; exponent < 0; ++exponent) p /= 2;
   return p;
 }
+
+/// |v|, not lost to the squares' under- or overflow. An extent enters D(K) (eq. 37) and the
+/// compound's bounding spheres, both of which must not be below the truth: a float box of
+/// half-extents 3.6e-32 had |h|² = 0, its compound piece a bounding sphere of its radius alone, and
+/// the piece that touched the other object was pruned (found by fuzz_engine). The plain norm is
+/// kept where its squares are normal numbers, bit for bit as before.
 template <class S>
 inline S extent_norm(const Vec3<S>& v) {
   // 2^±(half the exponent range − 10): the squares of such norms are normal numbers.
