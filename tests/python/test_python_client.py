@@ -179,6 +179,13 @@ class PythonClientTest(unittest.TestCase):
         self.assertAlmostEqual(self.client.query(named).pair("a", "b").distance, 3.0,
                                delta=1e-12)
         self.assertIn(crate, [g.geometry_id for g in self.client.list_geometries()])
+        # The server lists both scenes with their objects; a deleted one is gone from the list.
+        listed = {s.scene_id: s for s in self.client.list_scenes()}
+        self.assertIn(chosen, listed)
+        self.assertEqual(listed[named].pair_count, 1)
+        self.assertEqual(sorted(o.id for o in listed[named].objects), ["a", "b"])
+        self.client.delete_scene(chosen)
+        self.assertNotIn(chosen, [s.scene_id for s in self.client.list_scenes()])
 
     def test_report_mode_passes_through(self):
         """report_mode= reaches the server: "global" gives the all-pairs report's nearest pair and

@@ -484,6 +484,11 @@ class Client:
             request.default_options.CopyFrom(scene_options)
         return self._call(self._stub.CreateScene, request, scene_id).scene_id
 
+    def list_scenes(self) -> list:
+        """Every live scene on the server as a `SceneSummary` message (scene id, name, pair count
+        and the objects as created), as `nearpoint scene list` shows them."""
+        return list(self._call(self._stub.ListScenes, scene_pb.ListScenesRequest()).scenes)
+
     def delete_scene(self, scene_id: str) -> None:
         """Deletes a scene; its open streams get NOT_FOUND error reports afterwards."""
         self._call(self._stub.DeleteScene, scene_pb.DeleteSceneRequest(scene_id=scene_id),
