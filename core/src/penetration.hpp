@@ -64,8 +64,8 @@ struct EpaBuffer {
     if (faces.size() < f) {
       faces.resize(f);
       removed.reserve(f);
-      horizon_face.reserve(f);
-      horizon_edge.reserve(f);
+      horizon_face.reserve(3 * f);  // a horizon edge is an edge of a kept face
+      horizon_edge.reserve(3 * f);
     }
   }
 };

@@ -422,6 +422,24 @@ TEST(PenetrationDepth, CompoundDeepestPair) {
   EXPECT_LE(s.nearest.depth_lower, 0.1 + 1e-15);
   EXPECT_GE(s.nearest.depth_upper, 0.1 - 1e-15);
   EXPECT_EQ(s.piece_a, 1);
+  // Two pairs intersecting: B = [−1.3, 1.7] in x overlaps the left piece by 0.3 and the right one
+  // by 0.7 (its y, z extent makes x the way out): the deepest pair, 0.7, is the answer.
+  std::vector<Piece<double>> wide;
+  wide.push_back({Shape<double>(Box<double>{Vec3<double>(1.5, 3, 3)}), Pose<double>{}});
+  const Compound<double> c(wide);
+  Pose<double> pose_c;
+  pose_c.translation = Vec3<double>(0.2, 0, 0);
+  auto opts = depth_options();
+  opts.gradient = true;
+  const auto t = nearpoint::distance(a, Pose<double>{}, c, pose_c, opts);
+  check_invariants(t.nearest, 1);
+  EXPECT_EQ(t.piece_a, 1);
+  EXPECT_LE(t.nearest.depth_lower, 0.7 + 1e-15);
+  EXPECT_GE(t.nearest.depth_upper, 0.7 - 1e-15);
+  EXPECT_GE(t.nearest.depth_lower, 0.7 - 1e-13);
+  EXPECT_LE(t.nearest.depth_upper, 0.7 + 1e-13);
+  ASSERT_TRUE(t.nearest.has_gradient);
+  EXPECT_NEAR(t.nearest.gradient_b[0], -1.0, 1e-12);  // moving B towards +x deepens
 }
 
 TEST(PenetrationDepth, TimePerQuery) {
