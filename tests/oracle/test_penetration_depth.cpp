@@ -442,6 +442,36 @@ TEST(PenetrationDepth, CompoundDeepestPair) {
   EXPECT_NEAR(t.nearest.gradient_b[0], -1.0, 1e-12);  // moving B towards +x deepens
 }
 
+// Contact exactly at 0 (faces touching, K's boundary through the origin) and float: the interval
+// holds 0, is tight, and contains no NaN.
+TEST(PenetrationDepth, ExactContactAndFloat) {
+  const Box<double> box{Vec3<double>(1, 1, 1)};
+  for (const Vec3<double>& t : {Vec3<double>(2, 0, 0), Vec3<double>(2, 2, 0), Vec3<double>(2, 2, 2),
+                                Vec3<double>(2, 0.5, -0.25)}) {
+    Pose<double> pb;
+    pb.translation = t;
+    const auto r = nearpoint::distance(Shape<double>(box), Pose<double>{}, Shape<double>(box), pb,
+                                       depth_options());
+    ASSERT_EQ(r.status, Status::intersecting);
+    check_invariants(r, 1);
+    EXPECT_EQ(r.depth_lower, 0);
+    EXPECT_LE(r.depth_upper, 1e-14 * r.diameter_bound);
+    EXPECT_LE(r.signed_distance_lower, 0);
+    EXPECT_GE(r.signed_distance_upper, 0);
+  }
+  nearpoint::DistanceOptions<float> options;
+  options.penetration_depth = true;
+  Pose<float> pb;
+  pb.translation = Vec3<float>(1.5f, 0.2f, 0.1f);
+  const Box<float> fbox{Vec3<float>(1, 1, 1)};
+  const auto f = nearpoint::distance(nearpoint::Shape<float>(fbox), Pose<float>{},
+                                     nearpoint::Shape<float>(fbox), pb, options);
+  ASSERT_EQ(f.status, Status::intersecting);
+  EXPECT_LE(f.depth_lower, 0.5f);
+  EXPECT_GE(f.depth_upper, 0.5f);
+  EXPECT_LE(f.depth_upper - f.depth_lower, 1e-5f * f.diameter_bound);
+}
+
 TEST(PenetrationDepth, TimePerQuery) {
   const auto opts = depth_options();
   std::mt19937_64 rng(5);
