@@ -236,6 +236,10 @@ class CompoundQuery {
     // beyond the best, or pruned, lie above every evaluated pair's lower end and cannot lower it.
     lowest_ = lower_end(out_.nearest);
     const bool want_penetration = options_.penetration_bound;
+    // With the depth: every pair that may intersect is evaluated, and the answer is the deepest
+    // (the least signed distance, as Drake answers for geometry sets).
+    const bool want_depth = options_.penetration_depth;
+    if (want_depth) note_signed_distance(out_.nearest);
     for (std::size_t i = 0; i < a_.size(); ++i) {
       for (std::size_t j = 0; j < b_.size(); ++j) {
         if (i == first_i && j == first_j) continue;
@@ -246,7 +250,7 @@ class CompoundQuery {
         // NaN-safe on purpose: a gap that is not a number (a piece whose bounding sphere
         // overflows) proves nothing, and the pair is evaluated (and refused, if it must be).
         const bool may_matter = !(gap >= best + out_.nearest.error_bound) ||
-                                (want_penetration && best == 0 && gap <= 0);
+                                ((want_penetration || want_depth) && best == 0 && gap <= 0);
         if (!may_matter || gap > options_.distance_cutoff) {
           // Pruned by the cutoff, the pair is proven no nearer than its gap, which may still lie
           // below the best answer's lower end: the objects' distance is the least over pairs.
@@ -271,8 +275,14 @@ class CompoundQuery {
         lowest_ = std::min(lowest_, lower_end(r));
         const S previous_penetration =
             out_.nearest.has_penetration_bound ? out_.nearest.penetration_bound : S(0);
-        if (r.distance < best || (r.distance == best && r.status == Status::intersecting &&
-                                  out_.nearest.status != Status::intersecting)) {
+        if (want_depth) note_signed_distance(r);
+        const bool deeper = want_depth && r.status == Status::intersecting &&
+                            out_.nearest.status == Status::intersecting && r.has_signed_distance &&
+                            out_.nearest.has_signed_distance &&
+                            r.signed_distance < out_.nearest.signed_distance;
+        if (r.distance < best || deeper ||
+            (r.distance == best && r.status == Status::intersecting &&
+             out_.nearest.status != Status::intersecting)) {
           out_.nearest = r;
           nearest_in_world_ = r_in_world;
           out_.piece_a = int(i);
@@ -287,6 +297,15 @@ class CompoundQuery {
       }
     }
     return true;
+  }
+
+  // The least signed distance over the evaluated pairs, bracketed: each end is the least of the
+  // pairs' ends. (Pairs pruned or proven beyond the best are apart, φ > 0, and cannot lower it
+  // once a pair intersects.)
+  void note_signed_distance(const DistanceResult<S>& r) {
+    if (!r.has_signed_distance) return;
+    signed_lower_ = std::min(signed_lower_, r.signed_distance_lower);
+    signed_upper_ = std::min(signed_upper_, r.signed_distance_upper);
   }
 
   // Only another pair's lower end below the answer's own widens it (a single pair's answer
@@ -318,6 +337,37 @@ class CompoundQuery {
   // world; an answer that overflows there is refused, as the single-shape query does.
   void finish() {
     DistanceResult<S>& nearest = out_.nearest;
+    if (options_.penetration_depth && nearest.has_signed_distance) {
+      if (nearest.status == Status::intersecting) {
+        // The deepest pair's depth, bracketed over all pairs (see CompoundResult).
+        nearest.signed_distance_lower = std::min(nearest.signed_distance_lower, signed_lower_);
+        nearest.signed_distance_upper = std::min(nearest.signed_distance_upper, signed_upper_);
+        nearest.signed_distance = std::clamp(nearest.signed_distance, nearest.signed_distance_lower,
+                                             nearest.signed_distance_upper);
+        nearest.depth_lower = std::max(S(0), -nearest.signed_distance_upper);
+        nearest.depth_upper = std::max(S(0), -nearest.signed_distance_lower);
+        nearest.depth = std::clamp(std::max(S(0), -nearest.signed_distance), nearest.depth_lower,
+                                   nearest.depth_upper);
+      } else if (nearest.status == Status::separated) {
+        // The objects' distance with its (possibly widened) bound.
+        nearest.signed_distance = nearest.distance;
+        nearest.signed_distance_lower = std::max(S(0), nearest.distance - nearest.error_bound);
+        nearest.signed_distance_upper = nearest.distance + nearest.error_bound;
+      }
+      const Pose<S>& origin_a = nearest_in_world_ ? pose_a_ : frame_a_;
+      const Pose<S>& origin_b = nearest_in_world_ ? pose_b_ : frame_b_;
+      if (options_.gradient && nearest.status == Status::intersecting &&
+          nearest.has_penetration_depth) {
+        distance_gradient(nearest.depth_point_a, nearest.depth_point_b, nearest.depth_direction,
+                          origin_a.translation, origin_b.translation, nearest.gradient_a,
+                          nearest.gradient_b);
+        nearest.has_gradient = true;
+      }
+      if (!nearest_in_world_) {
+        nearest.depth_point_a += pose_a_.translation;
+        nearest.depth_point_b += pose_a_.translation;
+      }
+    }
     if (options_.gradient && nearest.status == Status::separated && !nearest.beyond_cutoff()) {
       const Pose<S>& origin_a = nearest_in_world_ ? pose_a_ : frame_a_;
       const Pose<S>& origin_b = nearest_in_world_ ? pose_b_ : frame_b_;
@@ -364,6 +414,8 @@ class CompoundQuery {
   S gap_roundoff_ = 0;
   S lowest_ = 0;
   S stretch_a_ = 1, stretch_b_ = 1;  // bounds on ‖R_A‖₂, ‖R_B‖₂ (stretch_bound)
+  S signed_lower_ = std::numeric_limits<S>::infinity();
+  S signed_upper_ = std::numeric_limits<S>::infinity();
   S gaps_[kStackPairs];
   Saved saved_[kStackPairs];
   std::size_t saved_count_ = 0;

@@ -19,6 +19,7 @@
 
 #include "distance_internal.hpp"
 #include "gjk.hpp"
+#include "penetration.hpp"
 
 namespace nearpoint {
 
@@ -343,7 +344,8 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
   // separation needs |ν| − radii above the error bound, which is at least `roundoff`), so a query
   // that wants no near points, d⁻ or gradient can stop there instead of converging further.
   const S roundoff = detail::distance_roundoff(magnitude);
-  const bool needs_simplex = options.near_points || options.penetration_bound || options.gradient;
+  const bool needs_simplex = options.near_points || options.penetration_bound || options.gradient ||
+                             options.penetration_depth;
   const S settled_below = needs_simplex ? S(-1) : radii + roundoff;
 
   // d⁻ (eq. 32) comes from the faces of the tetrahedron that encloses the origin; an interior
@@ -379,7 +381,7 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
   const detail::Nearest<S>& nearest = loop.nearest;
   const S core_distance = loop.nu_length;
   const bool cores_intersect = !(nearest.nu_norm2 > 0);
-  if (options.near_points || options.gradient)
+  if (options.near_points || options.gradient || options.penetration_depth)
     write_near_points(k_set, far_centers, pose_a, radius_a, radius_b, loop, result);
 
   if (options.penetration_bound && result.status == Status::intersecting) {
@@ -402,6 +404,22 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
     distance_gradient(result.point_a, result.point_b, result.normal, pose_a.translation,
                       pose_b.translation, result.gradient_a, result.gradient_b);
     result.has_gradient = true;
+  }
+  if (options.penetration_depth && !result.beyond_cutoff()) [[unlikely]] {
+    detail::write_penetration_depth(
+        k_set, loop,
+        detail::DepthPlacement<S>{pose_a, pose_b, far_centers, radius_a, radius_b, magnitude,
+                                  roundoff, defect_allowance, diameter},
+        options, result);
+    // The gradient of the signed distance through contact: distance_gradient's formula with the
+    // depth's witnesses and A → B direction (−∂depth), continuous with the separated one.
+    if (options.gradient && result.status == Status::intersecting && result.has_penetration_depth) {
+      distance_gradient(result.depth_point_a, result.depth_point_b, result.depth_direction,
+                        pose_a.translation, pose_b.translation, result.gradient_a,
+                        result.gradient_b);
+      result.has_gradient = true;
+    }
+    if (!options.near_points && !options.gradient) result.has_near_points = false;
   }
   return true;
 }
@@ -607,6 +625,28 @@ template <class S, class GA, class GB>
     result.point_a = scale_vector(result.point_a, back) + origin;
     result.point_b = scale_vector(result.point_b, back) + origin;
   }
+  if (result.has_signed_distance) {
+    result.signed_distance = std::ldexp(result.signed_distance, back);
+    result.signed_distance_lower = std::ldexp(result.signed_distance_lower, back) -
+                                   (result.signed_distance_lower > 0 ? S(0) : subnormal_rounding);
+    result.signed_distance_upper =
+        std::ldexp(result.signed_distance_upper, back) + subnormal_rounding;
+    result.depth = std::ldexp(result.depth, back);
+    result.depth_lower = std::max(S(0), std::ldexp(result.depth_lower, back) - subnormal_rounding);
+    result.depth_upper = std::ldexp(result.depth_upper, back) + subnormal_rounding;
+    const Vec3<S> origin =
+        moved_world ? Vec3<S>(pose_a.translation + translation_lo) : Vec3<S>::Zero();
+    result.depth_point_a = scale_vector(result.depth_point_a, back) + origin;
+    result.depth_point_b = scale_vector(result.depth_point_b, back) + origin;
+    if (result.status == Status::separated) {
+      result.signed_distance = result.distance;
+      result.signed_distance_lower = std::max(S(0), result.distance - result.error_bound);
+      result.signed_distance_upper = result.distance + result.error_bound;
+    } else if (result.status == Status::intersecting && result.signed_distance_lower > 0) {
+      // A separation lost on the way back (below): touching, to within the bound.
+      result.signed_distance_lower = 0;
+    }
+  }
   if (result.has_gradient) {  // ∂/∂rotation is a length (a lever arm × the unit normal)
     result.gradient_a.template tail<3>() =
         scale_vector(Vec3<S>(result.gradient_a.template tail<3>()), back);
@@ -615,7 +655,9 @@ template <class S, class GA, class GB>
   }
   using std::isfinite;
   if (!(isfinite(result.distance) && isfinite(result.error_bound) &&
-        isfinite(result.penetration_bound) && isfinite(result.gap)))
+        isfinite(result.penetration_bound) && isfinite(result.gap) &&
+        isfinite(result.depth_upper) && isfinite(result.signed_distance_lower) &&
+        result.depth_point_a.allFinite() && result.depth_point_b.allFinite()))
     set_invalid(result, kNotRepresentable);
 }
 
@@ -676,6 +718,9 @@ void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
   // finite by construction (D(K) ≤ 2^128, radii ≤ max/256; rescaled_query checks its own); near
   // points are p_A plus a length and overflow when p_A is near the largest number.
   if ((result.has_near_points && !(result.point_a.allFinite() && result.point_b.allFinite())) ||
+      (result.has_penetration_depth &&
+       !(result.depth_point_a.allFinite() && result.depth_point_b.allFinite() &&
+         std::isfinite(result.depth_upper))) ||
       (result.has_gradient && !(result.gradient_a.allFinite() && result.gradient_b.allFinite())))
       [[unlikely]]
     set_invalid(result, kNotRepresentable);
@@ -738,6 +783,20 @@ const char* to_string(Status status) {
       return "iteration_limit";
     case Status::invalid_input:
       return "invalid_input";
+  }
+  return "unknown";
+}
+
+const char* to_string(DepthTermination termination) {
+  switch (termination) {
+    case DepthTermination::closed_form:
+      return "closed_form";
+    case DepthTermination::tolerance:
+      return "tolerance";
+    case DepthTermination::iteration_limit:
+      return "iteration_limit";
+    case DepthTermination::degenerate:
+      return "degenerate";
   }
   return "unknown";
 }

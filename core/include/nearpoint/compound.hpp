@@ -52,6 +52,16 @@ struct CompoundResult {
   /// lower, the bound is widened to reach it. When intersecting and a penetration bound was asked
   /// for, `penetration_bound` is the largest d⁻ over the intersecting piece pairs (paper, Section
   /// VIII).
+  ///
+  /// With `penetration_depth`: every piece pair that may intersect is evaluated, and `nearest` is
+  /// the deepest pair (the least signed distance, as Drake defines it for geometry sets); its
+  /// signed-distance interval is [least lower end, least upper end] over the pairs, certified
+  /// to contain the least signed distance over piece pairs, and depth_lower/depth_upper are its
+  /// negation. What that certifies about the union: its depth (the translation separating every
+  /// piece pair at once) is at least the deepest pair's, so `depth_lower` is a certified lower
+  /// bound on the objects' depth; `depth_upper` bounds the deepest pair's depth only (the union's
+  /// can be larger when the pairs push apart in different directions). The witnesses, direction
+  /// and gradient are the deepest pair's.
   DistanceResult<Scalar> nearest;
   int piece_a = -1;
   int piece_b = -1;

@@ -66,6 +66,25 @@ enum class ColdStart : unsigned char {
   with_centroids,
 };
 
+/// The width the penetration-depth interval is driven to, relative to D(K) (eq. 37): the
+/// expansion stops once depth_upper − depth_lower ≤ depth_tolerance·D(K) (or at the roundoff floor
+/// that no certificate beats, a few ulps of D(K)). 4096 ulps: 9.1e-13 in double, 4.9e-4 in
+/// float. Polytope pairs end earlier, at their floor (≈1e-14·D), when the nearest face of the
+/// expanding polytope is a face of K; curved shapes converge like the mesh that approximates them
+/// (the width falls roughly fourfold per refinement of the face nearest the origin) and usually
+/// end at the iteration cap with a wider, still certified, interval.
+template <class Scalar>
+inline constexpr Scalar kDefaultDepthTolerance =
+    Scalar(4096) * std::numeric_limits<Scalar>::epsilon();
+
+/// The cap on expansion steps of the penetration-depth polytope (each adds one support point and
+/// two faces). Polytopes need a handful to a few dozen; curved shapes use all of them.
+inline constexpr int kDefaultDepthMaxIterations = 128;
+
+/// The largest cap a query accepts (the face buffer is sized for it once per thread): larger
+/// requests are clamped.
+inline constexpr int kLargestDepthMaxIterations = 4096;
+
 template <class Scalar>
 struct DistanceOptions {
   /// ε of eq. (35). Smaller is more accurate until roundoff dominates; larger exits earlier for
@@ -91,8 +110,18 @@ struct DistanceOptions {
   bool near_points = false;
   /// The lower bound d⁻ on the penetration depth when the shapes intersect (eq. 32–33).
   bool penetration_bound = false;
-  /// The gradient of the distance with respect to both poses (Section II).
+  /// The gradient of the distance with respect to both poses (Section II). With
+  /// `penetration_depth`, the gradient of the signed distance, also when intersecting.
   bool gradient = false;
+  /// The penetration depth when the shapes intersect, with a certified interval, witness points
+  /// and direction, and the signed distance (distance when separated, −depth when intersecting)
+  /// with its interval: see DistanceResult. Costs nothing on separated pairs; on intersecting
+  /// pairs an expanding polytope (EPA) inside K = A − B runs after GJK.
+  bool penetration_depth = false;
+  /// See kDefaultDepthTolerance (relative to D(K); 0 runs to the floor or the cap).
+  Scalar depth_tolerance = kDefaultDepthTolerance<Scalar>;
+  /// See kDefaultDepthMaxIterations (clamped to [0, kLargestDepthMaxIterations]).
+  int depth_max_iterations = kDefaultDepthMaxIterations;
 };
 
 }  // namespace nearpoint

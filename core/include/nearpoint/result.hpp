@@ -62,6 +62,26 @@ enum class Termination : unsigned char {
 
 const char* to_string(Termination termination);
 
+/// How the penetration-depth computation ended (DistanceResult::depth_termination).
+enum class DepthTermination : unsigned char {
+  /// Nothing to expand: the shapes are separated (depth 0), or only their rounded shells overlap
+  /// (cores apart: the depth is r_A + r_B − d, from the distance's own certified interval), or
+  /// their cores are within the error bound of touching.
+  closed_form,
+  /// The interval is within `depth_tolerance`·D(K) (or the roundoff floor): converged.
+  tolerance,
+  /// The iteration cap (`depth_max_iterations`) or the face buffer was reached first: the
+  /// interval is certified but wider than asked. The usual end for curved shapes at the default
+  /// tolerance.
+  iteration_limit,
+  /// K has no interior (flat or needle-thin: two coplanar faces, crossing segments …) or the
+  /// expansion met a configuration rounding cannot resolve: the interval is certified and honest
+  /// (its lower end may be 0), no further expansion could narrow it.
+  degenerate,
+};
+
+const char* to_string(DepthTermination termination);
+
 /// The warm-start cache of Section VIII: which vertex pairs (index on A, index on B) made up the
 /// final simplex. Indices, not points, so the cache stays meaningful when the poses change and can
 /// be stored per object pair. A zero-initialised cache (`count == 0`) is a cold start. Entries with
@@ -130,10 +150,53 @@ struct DistanceResult {
   bool has_penetration_bound = false;
   Scalar penetration_bound = 0;
 
+  /// With `options.penetration_depth` (and a verdict, separated or intersecting): the signed
+  /// distance φ, the distance when separated and −depth when intersecting, with a certified
+  /// interval [signed_distance_lower, signed_distance_upper] containing the true φ of the shapes
+  /// posed exactly as given. Separated: [distance − error_bound, distance + error_bound], above 0.
+  /// Intersecting: [−depth_upper, −depth_lower] when a positive depth is proven, otherwise
+  /// [−depth_upper, error_bound] (too close to tell from touching: φ may be slightly positive).
+  /// The three-way verdict follows from the interval's sign: separated when it lies above 0,
+  /// intersecting when below 0, touching (contact within the bound) when it contains 0; `status`
+  /// still reports touching as intersecting.
+  bool has_signed_distance = false;
+  Scalar signed_distance = 0;
+  Scalar signed_distance_lower = 0;
+  Scalar signed_distance_upper = 0;
+
+  /// With `options.penetration_depth`: the penetration depth, the shortest translation of one
+  /// shape that makes the two touch without overlapping (0 when separated). [depth_lower,
+  /// depth_upper] is certified to contain the true depth of the shapes posed exactly as given,
+  /// and `depth` (the estimate) lies in it. For intersecting cores the lower end is the nearest
+  /// face of the expanded polytope inside K = A − B (its normal's and offset's rounding taken
+  /// off), the upper end the least support value h_K(n) over the face normals tried (any unit n
+  /// bounds the depth from above), rounding added; rounded shapes add r_A + r_B to both.
+  /// `depth_direction` is the unit direction, world frame, A → B: translating B by depth along
+  /// it (or A by −depth) separates the shapes, and it continues the separated `normal`.
+  /// `depth_point_a` and `depth_point_b` are witness points (world frame) on A and B with
+  /// depth_point_a − depth_point_b = depth·depth_direction (so point_b − point_a = φ·direction
+  /// as when separated): each shape's deepest point in the other along the direction. For
+  /// polytopes they lie on the surfaces; for curved shapes they lie inside each shape, within
+  /// the interval's width of its surface. `depth_termination` says whether the interval met the
+  /// tolerance (see DepthTermination); `depth_iterations` counts expansion steps.
+  bool has_penetration_depth = false;
+  Scalar depth = 0;
+  Scalar depth_lower = 0;
+  Scalar depth_upper = 0;
+  Vec3<Scalar> depth_point_a = Vec3<Scalar>::Zero();
+  Vec3<Scalar> depth_point_b = Vec3<Scalar>::Zero();
+  Vec3<Scalar> depth_direction = Vec3<Scalar>::Zero();
+  DepthTermination depth_termination = DepthTermination::closed_form;
+  int depth_iterations = 0;
+
   /// With `options.gradient`, when separated: the gradient of `distance` with respect to each
   /// body's pose as (∂/∂translation, ∂/∂rotation), world frame; rotation is a small rotation
   /// vector applied on the left about the body's origin (`pose.translation`). When near points
-  /// are not unique (parallel faces) this is one element of the generalised gradient.
+  /// are not unique (parallel faces) this is one element of the generalised gradient. With
+  /// `options.penetration_depth` also when intersecting: the gradient of the signed distance
+  /// φ = −depth, from the depth's witness points and direction by the same formula
+  /// (distance_gradient with the A → B direction; in terms of the depth the sign is reversed),
+  /// so that it is continuous through contact.
   bool has_gradient = false;
   Eigen::Matrix<Scalar, 6, 1> gradient_a = Eigen::Matrix<Scalar, 6, 1>::Zero();
   Eigen::Matrix<Scalar, 6, 1> gradient_b = Eigen::Matrix<Scalar, 6, 1>::Zero();
@@ -147,6 +210,11 @@ struct DistanceResult {
     return termination == Termination::origin_enclosed || termination == Termination::tolerance ||
            termination == Termination::repeated_support ||
            termination == Termination::roundoff_floor || termination == Termination::contact;
+  }
+  /// The penetration-depth interval met its tolerance (or needed no expansion).
+  bool depth_converged() const {
+    return depth_termination == DepthTermination::closed_form ||
+           depth_termination == DepthTermination::tolerance;
   }
   /// The query stopped early because the distance was proven larger than `distance_cutoff`.
   bool beyond_cutoff() const { return termination == Termination::beyond_cutoff; }
