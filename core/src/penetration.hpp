@@ -491,9 +491,11 @@ struct DepthPlacement {
 /// Cores apart (only the rounded shells overlap, or the cores are within the bound of touching):
 /// from the cores' distance interval, and one support call when it reaches 0.
 template <class S, class K>
-void write_penetration_depth(const K& k_set, const LoopOutcome<S>& loop,
-                             const DepthPlacement<S>& in, const DistanceOptions<S>& options,
-                             DistanceResult<S>& result) {
+[[gnu::noinline, gnu::cold]] void write_penetration_depth(const K& k_set,
+                                                          const LoopOutcome<S>& loop,
+                                                          const DepthPlacement<S>& in,
+                                                          const DistanceOptions<S>& options,
+                                                          DistanceResult<S>& result) {
   using std::abs;
   using std::sqrt;
   constexpr S u = std::numeric_limits<S>::epsilon() / 2;
