@@ -426,6 +426,39 @@ void backup_procedure(Simplex<S>& simplex, Nearest<S>& out) {
   evaluate(simplex, best, out);
 }
 
+/// The plane through (p, q, r) with normal n = (q − p) × (r − p), certified: n·p as computed, what
+/// rounding may have added to it (`excess`), and whether the normal's orientation survived
+/// rounding. n is off by at most 8u·Σ|products| per component (u = ε/2: the differences, the
+/// products and their difference), n·p by 4u·|n||p| more; so for a computed numerator
+/// N ≤ exact |n·p| (or exact n·p), the exact distance is at least N / (|n| + |Δn|), lowered by
+/// 8u for the division's own rounding (`lower`). Shared by d⁻ here and by the depth's faces
+/// (penetration.hpp).
+template <class S>
+struct CertifiedPlane {
+  S dot;          // n·p as computed
+  S excess;       // a bound on its rounding and on the normal's
+  S denominator;  // |n| + |Δn|
+  bool oriented;  // |n| > |Δn|: the normal's direction is known
+  S lower(S numerator) const {
+    constexpr S u = std::numeric_limits<S>::epsilon() / 2;
+    return numerator > 0 ? numerator / denominator * (S(1) - S(8) * u) : S(0);
+  }
+};
+template <class S>
+CertifiedPlane<S> certify_plane(const Vec3<S>& p, const Vec3<S>& q, const Vec3<S>& r) {
+  using std::abs;
+  constexpr S u = std::numeric_limits<S>::epsilon() / 2;
+  const Vec3<S> a = q - p, b = r - p;
+  const Vec3<S> n = a.cross(b);
+  const Vec3<S> products(abs(a.y() * b.z()) + abs(a.z() * b.y()),
+                         abs(a.z() * b.x()) + abs(a.x() * b.z()),
+                         abs(a.x() * b.y()) + abs(a.y() * b.x()));
+  const S length = n.norm();
+  const S normal_error = S(8) * u * products.norm();
+  return {n.dot(p), (S(4) * u * length + normal_error) * p.norm(), length + normal_error,
+          length > normal_error};
+}
+
 /// d⁻ of eq. (32): for a tetrahedron around the origin, the distance from the origin to the
 /// nearest face plane, min |ν(aff Y_s)| over its faces. Computed from the face normals rather than
 /// by eq. (33): the same quantity, but without the Δ's loss of precision on flat tetrahedra, where
@@ -441,24 +474,12 @@ template <class S>
 S penetration_lower_bound(const Simplex<S>& simplex, unsigned subset) {
   if (subset_size(subset) != 4) return 0;
   using std::abs;
-  using std::sqrt;
-  constexpr S u = std::numeric_limits<S>::epsilon() / 2;
   S smallest = std::numeric_limits<S>::infinity();
   for (int drop = 0; drop < 4; ++drop) {
-    const Vec3<S>& p = simplex.y[(drop + 1) % 4];
-    const Vec3<S> a = simplex.y[(drop + 2) % 4] - p;
-    const Vec3<S> b = simplex.y[(drop + 3) % 4] - p;
-    const Vec3<S> n = a.cross(b);
-    const Vec3<S> products(abs(a.y() * b.z()) + abs(a.z() * b.y()),
-                           abs(a.z() * b.x()) + abs(a.x() * b.z()),
-                           abs(a.x() * b.y()) + abs(a.y() * b.x()));
-    const S length = n.norm();
-    const S normal_error = S(8) * u * products.norm();
-    if (!(length > normal_error)) return 0;  // the face's orientation is lost to rounding
-    const S excess = (S(4) * u * length + normal_error) * p.norm();
-    const S numerator = abs(n.dot(p)) - excess;
-    const S face = numerator > 0 ? numerator / (length + normal_error) * (S(1) - S(8) * u) : S(0);
-    smallest = std::min(smallest, face);
+    const CertifiedPlane<S> plane = certify_plane(
+        simplex.y[(drop + 1) % 4], simplex.y[(drop + 2) % 4], simplex.y[(drop + 3) % 4]);
+    if (!plane.oriented) return 0;  // the face's orientation is lost to rounding
+    smallest = std::min(smallest, plane.lower(abs(plane.dot) - plane.excess));
   }
   return smallest;
 }

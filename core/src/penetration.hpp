@@ -90,23 +90,13 @@ struct DepthOutcome {
 /// A certified lower bound on the exact signed offset of the plane through (p, q, r), oriented by
 /// (q − p) × (r − p), from the origin; −∞ when rounding leaves its sign open. The rounding of
 /// the normal (8u·Σ|products| per component) and of n·p (4u·|n||p|) is taken off as in
-/// penetration_lower_bound (johnson.hpp).
+/// penetration_lower_bound (johnson.hpp, certify_plane).
 template <class S>
 S certified_face_offset(const Vec3<S>& p, const Vec3<S>& q, const Vec3<S>& r) {
-  using std::abs;
-  constexpr S u = std::numeric_limits<S>::epsilon() / 2;
-  const Vec3<S> a = q - p, b = r - p;
-  const Vec3<S> n = a.cross(b);
-  const Vec3<S> products(abs(a.y() * b.z()) + abs(a.z() * b.y()),
-                         abs(a.z() * b.x()) + abs(a.x() * b.z()),
-                         abs(a.x() * b.y()) + abs(a.y() * b.x()));
-  const S length = n.norm();
-  const S normal_error = S(8) * u * products.norm();
-  if (!(length > normal_error)) return -std::numeric_limits<S>::infinity();
-  const S excess = (S(4) * u * length + normal_error) * p.norm();
-  const S numerator = n.dot(p) - excess;
-  if (!(numerator > 0)) return -std::numeric_limits<S>::infinity();
-  return numerator / (length + normal_error) * (S(1) - S(8) * u);
+  const CertifiedPlane<S> plane = certify_plane(p, q, r);
+  const S numerator = plane.dot - plane.excess;
+  if (!plane.oriented || !(numerator > 0)) return -std::numeric_limits<S>::infinity();
+  return plane.lower(numerator);
 }
 
 /// Whether the closed surface of the alive faces winds exactly once around the origin, from the
