@@ -524,12 +524,15 @@ template <class S, class GA, class GB>
   // subnormals resolve (float points 4e-45 from the origin, B turned by its pose, 6e-46 apart,
   // were answered "at one place" with bound 0). Scaled by their coordinates instead, the
   // placement is formed among normal numbers and the loop sees their true offset.
+  // The centres first: they are what the poses turn (segments of one point 2e-323 from their
+  // origins, placed at 8e301 and turned apart, were scaled by the translations and vanished:
+  // "intersecting", bound 0; the translations, scaled past the largest number, are then kept
+  // exact as hi + lo). Without centres, the translations.
   // (At most the largest length: points that coincide far out are no reason to refuse.)
+  if (!(size > 0)) size = std::max(center_a.cwiseAbs().maxCoeff(), center_b.cwiseAbs().maxCoeff());
   if (!(size > 0))
-    size = std::min(kLargestLength<S>,
-                    std::max({center_a.cwiseAbs().maxCoeff(), center_b.cwiseAbs().maxCoeff(),
-                              pose_a.translation.cwiseAbs().maxCoeff(),
-                              pose_b.translation.cwiseAbs().maxCoeff()}));
+    size = std::min(kLargestLength<S>, std::max(pose_a.translation.cwiseAbs().maxCoeff(),
+                                                pose_b.translation.cwiseAbs().maxCoeff()));
   if (!(size <= kLargestLength<S>)) return set_invalid(result, kTooLarge);
   int k = size > 0 ? -std::ilogb(size) : 0;
   Vec3<S> translation_hi, translation_lo;
