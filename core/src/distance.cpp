@@ -786,6 +786,8 @@ const char* to_string(Status status) {
       return "iteration_limit";
     case Status::invalid_input:
       return "invalid_input";
+    case Status::touching:
+      return "touching";
   }
   return "unknown";
 }

@@ -84,6 +84,7 @@ void evaluate_pair(const SceneDefinition& scene, const ScenePair& pair,
       out.status = model::PairStatus::iteration_limit;
       break;
     case Status::intersecting:
+    case Status::touching:  // until the wire has its own word for it
       out.status = model::PairStatus::intersecting;
       break;
     case Status::separated:

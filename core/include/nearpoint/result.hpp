@@ -13,15 +13,19 @@ namespace nearpoint {
 enum class Status : unsigned char {
   /// The shapes are disjoint: `distance` > 0 (or, with a cutoff, proven beyond it).
   separated,
-  /// The shapes share at least one point, or are closer than `error_bound` can tell apart from
-  /// touching: `distance` is 0. Touching counts as intersecting. ("separated" is only reported
-  /// when the certified bound proves it.)
+  /// The shapes overlap, proven: the signed distance is certified below 0 (`distance` is 0).
   intersecting,
   /// The iteration cap was reached before eq. (35) held. `distance` is an upper bound on the
   /// true distance and `error_bound` still bounds the error; the verdict is unknown.
   iteration_limit,
   /// The input was unusable (non-finite pose, empty polytope, negative radius …): see `message`.
   invalid_input,
+  /// Contact within the bound: the shapes touch, or are closer than `error_bound` can tell apart
+  /// from touching, or overlap by less than can be proven (`distance` is 0, the true distance is
+  /// at most `error_bound`). The signed distance's certified interval contains 0. Callers that
+  /// only need "in contact or not" test `status != Status::separated` (with a valid verdict).
+  /// (Last in the enum so that the values of the others keep their meaning.)
+  touching,
 };
 
 const char* to_string(Status status);
