@@ -321,6 +321,38 @@ template <class S, class K>
   return 1;
 }
 
+/// The same certificate for an answer ν on an edge (y0, y1) of K (an edge of one shape against a
+/// vertex of the other, the common near-contact end between polytopes with few faces). ν's
+/// error along the edge tilts the plane normal to ν by ~ulp(M)/|ν| along it, and the edge, up to
+/// D(K) long, then dips below the plane by that angle times its length: at a gap of 1e-9·D the
+/// bound was the gap itself. The component of ν across the edge, n = ν − (ν·e)e/|e|², has no
+/// such error (e is accurate to ulp(M)/|e|); its remaining error turns n within the edge's normal
+/// wedge, where the plane still touches the edge, and costs only second order. Any direction
+/// gives a valid bound d ≥ n̂·s_K(−n̂), so a wrong guess is never unsafe, only unsharp.
+template <class S, class K>
+[[gnu::always_inline]] inline int sharpen_by_edge_plane(const K& k_set, const Vec3<S>& y0,
+                                                        const Vec3<S>& y1,
+                                                        const Nearest<S>& nearest, S magnitude,
+                                                        LoopOutcome<S>& out) {
+  const Vec3<S> edge = y1 - y0;
+  const S edge2 = edge.squaredNorm();
+  if (!(edge2 > 0)) return 0;
+  Vec3<S> normal = nearest.nu - (nearest.nu.dot(edge) / edge2) * edge;
+  const S length = normal.norm();
+  if (!(length > 0)) return 0;
+  normal /= length;
+  Vec3<S> w, on_a, on_b;
+  std::int32_t ia, ib;
+  k_set.support(-normal, w, on_a, on_b, ia, ib);
+  const S plane_bound = normal.dot(w);
+  if (plane_bound > out.lower_bound) {
+    out.lower_bound = plane_bound;
+    out.gap = certified_gap(out.gap, nearest.nu_norm2, plane_bound,
+                            roundoff_gap(nearest.nu_norm2, magnitude));
+  }
+  return 1;
+}
+
 /// Runs steps 1–6 of Section VI on K (see LoopInput). One function: the loop is GJK's single
 /// dependency chain (support → ν → support), and its state lives in registers across the steps.
 template <class S, class K>
@@ -506,15 +538,19 @@ void run_numerical_algorithm(const K& k_set, const LoopInput<S>& in, const Simpl
     ++rare_support_calls;
     backup = true;
   }
-  // The closing certificate near contact (sharpen_by_triangle_plane).
-  if (subset_size(nearest->subset) == 3 && nearest->nu_norm2 > 0 &&
+  // The closing certificate near contact (sharpen_by_triangle_plane, sharpen_by_edge_plane).
+  const int final_size = subset_size(nearest->subset);
+  if ((final_size == 2 || final_size == 3) && nearest->nu_norm2 > 0 &&
       out.termination != Termination::beyond_cutoff && out.termination != Termination::contact &&
       out.nu_length - out.lower_bound > distance_roundoff(magnitude)) {
     int idx[3], n = 0;
     for (int i = 0; i < 4; ++i)
       if (nearest->subset & (1u << i)) idx[n++] = i;
-    support_calls += sharpen_by_triangle_plane(k_set, simplex.y[idx[0]], simplex.y[idx[1]],
-                                               simplex.y[idx[2]], *nearest, magnitude, out);
+    support_calls += final_size == 3
+                         ? sharpen_by_triangle_plane(k_set, simplex.y[idx[0]], simplex.y[idx[1]],
+                                                     simplex.y[idx[2]], *nearest, magnitude, out)
+                         : sharpen_by_edge_plane(k_set, simplex.y[idx[0]], simplex.y[idx[1]],
+                                                 *nearest, magnitude, out);
   }
   if (nearest != &out.nearest) out.nearest = *nearest;
   out.iterations = k;
