@@ -280,19 +280,19 @@ class CompoundQuery {
         const S previous_penetration =
             out_.nearest.has_penetration_bound ? out_.nearest.penetration_bound : S(0);
         if (want_depth) note_signed_distance(r);
-        const bool deeper = want_depth && r.status == Status::intersecting &&
-                            out_.nearest.status == Status::intersecting && r.has_signed_distance &&
-                            out_.nearest.has_signed_distance &&
+        const bool deeper = want_depth && r.in_contact() && out_.nearest.in_contact() &&
+                            r.has_signed_distance && out_.nearest.has_signed_distance &&
                             r.signed_distance < out_.nearest.signed_distance;
+        // At equal distance (0) a proven overlap outranks a touch, and a touch a pair that was
+        // not decided (so that the objects' verdict is the strongest one proven).
         if (r.distance < best || deeper ||
-            (r.distance == best && r.status == Status::intersecting &&
-             out_.nearest.status != Status::intersecting)) {
+            (r.distance == best && contact_rank(r.status) > contact_rank(out_.nearest.status))) {
           out_.nearest = r;
           nearest_in_world_ = r_in_world;
           out_.piece_a = int(i);
           out_.piece_b = int(j);
         }
-        if (want_penetration && out_.nearest.status == Status::intersecting) {
+        if (want_penetration && out_.nearest.in_contact()) {
           const S candidate = r.has_penetration_bound ? r.penetration_bound : S(0);
           out_.nearest.has_penetration_bound = true;
           out_.nearest.penetration_bound =
@@ -301,6 +301,10 @@ class CompoundQuery {
       }
     }
     return true;
+  }
+
+  static int contact_rank(Status status) {
+    return status == Status::intersecting ? 2 : status == Status::touching ? 1 : 0;
   }
 
   // The least signed distance over the evaluated pairs, bracketed: each end is the least of the
@@ -327,7 +331,7 @@ class CompoundQuery {
       nearest.distance = floor;
       nearest.error_bound = (upper - floor) + two_ulps * (upper + floor);
       if (!(floor > 0)) {  // no longer proven apart: too close to tell from touching
-        nearest.status = Status::intersecting;
+        nearest.status = Status::touching;
         nearest.termination = Termination::numerical_limit;
       }
     } else if (lowest_ < nearest.distance - nearest.error_bound) {
@@ -342,7 +346,7 @@ class CompoundQuery {
   void finish() {
     DistanceResult<S>& nearest = out_.nearest;
     if (options_.penetration_depth && nearest.has_signed_distance) {
-      if (nearest.status == Status::intersecting) {
+      if (nearest.in_contact()) {
         // The deepest pair's depth, bracketed over all pairs (see CompoundResult).
         nearest.signed_distance_lower = std::min(nearest.signed_distance_lower, signed_lower_);
         nearest.signed_distance_upper = std::min(nearest.signed_distance_upper, signed_upper_);
@@ -352,6 +356,7 @@ class CompoundQuery {
         nearest.depth_upper = std::max(S(0), -nearest.signed_distance_lower);
         nearest.depth = std::clamp(std::max(S(0), -nearest.signed_distance), nearest.depth_lower,
                                    nearest.depth_upper);
+        if (nearest.signed_distance_upper < 0) nearest.status = Status::intersecting;
       } else if (nearest.status == Status::separated) {
         // The objects' distance with its (possibly widened) bound.
         nearest.signed_distance = nearest.distance;
@@ -360,8 +365,7 @@ class CompoundQuery {
       }
       const Pose<S>& origin_a = nearest_in_world_ ? pose_a_ : frame_a_;
       const Pose<S>& origin_b = nearest_in_world_ ? pose_b_ : frame_b_;
-      if (options_.gradient && nearest.status == Status::intersecting &&
-          nearest.has_penetration_depth) {
+      if (options_.gradient && nearest.in_contact() && nearest.has_penetration_depth) {
         distance_gradient(nearest.depth_point_a, nearest.depth_point_b, nearest.depth_direction,
                           origin_a.translation, origin_b.translation, nearest.gradient_a,
                           nearest.gradient_b);

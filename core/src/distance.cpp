@@ -129,20 +129,30 @@ template <class S>
   // what the defect moves (M = D(K) with the shift).
   result.error_bound += defect_allowance;
 
-  // The verdict needs a proof. The distance is within error_bound of |ν| − r_A − r_B, so
-  // "separated" is certain when that exceeds the bound; otherwise the shapes touch, overlap, or
-  // are too close to tell from touching at this precision or tolerance, and touching counts as
-  // intersecting. (This also keeps a numerical-limit exit deep inside an overlap, where |ν| can
-  // be 1e-17 rather than 0, "intersecting", and a loose ε from claiming a separation it cannot
-  // back.)
+  // The verdict needs a proof either way. The distance is within error_bound of |ν| − r_A − r_B,
+  // so "separated" is certain when that exceeds the bound. "intersecting" needs a proof that
+  // the signed distance φ is below 0: rounded shapes whose cores are closer than r_A + r_B by
+  // more than the bound (φ ≤ |ν| + e − r_A − r_B), or a tetrahedron of K's points around the
+  // origin whose faces are all farther from it than the bound (d⁻ of eq. 32–33, certified, as
+  // `penetration_bound` reports it). Otherwise the shapes touch, or are too close to tell from
+  // touching at this precision or tolerance: "touching". (A numerical-limit exit deep inside an
+  // overlap, where |ν| can be 1e-17 rather than 0, and a loose ε are kept from claiming a
+  // separation they cannot back; penetration_depth settles the rest from its interval.)
   const bool cores_intersect = !(nearest.nu_norm2 > 0);
-  const bool separated = !cores_intersect && core_distance - radii > result.error_bound;
+  const S core_bound = result.error_bound;
+  const bool separated = !cores_intersect && core_distance - radii > core_bound;
   result.distance = separated ? core_distance - radii : S(0);  // eq. (8): (d − r_A − r_B)⁺
   if (!separated) result.error_bound += std::max(S(0), core_distance - radii);
-  if (loop.termination == Termination::iteration_limit)
+  if (loop.termination == Termination::iteration_limit) {
     result.status = Status::iteration_limit;
-  else
-    result.status = separated ? Status::separated : Status::intersecting;
+  } else if (separated) {
+    result.status = Status::separated;
+  } else {
+    bool overlap = radii - core_distance > core_bound;
+    if (!overlap && cores_intersect)
+      overlap = detail::penetration_lower_bound(loop.simplex, nearest.subset) + radii > core_bound;
+    result.status = overlap ? Status::intersecting : Status::touching;
+  }
   // Beyond the cutoff the loop stopped on a support plane's proof, d ≥ L, before |ν| converged:
   // the answer is that certified lower bound, with the interval up to |ν| as its bound, so the
   // truth lies in [distance, distance + error_bound] (what a caller filtering on the cutoff
@@ -340,13 +350,17 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
   // algorithm); the defect is added here.
   const S cutoff = options.distance_cutoff + radii + defect_allowance;
 
-  // Below this core distance the verdict can only be "intersecting" (see the verdict below:
-  // separation needs |ν| − radii above the error bound, which is at least `roundoff`), so a query
-  // that wants no near points, d⁻ or gradient can stop there instead of converging further.
+  // Below this core distance the verdict is settled (see certify's verdict: separation needs
+  // |ν| − radii above the error bound, which is at least `roundoff`; the bound is at most
+  // |ν| + roundoff + the defect's allowance, so below half of what remains of the radii the
+  // overlap is proven), so a query that wants no near points, d⁻ or gradient can stop there
+  // instead of converging further. Between the two the loop converges and certify decides.
   const S roundoff = detail::distance_roundoff(magnitude);
   const bool needs_simplex = options.near_points || options.penetration_bound || options.gradient ||
                              options.penetration_depth;
-  const S settled_below = needs_simplex ? S(-1) : radii + roundoff;
+  const S settled_below =
+      needs_simplex ? S(-1)
+                    : std::max(roundoff, S(0.5) * (radii - S(2) * roundoff - defect_allowance));
 
   // d⁻ (eq. 32) comes from the faces of the tetrahedron that encloses the origin; an interior
   // corner (the centroids' point) would pull them inwards and weaken it.
@@ -384,7 +398,17 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
   if (options.near_points || options.gradient || options.penetration_depth)
     write_near_points(k_set, far_centers, pose_a, radius_a, radius_b, loop, result);
 
-  if (options.penetration_bound && result.status == Status::intersecting) {
+  // Cores at the origin whose overlap the loop could not prove: a few expansion steps decide
+  // between touching and intersecting (the depth, when asked for, decides below). Enclosed
+  // (ν = 0) on a point, segment or triangle, or a thin tetrahedron; or ν ≈ 0 without enclosure,
+  // the usual end inside a curved shape, where g(ν) ≤ ε·D² holds once |ν| is at roundoff level.
+  if (result.status == Status::touching && !(core_distance > result.error_bound) &&
+      !options.penetration_depth &&
+      detail::overlap_proven_by_expansion(k_set, loop, magnitude, roundoff + defect_allowance,
+                                          result.support_calls)) [[unlikely]]
+    result.status = Status::intersecting;
+
+  if (options.penetration_bound && result.in_contact()) {
     // eq. (32)–(33) on the cores, plus the radii; for rounded shapes whose cores are apart the
     // overlap r_A + r_B − d is the exact penetration depth. The tetrahedron's corners are the
     // computed support points, each within the error bound's roundoff of a true point of K, and
@@ -413,7 +437,7 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
         options, result);
     // The gradient of the signed distance through contact: distance_gradient's formula with the
     // depth's witnesses and A → B direction (−∂depth), continuous with the separated one.
-    if (options.gradient && result.status == Status::intersecting && result.has_penetration_depth) {
+    if (options.gradient && result.in_contact() && result.has_penetration_depth) {
       distance_gradient(result.depth_point_a, result.depth_point_b, result.depth_direction,
                         pose_a.translation, pose_b.translation, result.gradient_a,
                         result.gradient_b);
@@ -608,16 +632,16 @@ template <class S, class GA, class GB>
   // A separation certified at the loop's scale may not survive the way back: below the smallest
   // normal numbers the distance rounds to a subnormal or to 0 while the bound gains the rounding.
   // The verdict then follows the rule of the normal path: "separated" only when the distance
-  // exceeds its bound; otherwise too close to tell from touching, which counts as intersecting,
+  // exceeds its bound; otherwise too close to tell from touching ("touching"),
   // with the distance folded into the bound (found by fuzz_engine: float shapes 1e-45 apart
   // answered "separated" with distance 0). Beyond the cutoff the distance is a lower bound: it is
   // lowered by the rounding (so that it stays one) and separates while it stays above 0.
   if (result.beyond_cutoff() && result.status == Status::separated) {
     result.distance = std::max(S(0), result.distance - subnormal_rounding);
     result.error_bound += subnormal_rounding;
-    if (!(result.distance > 0)) result.status = Status::intersecting;
+    if (!(result.distance > 0)) result.status = Status::touching;
   } else if (result.status == Status::separated && !(result.distance > result.error_bound)) {
-    result.status = Status::intersecting;
+    result.status = Status::touching;
     result.error_bound += result.distance;
     result.distance = 0;
   }
@@ -645,7 +669,7 @@ template <class S, class GA, class GB>
       result.signed_distance = result.distance;
       result.signed_distance_lower = std::max(S(0), result.distance - result.error_bound);
       result.signed_distance_upper = result.distance + result.error_bound;
-    } else if (result.status == Status::intersecting && result.signed_distance_lower > 0) {
+    } else if (result.status == Status::touching && result.signed_distance_lower > 0) {
       // A separation lost on the way back (below): touching, to within the bound.
       result.signed_distance_lower = 0;
     }

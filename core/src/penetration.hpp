@@ -129,10 +129,12 @@ bool winds_once(const EpaBuffer<S>& buffer, int face_count) {
 /// EPA on K from the loop's final simplex, whose origin is enclosed (ν = 0). `slack` is what a
 /// computed support point may be from a true point of K (the roundoff allowance plus pose A's
 /// rotation defect): it comes off the lower end and onto the upper one. `target` is the width the
-/// expansion stops at.
+/// expansion stops at; `proven_above` ends it as soon as the nearest face is that far from the
+/// origin (the verdict's use: an overlap needs only a positive lower end, not a converged one).
 template <class S, class K>
 void expand_polytope(const K& k_set, const LoopOutcome<S>& loop, S magnitude, S slack, S target,
-                     int max_iterations, DepthOutcome<S>& out) {
+                     int max_iterations, DepthOutcome<S>& out,
+                     S proven_above = std::numeric_limits<S>::infinity()) {
   using std::abs;
   constexpr S u = std::numeric_limits<S>::epsilon() / 2;
   const S tiny = distance_roundoff(magnitude);
@@ -307,7 +309,7 @@ void expand_polytope(const K& k_set, const LoopOutcome<S>& loop, S magnitude, S 
       break;
     }
     const EpaFace<S> face = faces[std::size_t(nearest)];
-    if (best_upper - face.offset <= target) {
+    if (best_upper - face.offset <= target || face.offset > proven_above) {
       out.termination = DepthTermination::tolerance;
       break;
     }
@@ -464,6 +466,25 @@ void expand_polytope(const K& k_set, const LoopOutcome<S>& loop, S magnitude, S 
   }
 }
 
+/// The verdict for cores whose loop ended with the origin enclosed (ν = 0) but without a proof of
+/// overlap: a point, segment or triangle through the origin (coincident or axis-aligned shapes:
+/// the centroids' start is the origin itself), or a tetrahedron with a face within the bound of
+/// it. A few steps of the expansion tell an overlap from a touch: stopped as soon as the nearest
+/// face is clearly away from the origin, certified as the depth's lower end is. Returns whether
+/// the overlap is proven; `support_calls` counts what it cost.
+template <class S, class K>
+[[gnu::noinline, gnu::cold]] bool overlap_proven_by_expansion(const K& k_set,
+                                                              const LoopOutcome<S>& loop,
+                                                              S magnitude, S slack,
+                                                              int& support_calls) {
+  constexpr int kVerdictIterations = 32;  // a touch ends at once (no progress); overlaps in a few
+  DepthOutcome<S> depth;
+  const S margin = S(4) * (slack + distance_roundoff(magnitude));
+  expand_polytope(k_set, loop, magnitude, slack, S(0), kVerdictIterations, depth, margin);
+  support_calls += depth.support_calls;
+  return depth.lower > 0;
+}
+
 /// What a query needs to place the depth's answer in the world (as write_near_points does).
 template <class S>
 struct DepthPlacement {
@@ -503,7 +524,7 @@ template <class S, class K>
     }
     return;
   }
-  if (result.status != Status::intersecting) return;
+  if (!result.in_contact()) return;
   const S radii = in.radius_a + in.radius_b;
   const S slack = in.roundoff + in.defect_allowance;
   const Nearest<S>& nearest = loop.nearest;
@@ -563,6 +584,9 @@ template <class S, class K>
   result.depth_upper = std::max(S(0), -phi_lower);
   result.signed_distance = phi;
   result.depth = std::clamp(std::max(S(0), -phi), result.depth_lower, result.depth_upper);
+  // The verdict from the interval's sign (issue: touching vs intersecting). An overlap the
+  // distance query proved already (d⁻, or the radii) stands; the interval settles the rest.
+  if (phi_upper < 0) result.status = Status::intersecting;
 
   // The witnesses, world frame (as write_near_points places near points): each shape's deepest
   // point along the direction, a radius out from its core's.

@@ -60,7 +60,11 @@ const char* cost_counters_violation(const DistanceResult<S>& r, bool warm_starte
     return "the Backup Procedure finished but no run of it was counted";
   const int cold = warm_started ? 0 : 1;
   if (r.support_calls < cold) return "a cold start made no support call";
-  if (r.support_calls > cold + (r.subalgorithm_runs - 1) + 2)
+  // In contact, the verdict may take a few expansion steps (at most 12 to grow the simplex to a
+  // tetrahedron and 32 more), and the depth its own.
+  const int verdict = r.in_contact() ? 12 + 32 : 0;
+  const int depth = r.has_penetration_depth ? 12 + r.depth_iterations : 0;
+  if (r.support_calls > cold + (r.subalgorithm_runs - 1) + 2 + verdict + depth)
     return "more support calls than the loop's passes allow";
   return nullptr;
 }

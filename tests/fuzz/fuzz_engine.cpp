@@ -532,9 +532,8 @@ void check_result(const DistanceResult<S>& r, ExactPair<S>& pair, int piece_a, i
       "non-finite output of an accepted query (diameter_bound included); " + where());
   NEARPOINT_FUZZ_CHECK(r.distance >= 0 && r.error_bound >= 0 && r.gap >= 0,
                        "negative distance, error bound or gap; " + where());
-  NEARPOINT_FUZZ_CHECK((r.status == Status::intersecting) == (r.distance == 0) ||
-                           r.status == Status::iteration_limit,
-                       "distance 0 if and only if intersecting; " + where());
+  NEARPOINT_FUZZ_CHECK(r.in_contact() == (r.distance == 0) || r.status == Status::iteration_limit,
+                       "distance 0 if and only if intersecting or touching; " + where());
   const LD eps = LD(std::numeric_limits<S>::epsilon());
   if (r.has_near_points) {
     const LD n = norm(p3(r.normal));
@@ -573,6 +572,7 @@ void check_result(const DistanceResult<S>& r, ExactPair<S>& pair, int piece_a, i
     directions.push_back(p3(r.normal));
     directions.push_back(p3(r.point_b) - p3(r.point_a));
   }
+  if (r.has_penetration_depth) directions.push_back(p3(r.depth_direction));
   for (P3& u : directions) {  // unit length, or dropped
     const LD n = norm(u);
     u = (n > 0 && std::isfinite(n)) ? (1 / n) * u : P3{};
@@ -613,12 +613,40 @@ void check_result(const DistanceResult<S>& r, ExactPair<S>& pair, int piece_a, i
   // slack of 16 ulps of the scene's magnitudes.
   const LD depth_slack =
       16 * eps * (ra.magnitude + rb.magnitude) + LD(std::numeric_limits<S>::denorm_min());
-  if (r.has_penetration_bound && r.status == Status::intersecting && std::isfinite(depth_upper)) {
+  if (r.has_penetration_bound && r.in_contact() && std::isfinite(depth_upper)) {
     if (!(LD(r.penetration_bound) >= 0 &&
           LD(r.penetration_bound) <= depth_upper + LD(e) + depth_slack + ref_slack))
       fuzz::fail(__FILE__, __LINE__,
                  "penetration bound " + number(r.penetration_bound) +
                      " exceeds the depth upper bound " + number(depth_upper) + "; " + where());
+  }
+
+  // The signed distance and depth (penetration_depth): ordered intervals holding their
+  // estimates, the verdict the interval's sign, and the depth's lower end against an independent
+  // upper bracket: for single shapes the true depth is at most h_A(u) + h_B(−u) for every unit u
+  // (moving B that far along u separates them), the answer's own direction among the u tried.
+  if (r.has_signed_distance) {
+    NEARPOINT_FUZZ_CHECK(r.signed_distance_lower <= r.signed_distance &&
+                             r.signed_distance <= r.signed_distance_upper &&
+                             r.depth_lower <= r.depth && r.depth <= r.depth_upper &&
+                             r.depth_lower >= 0,
+                         "signed distance or depth outside its own interval; " + where());
+    NEARPOINT_FUZZ_CHECK(r.status != Status::separated || r.signed_distance_lower >= 0,
+                         "separated with a signed-distance interval reaching below 0; " + where());
+    NEARPOINT_FUZZ_CHECK(r.status != Status::touching ||
+                             (r.signed_distance_lower <= 0 && r.signed_distance_upper >= 0),
+                         "touching with a signed-distance interval off 0; " + where());
+    NEARPOINT_FUZZ_CHECK(r.status != Status::intersecting || r.depth_upper > 0,
+                         "intersecting with no depth; " + where());
+    const LD unit = r.has_penetration_depth ? norm(p3(r.depth_direction)) : LD(1);
+    NEARPOINT_FUZZ_CHECK(unit == 0 || std::abs(unit - 1) <= kNormalUlps * eps,
+                         "depth direction neither zero nor unit; " + where());
+    if (r.in_contact() && std::isfinite(depth_upper) &&
+        !(LD(r.depth_lower) <= depth_upper + ref_slack + LD(std::numeric_limits<S>::denorm_min())))
+      fuzz::fail(__FILE__, __LINE__,
+                 "depth lower end " + number(r.depth_lower) +
+                     " above the support bracket of the true depth " + number(depth_upper) + "; " +
+                     where());
   }
 
   if (exact && r.simplex_size > 0 && piece_a >= 0 && piece_b >= 0) {
@@ -824,6 +852,9 @@ void run(ByteReader& in, bool sampled, bool extended) {
   options.near_points = (flags & 2) != 0;
   options.penetration_bound = (flags & 4) != 0;
   options.gradient = (flags & 8) != 0;
+  // The depth with near points and d⁻ together: no bit is free, and inputs saved before keep
+  // their shapes (they now also check the depth).
+  options.penetration_depth = (flags & 6) == 6;
   options.subalgorithm = (flags & 16) ? Subalgorithm::johnson : Subalgorithm::signed_volumes;
   options.cold_start = (flags & 32) ? ColdStart::single_point : ColdStart::with_centroids;
   if (flags & 64) options.epsilon = kPaperEpsilon<S>;

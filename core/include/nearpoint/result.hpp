@@ -57,10 +57,11 @@ enum class Termination : unsigned char {
   beyond_cutoff,
   /// `options.max_iterations` was reached first.
   iteration_limit,
-  /// |ν| − r_A − r_B fell within the roundoff allowance of the error bound: the shapes touch to
-  /// within what this precision can tell apart, so the verdict (intersecting, distance 0) is
-  /// settled and further iterations could not change it. Taken only when near points, d⁻ and
-  /// the gradient were not asked for (they need the converged simplex).
+  /// |ν| fell so low that the verdict is settled and further iterations could not change it:
+  /// within the roundoff allowance of r_A + r_B ("touching"), or below half of the radii's sum
+  /// less the allowance (rounded shapes: "intersecting", the overlap proven). Taken only when
+  /// near points, d⁻, depth and the gradient were not asked for (they need the converged
+  /// simplex).
   contact,
 };
 
@@ -99,7 +100,8 @@ struct SimplexCache {
 template <class Scalar>
 struct DistanceResult {
   Status status = Status::invalid_input;
-  /// Euclidean distance between the two (rounded) shapes, ≥ 0; 0 when intersecting. With
+  /// Euclidean distance between the two (rounded) shapes, ≥ 0; 0 when intersecting or touching
+  /// (touching: the true distance is at most `error_bound`). With
   /// `beyond_cutoff()`, a certified lower bound above the cutoff: the true distance lies in
   /// [distance, distance + error_bound].
   Scalar distance = 0;
@@ -147,7 +149,7 @@ struct DistanceResult {
   Vec3<Scalar> point_b = Vec3<Scalar>::Zero();
   Vec3<Scalar> normal = Vec3<Scalar>::Zero();
 
-  /// With `options.penetration_bound`, when intersecting: d⁻, a lower bound on the penetration
+  /// With `options.penetration_bound`, when in contact: d⁻, a lower bound on the penetration
   /// depth (the translation needed to separate the shapes), eq. (32)–(33). 0 is always a valid
   /// bound; it is positive when the final simplex is a tetrahedron around the origin, and includes
   /// the radii of rounded shapes.
@@ -160,9 +162,8 @@ struct DistanceResult {
   /// posed exactly as given. Separated: [distance − error_bound, distance + error_bound], above 0.
   /// Intersecting: [−depth_upper, −depth_lower] when a positive depth is proven, otherwise
   /// [−depth_upper, error_bound] (too close to tell from touching: φ may be slightly positive).
-  /// The three-way verdict follows from the interval's sign: separated when it lies above 0,
-  /// intersecting when below 0, touching (contact within the bound) when it contains 0; `status`
-  /// still reports touching as intersecting.
+  /// The three-way verdict follows from the interval's sign: `status` is separated when it lies
+  /// above 0, intersecting when below 0, touching (contact within the bound) when it contains 0.
   bool has_signed_distance = false;
   Scalar signed_distance = 0;
   Scalar signed_distance_lower = 0;
@@ -197,7 +198,7 @@ struct DistanceResult {
   /// body's pose as (∂/∂translation, ∂/∂rotation), world frame; rotation is a small rotation
   /// vector applied on the left about the body's origin (`pose.translation`). When near points
   /// are not unique (parallel faces) this is one element of the generalised gradient. With
-  /// `options.penetration_depth` also when intersecting: the gradient of the signed distance
+  /// `options.penetration_depth` also when in contact: the gradient of the signed distance
   /// φ = −depth, from the depth's witness points and direction by the same formula
   /// (distance_gradient with the A → B direction; in terms of the depth the sign is reversed),
   /// so that it is continuous through contact.
@@ -215,6 +216,9 @@ struct DistanceResult {
            termination == Termination::repeated_support ||
            termination == Termination::roundoff_floor || termination == Termination::contact;
   }
+  /// The shapes touch or overlap: the verdict is intersecting or touching (not separated, not
+  /// an iteration limit or an invalid input).
+  bool in_contact() const { return status == Status::intersecting || status == Status::touching; }
   /// The penetration-depth interval met its tolerance (or needed no expansion).
   bool depth_converged() const {
     return depth_termination == DepthTermination::closed_form ||
