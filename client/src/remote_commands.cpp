@@ -424,11 +424,13 @@ struct StreamTally {
       auto [it, inserted] = pairs.try_emplace(key);
       if (inserted) pair_order.push_back(key);
       PairSummary& s = it->second;
-      if (p.status != client::PairStatus::beyond_cutoff && p.distance < s.min_distance) {
-        s.min_distance = p.distance;
+      // With --penetration depth the signed distance: how deep the pair went, not only that.
+      const double distance = p.has_signed_distance ? p.signed_distance : p.distance;
+      if (p.status != client::PairStatus::beyond_cutoff && distance < s.min_distance) {
+        s.min_distance = distance;
         s.min_time = time;
       }
-      if (p.status == client::PairStatus::intersecting) {
+      if (model::in_contact(p.status)) {  // intersecting or touching
         if (s.intersecting_steps++ == 0) s.first_hit = time;
       }
     }
