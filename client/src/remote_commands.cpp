@@ -147,6 +147,9 @@ void print_pairs(const client::Report& report, std::ostream& out) {
     else
       out << "distance " << number(p.distance, 12) << " (± " << number(p.error_bound, 2) << ")";
     if (p.has_penetration_bound) out << "  d⁻ " << number(p.penetration_bound);
+    if (p.has_penetration_depth && model::in_contact(p.status))
+      out << "  depth " << number(p.depth, 12) << " in [" << number(p.depth_lower, 12) << ", "
+          << number(p.depth_upper, 12) << "]";
     if (p.has_near_points) out << "  A " << point(p.point_a) << "  B " << point(p.point_b);
     out << "\n";
   }

@@ -359,6 +359,57 @@ TEST(DepthOnTheWire, NegativeThresholdsWatchTheSignedDistance) {
   EXPECT_EQ(daemon.process->wait_exit(std::chrono::seconds(15)), 0);
 }
 
+// Paddings in depth mode: the signed distance drops by the pair's padding p and the depth grows
+// by it, the witnesses move onto the padded surfaces; a pair whose cores are apart but whose
+// paddings overlap is intersecting with depth p − d.
+TEST(DepthOnTheWire, PaddingShiftsTheSignedDistanceAndTheDepth) {
+  Daemon daemon = start_daemon();
+  ASSERT_TRUE(daemon.stub);
+  v1::RegisterGeometryRequest sphere;
+  *sphere.mutable_geometry() = sphere_geometry(0.5);
+  v1::RegisterGeometryResponse stored;
+  ASSERT_TRUE(daemon.stub->RegisterGeometry(make_context().get(), sphere, &stored).ok());
+  const std::string id = stored.geometry().geometry_id();
+  v1::CreateSceneRequest request;
+  add_object(request, "a", id, {0, 0, 0});
+  add_object(request, "b", id, {0.875, 0, 0});  // cores overlap by 0.125
+  add_object(request, "c", id, {10, 0, 0});
+  add_object(request, "d", id, {11.0625, 0, 0});  // cores 0.0625 apart
+  for (int i = 0; i < 4; ++i) request.mutable_objects(i)->set_padding(i % 2 ? 0.09375 : 0.03125);
+  add_pair(request, "a", "b");
+  add_pair(request, "c", "d");
+  request.mutable_default_options()->set_penetration(v1::PENETRATION_MODE_DEPTH);
+  v1::CreateSceneResponse created;
+  grpc::Status status = daemon.stub->CreateScene(make_context().get(), request, &created);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  v1::QueryRequest query;
+  query.set_scene_id(created.scene_id());
+  v1::DistanceReport report;
+  status = daemon.stub->Query(make_context().get(), query, &report);
+  ASSERT_TRUE(status.ok()) << status.error_message();
+  // p = 0.03125 + 0.09375 = 0.125: depths 0.125 + 0.125 and 0.125 − 0.0625.
+  for (const auto& [a, b, depth, x_a, x_b] : {std::tuple{"a", "b", 0.25, 0.53125, 0.28125},
+                                              std::tuple{"c", "d", 0.0625, 10.53125, 10.46875}}) {
+    SCOPED_TRACE(std::string(a) + "-" + b);
+    const v1::PairDistance* pair = find_pair(report, a, b);
+    ASSERT_NE(pair, nullptr);
+    EXPECT_EQ(pair->status(), v1::PAIR_STATUS_INTERSECTING) << pair->DebugString();
+    ASSERT_TRUE(pair->has_penetration_depth());
+    EXPECT_LE(pair->penetration_depth_lower(), depth);
+    EXPECT_GE(pair->penetration_depth_upper(), depth);
+    EXPECT_NEAR(pair->penetration_depth(), depth, 1e-12);
+    EXPECT_LE(pair->signed_distance_lower(), -depth);
+    EXPECT_GE(pair->signed_distance_upper(), -depth);
+    EXPECT_NEAR(pair->signed_distance(), -depth, 1e-12);
+    if (pair->depth_direction().x() != 0) {  // the c-d pair's direction needs near points
+      EXPECT_NEAR(pair->depth_point_a().x(), x_a, 1e-12);
+      EXPECT_NEAR(pair->depth_point_b().x(), x_b, 1e-12);
+    }
+  }
+  daemon.process->signal(SIGTERM);
+  EXPECT_EQ(daemon.process->wait_exit(std::chrono::seconds(15)), 0);
+}
+
 // The engine's third verdict reaches the wire as PAIR_STATUS_TOUCHING (6), not INTERSECTING, and
 // reads back as touching: a constructed engine result through the server's mapping and the one
 // proto conversion.
