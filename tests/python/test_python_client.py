@@ -215,7 +215,8 @@ class PythonClientTest(unittest.TestCase):
     def test_padding_is_subtracted_per_body(self):
         """padding=, self_padding= and bodies= reach the server: two unit cubes 3 m apart (gap
         2 m) report 2 - 0.3 - 0.2 against each other as separate bodies, 2 - 0.1 - 0.1 as one
-        body (self padding), and intersect when the padding covers the gap."""
+        body (self padding), touch when the padding closes the gap exactly and intersect when it
+        overlaps."""
         ids = [self.register_box((0.5, 0.5, 0.5)) for _ in range(2)]
         objects = {"a": (ids[0], (0, 0, 0)), "b": (ids[1], (3, 0, 0))}
         pads = {"a": 0.3, "b": 0.2}
@@ -226,7 +227,10 @@ class PythonClientTest(unittest.TestCase):
                                        bodies={"a": "arm", "b": "arm"})
         self.assertAlmostEqual(self.client.query(one).pairs[0].distance, 1.8, places=12)
         wide = self.client.create_scene(objects, padding={"a": 1.5, "b": 0.5})
-        self.assertEqual(self.client.query(wide).pairs[0].status, "intersecting")
+        # The paddings (1.5 + 0.5) close the 2 m gap exactly: contact within the bound.
+        self.assertEqual(self.client.query(wide).pairs[0].status, "touching")
+        deep = self.client.create_scene(objects, padding={"a": 1.5, "b": 0.75})
+        self.assertEqual(self.client.query(deep).pairs[0].status, "intersecting")
 
     def test_depth_mode_reports_signed_distance_and_depth(self):
         """penetration="depth" reaches the server and the fields come back: unit cubes whose
