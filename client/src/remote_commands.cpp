@@ -480,7 +480,7 @@ void print_stream_summary(StreamTally& tally, const Trajectory& trajectory,
       << number(percentile(tally.latencies_us, 0.99), 4) << " µs\n";
   out << std::left << std::setw(24) << "pair" << std::setw(16) << "min distance" << std::setw(12)
       << "at t"
-      << "intersecting\n";
+      << "in contact\n";
   for (const auto& key : tally.pair_order) {
     const StreamTally::PairSummary& s = tally.pairs.at(key);
     out << std::left << std::setw(24) << (key.first + " - " + key.second) << std::setw(16)
