@@ -38,6 +38,10 @@ const char* to_string(PairStatus status) {
   return model::spelling_of(status).data();
 }
 
+const char* to_string(DepthTermination termination) {
+  return model::spelling_of(termination).data();
+}
+
 const char* to_string(ReportMode mode) {
   // A report's mode is never unspecified; an older server's 0 means its reports hold every pair.
   const std::string_view spelling = model::spelling_of(mode);

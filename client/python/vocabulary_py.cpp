@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
   write_enum<nearpoint::model::FlowControl>(out, "FlowControl");
   write_enum<nearpoint::model::PairStatus>(out, "PairStatus");
   write_enum<nearpoint::model::Crossing>(out, "ThresholdCrossing");
+  write_enum<nearpoint::model::DepthTermination>(out, "DepthTermination");
   out << "}\n";
   out.close();
   if (!out) {

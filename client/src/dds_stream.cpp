@@ -68,6 +68,25 @@ Json report_json(const DistanceReportSample& report) {
       pair["normal"] = vec(p.normal);
     }
     if (p.has_penetration_bound) pair["penetration_bound"] = p.penetration_bound;
+    if (p.has_signed_distance) {
+      pair["signed_distance"] = p.signed_distance;
+      pair["signed_distance_lower"] = p.signed_distance_lower;
+      pair["signed_distance_upper"] = p.signed_distance_upper;
+    }
+    if (p.has_penetration_depth) {
+      pair["penetration_depth"] = p.penetration_depth;
+      pair["penetration_depth_lower"] = p.penetration_depth_lower;
+      pair["penetration_depth_upper"] = p.penetration_depth_upper;
+      const auto& d = p.depth_direction;
+      if (d.x != 0 || d.y != 0 || d.z != 0) {  // left out where undefined (see the schema)
+        pair["depth_point_a"] = vec(p.depth_point_a);
+        pair["depth_point_b"] = vec(p.depth_point_b);
+        pair["depth_direction"] = vec(d);
+      }
+      pair["depth_termination"] =
+          model::spelling_of(model::from_dds<model::DepthTermination>(p.depth_termination));
+      pair["depth_iterations"] = p.depth_iterations;
+    }
     if (p.message && *p.message) pair["message"] = p.message;
     pairs.push_back(std::move(pair));
   }
@@ -261,6 +280,7 @@ class StepPublisher {
       update.options.has_near_points = true;
       update.options.near_points = true;
     }
+    update.options.penetration = model::to_dds(options_.penetration);
     update.options.report_mode = model::to_dds(options_.report_mode);
     if (!std::isnan(options_.cutoff)) {
       update.options.has_distance_cutoff = true;

@@ -80,6 +80,8 @@ struct DdsStreamOptions {
   /// PoseUpdate_.flow_control: block (sent as 0, unspecified, which means block) or coalesce.
   model::FlowControl flow_control = model::FlowControl::block;
   bool near_points = false;
+  /// QueryOptions_.penetration (unspecified: inherit).
+  model::PenetrationMode penetration = model::PenetrationMode::unspecified;
   /// QueryOptions_.report_mode (unspecified: inherit), distance_cutoff and change_tolerance
   /// (NaN: not sent, inherit).
   model::ReportMode report_mode = model::ReportMode::unspecified;

@@ -356,7 +356,7 @@ int run_demo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
         profile.min_distance = pair.distance;
         profile.min_s = s;
       }
-      const bool hit = pair.status == client::PairStatus::intersecting;
+      const bool hit = model::in_contact(pair.status);
       if (hit && !inside) profile.collisions.push_back({s, s, 0});
       if (hit) {
         profile.collisions.back().s1 = s;

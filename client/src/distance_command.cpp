@@ -90,6 +90,7 @@ LineOptions parse_options(const Json& options) {
       throw LineError{expected + " (got " + user_key(name) + ")"};
   }
   out.engine.penetration_bound = out.penetration == model::PenetrationMode::bound;
+  out.engine.penetration_depth = out.penetration == model::PenetrationMode::depth;
   return out;
 }
 
@@ -118,7 +119,11 @@ Json vector_json(const Vec3<double>& v) {
 bool all_finite(const DistanceResult<double>& r) {
   return std::isfinite(r.distance) && std::isfinite(r.error_bound) &&
          std::isfinite(r.penetration_bound) && r.point_a.allFinite() && r.point_b.allFinite() &&
-         r.normal.allFinite();
+         r.normal.allFinite() && std::isfinite(r.signed_distance) &&
+         std::isfinite(r.signed_distance_lower) && std::isfinite(r.signed_distance_upper) &&
+         std::isfinite(r.depth) && std::isfinite(r.depth_lower) && std::isfinite(r.depth_upper) &&
+         r.depth_point_a.allFinite() && r.depth_point_b.allFinite() &&
+         r.depth_direction.allFinite();
 }
 
 }  // namespace
@@ -165,9 +170,6 @@ Json DistanceSession::answer_json(std::string_view text, long line_number) {
         line.contains("options") ? parse_options(line["options"]) : LineOptions{};
     const PlacedShape a = parse_placed_shape(line, "a");
     const PlacedShape b = parse_placed_shape(line, "b");
-    if (options.penetration == model::PenetrationMode::depth)
-      throw LineError{R"("options.penetration": "depth" (the exact penetration depth by EPA) is )"
-                      R"(not available yet; use "bound" for a certified lower bound on it)"};
 
     SimplexCache cache{};  // zeroed: a cold start
     Json shape_a;
@@ -198,9 +200,31 @@ Json DistanceSession::answer_json(std::string_view text, long line_number) {
     out["error_bound"] = r.error_bound + 0.0;
     out["iterations"] = r.iterations;
     out["warm_started"] = r.warm_started;
-    if (options.penetration == model::PenetrationMode::bound && r.status == Status::intersecting &&
-        r.has_penetration_bound)
+    const bool contact = r.status == Status::intersecting || r.status == Status::touching;
+    if (options.penetration == model::PenetrationMode::bound && contact && r.has_penetration_bound)
       out["penetration_bound"] = r.penetration_bound + 0.0;
+    if (options.penetration == model::PenetrationMode::depth) {
+      // The same keys as the reports of `stream` and `query` (client/schema/report.schema.json).
+      if (r.has_signed_distance) {
+        out["signed_distance"] = r.signed_distance + 0.0;
+        out["signed_distance_lower"] = r.signed_distance_lower + 0.0;
+        out["signed_distance_upper"] = r.signed_distance_upper + 0.0;
+      }
+      if (r.has_penetration_depth) {
+        out["penetration_depth"] = r.depth + 0.0;
+        out["penetration_depth_lower"] = r.depth_lower + 0.0;
+        out["penetration_depth_upper"] = r.depth_upper + 0.0;
+        // Witnesses and direction only where they are defined: a separated pair's are its near
+        // points (asked for with near_points), an overlapping pair's the expansion's.
+        if (r.depth_direction.squaredNorm() > 0) {
+          out["depth_point_a"] = vector_json(r.depth_point_a);
+          out["depth_point_b"] = vector_json(r.depth_point_b);
+          out["depth_direction"] = vector_json(r.depth_direction);
+        }
+        out["depth_termination"] = to_string(r.depth_termination);
+        out["depth_iterations"] = r.depth_iterations;
+      }
+    }
     if (r.status == Status::iteration_limit)
       out["message"] = "line " + std::to_string(line_number) +
                        ": the iteration cap was reached before the stopping rule (eq. 35) held; "

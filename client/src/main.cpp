@@ -84,22 +84,34 @@ OPTIONS (defaults are the engine's):
   )" << pad(std::string(R"("near_points": )") + near_points)
        << R"(add point_a, point_b (world frame) and the unit
                                     normal from A towards B
-  "penetration": "none"             "bound": when intersecting, add penetration_bound, a
+  "penetration": "none"             "bound": when in contact, add penetration_bound, a
                                     certified lower bound on the penetration depth (eq.
-                                    32-33); "depth" (exact depth by EPA) is not available
-                                    yet: such a line is answered with an error
+                                    32-33); "depth": add the signed distance and the
+                                    penetration depth, each with a certified interval,
+                                    the depth's witness points, direction and termination
   "warm": false                     warm-start from the line before (see below)
 
 Output line:
   {"id": as given (null if absent),
-   "status": "separated" | "intersecting" | "iteration_limit" | "error",
+   "status": "separated" | "intersecting" | "touching" | "iteration_limit" | "error",
    "distance": d, "point_a": [x,y,z], "point_b": [x,y,z], "normal": [x,y,z],
    "error_bound": e, "iterations": k, "warm_started": bool, "penetration_bound": p,
+   with "penetration": "depth" (separated, intersecting or touching):
+   "signed_distance": s, "signed_distance_lower": s-, "signed_distance_upper": s+,
+   "penetration_depth": h, "penetration_depth_lower": h-, "penetration_depth_upper": h+,
+   "depth_point_a": [x,y,z], "depth_point_b": [x,y,z], "depth_direction": [x,y,z],
+   "depth_termination": "closed_form" | "tolerance" | "iteration_limit" | "degenerate",
+   "depth_iterations": k,
    "message": "line N: what is wrong"}
-  distance is 0 when the shapes intersect (touching counts); |distance - true distance| <=
-  error_bound. normal is left out when it is undefined (the shapes' cores overlap). An error
-  line has only id, status and message, and the next line is processed as usual. Numbers are
-  printed with full round-trip precision; NaN and Infinity never appear.
+  intersecting: overlap proven; touching: contact within the bound (the signed distance's
+  interval contains 0); distance is 0 for both; |distance - true distance| <= error_bound.
+  signed_distance is the distance when apart, -depth when overlapping; the true values lie in
+  [signed_distance_lower, signed_distance_upper] and [penetration_depth_lower, _upper].
+  depth_point_a - depth_point_b = penetration_depth * depth_direction (A -> B); the three are
+  left out for a separated pair without near_points. normal is left out when it is undefined
+  (the shapes' cores overlap). An error line has only id, status and message, and the next line
+  is processed as usual. Numbers are printed with full round-trip precision; NaN and Infinity
+  never appear.
 
 Warm start (Section VIII of the paper): a line with "warm": true starts from the simplex that the
 line just before it left, when that line was also "warm": true and had the same two shapes (same
@@ -380,7 +392,9 @@ void add_query_subcommand(CLI::App& app, int& exit_code) {
                       "at their initial pose)");
   command->add_flag("--near-points", options->near_points, "Report near points and normals");
   command->add_option("--penetration", options->penetration,
-                      "none | bound (d⁻, a certified lower bound on the penetration depth)");
+                      "none | bound (d⁻, a certified lower bound on the penetration depth) | "
+                      "depth (the signed distance and the penetration depth, each with a "
+                      "certified interval, witness points and direction)");
   add_report_mode_options(*command, options->report);
   add_remote_options(*command, options->remote);
   add_keep_scene_flag(*command, options->keep_scene);
@@ -417,13 +431,16 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
   command->add_flag("--near-points", options->near_points, "Report near points and normals");
-  command->add_option("--penetration", options->penetration, "none | bound");
+  command->add_option("--penetration", options->penetration,
+                      "none | bound (d⁻, a lower bound on the depth) | depth (signed distance and "
+                      "penetration depth with certified intervals; thresholds may then be <= 0)");
   add_report_mode_options(*command, options->report);
   command->add_option(
       "--threshold", options->thresholds,
       "Watch a distance (repeatable): D[,hysteresis=H][,pair=A:B|object=A][,groups=BITS]"
       "[,name=N]; reports carry ENTER when a pair comes closer than D, EXIT when it gets "
-      "farther than D + H (--cutoff must be at least D + H)");
+      "farther than D + H (--cutoff must be at least D + H); with --penetration depth the "
+      "signed distance is compared and D may be negative (a depth of -D)");
   add_remote_options(*command, options->remote);
   add_keep_scene_flag(*command, options->keep_scene);
 #if NEARPOINT_HAVE_DDS
@@ -464,6 +481,18 @@ Examples:
                        : nearpoint::model::from_spelling<nearpoint::model::ReportMode>(mode);
       dds->options.cutoff = options->report.cutoff;
       dds->options.change_tolerance = options->report.change_tolerance;
+      if (!options->penetration.empty()) {  // and the same --penetration
+        dds->options.penetration =
+            nearpoint::model::from_spelling<nearpoint::model::PenetrationMode>(
+                options->penetration);
+        if (dds->options.penetration == nearpoint::model::PenetrationMode::unknown) {
+          std::cerr << "nearpoint stream: --penetration must be "
+                    << nearpoint::model::spellings<nearpoint::model::PenetrationMode>() << " (got "
+                    << options->penetration << ")\n";
+          exit_code = 2;
+          return;
+        }
+      }
       for (const std::string& spec : options->thresholds) {
         std::string error;
         if (!nearpoint::cli::parse_threshold_argument(spec, dds->options.thresholds.emplace_back(),

@@ -147,6 +147,9 @@ void print_pairs(const client::Report& report, std::ostream& out) {
     else
       out << "distance " << number(p.distance, 12) << " (± " << number(p.error_bound, 2) << ")";
     if (p.has_penetration_bound) out << "  d⁻ " << number(p.penetration_bound);
+    if (p.has_penetration_depth && model::in_contact(p.status))
+      out << "  depth " << number(p.depth, 12) << " in [" << number(p.depth_lower, 12) << ", "
+          << number(p.depth_upper, 12) << "]";
     if (p.has_near_points) out << "  A " << point(p.point_a) << "  B " << point(p.point_b);
     out << "\n";
   }
@@ -424,11 +427,13 @@ struct StreamTally {
       auto [it, inserted] = pairs.try_emplace(key);
       if (inserted) pair_order.push_back(key);
       PairSummary& s = it->second;
-      if (p.status != client::PairStatus::beyond_cutoff && p.distance < s.min_distance) {
-        s.min_distance = p.distance;
+      // With --penetration depth the signed distance: how deep the pair went, not only that.
+      const double distance = p.has_signed_distance ? p.signed_distance : p.distance;
+      if (p.status != client::PairStatus::beyond_cutoff && distance < s.min_distance) {
+        s.min_distance = distance;
         s.min_time = time;
       }
-      if (p.status == client::PairStatus::intersecting) {
+      if (model::in_contact(p.status)) {  // intersecting or touching
         if (s.intersecting_steps++ == 0) s.first_hit = time;
       }
     }
@@ -475,7 +480,7 @@ void print_stream_summary(StreamTally& tally, const Trajectory& trajectory,
       << number(percentile(tally.latencies_us, 0.99), 4) << " µs\n";
   out << std::left << std::setw(24) << "pair" << std::setw(16) << "min distance" << std::setw(12)
       << "at t"
-      << "intersecting\n";
+      << "in contact\n";
   for (const auto& key : tally.pair_order) {
     const StreamTally::PairSummary& s = tally.pairs.at(key);
     out << std::left << std::setw(24) << (key.first + " - " + key.second) << std::setw(16)

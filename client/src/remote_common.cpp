@@ -120,6 +120,23 @@ Json to_json(const client::Report& report) {
       pair["normal"] = vec(p.normal);
     }
     if (p.has_penetration_bound) pair["penetration_bound"] = p.penetration_bound;
+    if (p.has_signed_distance) {
+      pair["signed_distance"] = p.signed_distance;
+      pair["signed_distance_lower"] = p.signed_distance_lower;
+      pair["signed_distance_upper"] = p.signed_distance_upper;
+    }
+    if (p.has_penetration_depth) {
+      pair["penetration_depth"] = p.depth;
+      pair["penetration_depth_lower"] = p.depth_lower;
+      pair["penetration_depth_upper"] = p.depth_upper;
+      if (p.depth_direction.squaredNorm() > 0) {  // left out where undefined (see the schema)
+        pair["depth_point_a"] = vec(p.depth_point_a);
+        pair["depth_point_b"] = vec(p.depth_point_b);
+        pair["depth_direction"] = vec(p.depth_direction);
+      }
+      pair["depth_termination"] = client::to_string(p.depth_termination);
+      pair["depth_iterations"] = p.depth_iterations;
+    }
     if (!p.message.empty()) pair["message"] = p.message;
     pairs.push_back(std::move(pair));
   }

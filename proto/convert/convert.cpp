@@ -24,6 +24,16 @@ static_assert(same(model::to_wire(PairStatus::intersecting), v1::PAIR_STATUS_INT
 static_assert(same(model::to_wire(PairStatus::beyond_cutoff), v1::PAIR_STATUS_BEYOND_CUTOFF));
 static_assert(same(model::to_wire(PairStatus::iteration_limit), v1::PAIR_STATUS_ITERATION_LIMIT));
 static_assert(same(model::to_wire(PairStatus::engine_error), v1::PAIR_STATUS_ENGINE_ERROR));
+static_assert(same(model::to_wire(PairStatus::touching), v1::PAIR_STATUS_TOUCHING));
+using model::DepthTermination;
+static_assert(same(model::to_wire(DepthTermination::unspecified),
+                   v1::DEPTH_TERMINATION_UNSPECIFIED));
+static_assert(same(model::to_wire(DepthTermination::closed_form),
+                   v1::DEPTH_TERMINATION_CLOSED_FORM));
+static_assert(same(model::to_wire(DepthTermination::tolerance), v1::DEPTH_TERMINATION_TOLERANCE));
+static_assert(same(model::to_wire(DepthTermination::iteration_limit),
+                   v1::DEPTH_TERMINATION_ITERATION_LIMIT));
+static_assert(same(model::to_wire(DepthTermination::degenerate), v1::DEPTH_TERMINATION_DEGENERATE));
 static_assert(same(model::to_wire(PenetrationMode::unspecified), v1::PENETRATION_MODE_UNSPECIFIED));
 static_assert(same(model::to_wire(PenetrationMode::none), v1::PENETRATION_MODE_NONE));
 static_assert(same(model::to_wire(PenetrationMode::bound), v1::PENETRATION_MODE_BOUND));
@@ -237,6 +247,23 @@ void to_proto(const model::PairAnswer& pair, v1::PairDistance& p) {
     to_proto(pair.gradient_a, *p.mutable_gradient_a());
     to_proto(pair.gradient_b, *p.mutable_gradient_b());
   }
+  if (pair.has_signed_distance) {
+    p.set_has_signed_distance(true);
+    p.set_signed_distance(pair.signed_distance);
+    p.set_signed_distance_lower(pair.signed_distance_lower);
+    p.set_signed_distance_upper(pair.signed_distance_upper);
+  }
+  if (pair.has_penetration_depth) {
+    p.set_has_penetration_depth(true);
+    p.set_penetration_depth(pair.depth);
+    p.set_penetration_depth_lower(pair.depth_lower);
+    p.set_penetration_depth_upper(pair.depth_upper);
+    to_proto(pair.depth_point_a, *p.mutable_depth_point_a());
+    to_proto(pair.depth_point_b, *p.mutable_depth_point_b());
+    to_proto(pair.depth_direction, *p.mutable_depth_direction());
+    p.set_depth_termination(v1::DepthTermination(model::to_wire(pair.depth_termination)));
+    p.set_depth_iterations(pair.depth_iterations);
+  }
 }
 
 void from_proto(const v1::PairDistance& p, model::PairAnswer& pair) {
@@ -261,6 +288,23 @@ void from_proto(const v1::PairDistance& p, model::PairAnswer& pair) {
   if (pair.has_gradient) {
     pair.gradient_a = from_proto(p.gradient_a());
     pair.gradient_b = from_proto(p.gradient_b());
+  }
+  pair.has_signed_distance = p.has_signed_distance();
+  if (pair.has_signed_distance) {
+    pair.signed_distance = p.signed_distance();
+    pair.signed_distance_lower = p.signed_distance_lower();
+    pair.signed_distance_upper = p.signed_distance_upper();
+  }
+  pair.has_penetration_depth = p.has_penetration_depth();
+  if (pair.has_penetration_depth) {
+    pair.depth = p.penetration_depth();
+    pair.depth_lower = p.penetration_depth_lower();
+    pair.depth_upper = p.penetration_depth_upper();
+    pair.depth_point_a = from_proto(p.depth_point_a());
+    pair.depth_point_b = from_proto(p.depth_point_b());
+    pair.depth_direction = from_proto(p.depth_direction());
+    pair.depth_termination = model::from_wire<model::DepthTermination>(p.depth_termination());
+    pair.depth_iterations = p.depth_iterations();
   }
 }
 

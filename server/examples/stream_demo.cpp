@@ -133,9 +133,12 @@ int main(int argc, char** argv) {
     std::printf("seq %3llu (%5.0f µs on the server)", (unsigned long long)report.sequence(),
                 report.timing().server_us());
     for (const v1::PairDistance& pair : report.pairs())
-      std::printf("  %s-%s %s %.3f m%s", pair.object_a().c_str(), pair.object_b().c_str(),
-                  pair.status() == v1::PAIR_STATUS_INTERSECTING ? "HIT" : "d=", pair.distance(),
-                  pair.warm_started() ? "*" : "");
+      std::printf(
+          "  %s-%s %s %.3f m%s", pair.object_a().c_str(), pair.object_b().c_str(),
+          pair.status() == v1::PAIR_STATUS_INTERSECTING || pair.status() == v1::PAIR_STATUS_TOUCHING
+              ? "HIT"
+              : "d=",
+          pair.distance(), pair.warm_started() ? "*" : "");
     std::printf("\n");
   }
   stream->WritesDone();

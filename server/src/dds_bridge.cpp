@@ -496,6 +496,19 @@ struct DdsBridge::Impl {
       out.gradient_a = to_sample(in.gradient_a);
       out.gradient_b = to_sample(in.gradient_b);
       out.message = borrow(in.engine_message);
+      out.has_signed_distance = in.has_signed_distance;
+      out.signed_distance = in.signed_distance;
+      out.signed_distance_lower = in.signed_distance_lower;
+      out.signed_distance_upper = in.signed_distance_upper;
+      out.has_penetration_depth = in.has_penetration_depth;
+      out.penetration_depth = in.depth;
+      out.penetration_depth_lower = in.depth_lower;
+      out.penetration_depth_upper = in.depth_upper;
+      out.depth_point_a = to_sample(in.depth_point_a);
+      out.depth_point_b = to_sample(in.depth_point_b);
+      out.depth_direction = to_sample(in.depth_direction);
+      out.depth_termination = model::to_dds(in.depth_termination);
+      out.depth_iterations = in.depth_iterations;
     }
     ReportSample sample{};
     address(stream.to, sample);

@@ -9,6 +9,11 @@
 
 namespace nearpoint::server {
 
+/// The report's status for an engine result: the engine's verdict word for word (touching
+/// included), beyond_cutoff for a separated result proven beyond the cutoff, engine_error for
+/// unusable input.
+model::PairStatus pair_status(const DistanceResult<double>& result);
+
 /// Evaluates `pair` of `scene` at `poses` (world frame, scene object order) into `out`.
 /// `caches` is the pair's warm-start slice (read and updated), or empty for a cold start.
 void evaluate_pair(const SceneDefinition& scene, const ScenePair& pair,

@@ -28,7 +28,9 @@ bool same_options(const ResolvedOptions& a, const ResolvedOptions& b) {
          x.max_iterations == y.max_iterations && x.origin_shift == y.origin_shift &&
          x.subalgorithm == y.subalgorithm && x.cold_start == y.cold_start &&
          same(x.distance_cutoff, y.distance_cutoff) && x.near_points == y.near_points &&
-         x.penetration_bound == y.penetration_bound && x.gradient == y.gradient;
+         x.penetration_bound == y.penetration_bound && x.gradient == y.gradient &&
+         x.penetration_depth == y.penetration_depth && same(x.depth_tolerance, y.depth_tolerance) &&
+         x.depth_max_iterations == y.depth_max_iterations;
 }
 
 void report_pruned(const ScenePair& pair, double lower_bound, model::PairReport& out) {
@@ -200,9 +202,10 @@ bool nearer(const IncrementalState& state, std::uint32_t p, std::uint32_t q) {
 }  // namespace
 
 double nearness(const model::PairReport& pair) {
-  if (pair.status == model::PairStatus::intersecting ||
-      pair.status == model::PairStatus::engine_error)
-    return 0;
+  if (pair.status == model::PairStatus::engine_error) return 0;
+  if (model::in_contact(pair.status))
+    // With the depth mode the deeper pair is the nearer one; without, contact ranks as 0.
+    return pair.has_signed_distance ? std::min(0.0, pair.signed_distance) : 0;
   return pair.distance;
 }
 
@@ -260,13 +263,15 @@ void collect_report(const SceneDefinition& scene, IncrementalState& state,
       for (std::size_t p = 0; p < count; ++p) {
         const model::PairReport& pair = state.pairs[p];
         // A BEYOND_CUTOFF pair's lower bound moves with every pose: only its status counts.
+        // With the depth mode the signed distance is what moves inside contact.
+        const double value = pair.has_signed_distance ? pair.signed_distance : pair.distance;
         const bool changed = first || pair.status != state.sent_status[p] ||
                              (pair.status != model::PairStatus::beyond_cutoff &&
-                              !(std::abs(pair.distance - state.sent_distance[p]) <= tolerance));
+                              !(std::abs(value - state.sent_distance[p]) <= tolerance));
         if (!changed) continue;
         out.push_back(pair);
         state.sent_status[p] = pair.status;
-        state.sent_distance[p] = pair.distance;
+        state.sent_distance[p] = value;
       }
       state.sent_valid = true;
       return;

@@ -80,8 +80,9 @@ void finish_evaluation(std::vector<Pose<double>> poses, const ResolvedOptions& o
                        const std::vector<std::uint32_t>& evaluated, IncrementalState& state);
 
 /// How near a pair is, for REPORT_MODE_NEAREST_PER_OBJECT and REPORT_MODE_GLOBAL_MINIMUM:
-/// INTERSECTING and ENGINE_ERROR pairs rank as 0 (a failed pair is not proven far), the rest by
-/// `distance`. Only meaningful for pairs `within_cutoff`.
+/// INTERSECTING, TOUCHING and ENGINE_ERROR pairs rank as 0 (a failed pair is not proven far), the
+/// rest by `distance`; with the depth mode, pairs in contact rank by their signed distance (the
+/// deeper, the nearer). Only meaningful for pairs `within_cutoff`.
 double nearness(const model::PairReport& pair);
 
 /// The one place that selects a report's pairs from the stream's per-pair results, under

@@ -61,13 +61,16 @@ Expected<PreparedUpdate> PoseStream::prepare(const model::PoseUpdateInput& updat
                               "are named by a stream's first update only; open another stream "
                               "to watch other thresholds");
     Expected<std::shared_ptr<const WatchSet>> resolved =
-        resolve_thresholds(definition, update.thresholds, service_.limits_.max_pairs_per_scene);
+        resolve_thresholds(definition, update.thresholds, service_.limits_.max_pairs_per_scene,
+                           options->engine.penetration_depth);
     if (!resolved) return resolved.error();
     watches = std::move(resolved.value());
   }
   const std::size_t event_bytes = watches ? watches->event_bytes_per_update : 0;
-  if (watches)
+  if (watches) {
     if (auto error = check_cutoff(*watches, options->engine.distance_cutoff)) return *error;
+    if (auto error = check_penetration(*watches, *options)) return *error;
+  }
   if (auto error = check_report_bytes(definition, *options, service_.limits_.max_report_bytes,
                                       "options", event_bytes))
     return *error;

@@ -17,8 +17,8 @@ namespace {
 /// it holds what is near (counted as the envelope here; the transport checks it when sending).
 std::size_t report_bytes_bound(const SceneDefinition& scene, const DistanceOptions<double>& options,
                                model::ReportMode mode) {
-  const std::size_t extra =
-      report_size::pair_options(options.near_points, options.penetration_bound, options.gradient);
+  const std::size_t extra = report_size::pair_options(
+      options.near_points, options.penetration_bound, options.gradient, options.penetration_depth);
   const std::size_t longest_entry =
       report_size::kPairEntryOverhead + report_size::kPairFixed +
       report_size::pair_ids(scene.longest_object_id, scene.longest_object_id) + extra;
@@ -54,6 +54,7 @@ std::string extras(const DistanceOptions<double>& options) {
   };
   add(options.near_points, "near points");
   add(options.penetration_bound, "penetration bounds");
+  add(options.penetration_depth, "penetration depths");
   add(options.gradient, "gradients");
   return out;
 }

@@ -71,6 +71,15 @@ constexpr std::size_t kPairPenetration = small_field(16) + fixed64_field(17);
 /// What the gradient adds: has_gradient = 18, gradient_a = 19, gradient_b = 20.
 constexpr std::size_t kPairGradient = small_field(18) + 2 * delimited_field(19, kPoseGradient);
 
+/// What PENETRATION_MODE_DEPTH adds: has_signed_distance = 22, signed_distance = 23,
+/// signed_distance_lower = 24, signed_distance_upper = 25, has_penetration_depth = 26,
+/// penetration_depth = 27, penetration_depth_lower = 28, penetration_depth_upper = 29,
+/// depth_point_a = 30, depth_point_b = 31, depth_direction = 32, depth_termination = 33,
+/// depth_iterations = 34.
+constexpr std::size_t kPairDepth = small_field(22) + 3 * fixed64_field(23) + small_field(26) +
+                                   3 * fixed64_field(27) + 3 * delimited_field(30, kVector3) +
+                                   small_field(33) + uint32_field(34);
+
 /// The object ids of one pair: object_a = 1, object_b = 2.
 constexpr std::size_t pair_ids(std::size_t id_a_bytes, std::size_t id_b_bytes) {
   return delimited_field(1, id_a_bytes) + delimited_field(2, id_b_bytes);
@@ -82,9 +91,10 @@ constexpr std::size_t pair_ids(std::size_t id_a_bytes, std::size_t id_b_bytes) {
 constexpr std::size_t kPairEntryOverhead = tag_bytes(3) + 2;
 
 /// What the options asked for add to every pair at most.
-constexpr std::size_t pair_options(bool near_points, bool penetration_bound, bool gradient) {
+constexpr std::size_t pair_options(bool near_points, bool penetration_bound, bool gradient,
+                                   bool penetration_depth) {
   return (near_points ? kPairNearPoints : 0) + (penetration_bound ? kPairPenetration : 0) +
-         (gradient ? kPairGradient : 0);
+         (gradient ? kPairGradient : 0) + (penetration_depth ? kPairDepth : 0);
 }
 
 /// One entry of DistanceReport.events (field 9): a ThresholdEvent with threshold = 1 (the

@@ -218,7 +218,8 @@ Outcome watch_default_thresholds(SceneDefinition& scene,
                                  const ServiceLimits& limits) {
   if (thresholds.empty()) return {};
   Expected<std::shared_ptr<const WatchSet>> watches =
-      resolve_thresholds(scene, thresholds, limits.max_pairs_per_scene);
+      resolve_thresholds(scene, thresholds, limits.max_pairs_per_scene,
+                         scene.default_options.engine.penetration_depth);
   if (!watches) return watches.error();
   if (auto error = check_cutoff(**watches, scene.default_options.engine.distance_cutoff))
     return Error{error->code, "default_options.distance_cutoff", error->message};

@@ -12,7 +12,7 @@ namespace nearpoint::server {
 
 Expected<std::shared_ptr<const WatchSet>> resolve_thresholds(
     const SceneDefinition& scene, const std::vector<model::ThresholdInput>& thresholds,
-    std::size_t max_watches) {
+    std::size_t max_watches, bool signed_distance) {
   if (thresholds.size() > kMaxThresholds)
     return resource_exhausted(
         "thresholds", text("names ", thresholds.size(), " thresholds; a stream may watch at most ",
@@ -27,9 +27,15 @@ Expected<std::shared_ptr<const WatchSet>> resolve_thresholds(
     const model::ThresholdInput& in = thresholds[t];
     const std::string field = text("thresholds[", t, ']');
     if (auto error = check_name(in.name, field + ".name")) return *error;
-    if (!(std::isfinite(in.distance) && in.distance > 0))
+    if (!std::isfinite(in.distance))
       return invalid_argument(field + ".distance",
-                              text("must be a finite distance > 0 (metres), got ", in.distance));
+                              text("must be a finite distance (metres), got ", in.distance));
+    if (!signed_distance && !(in.distance > 0))
+      return invalid_argument(
+          field + ".distance",
+          text("must be > 0 (metres), got ", in.distance,
+               ": a threshold at or below 0 watches a penetration depth, which needs "
+               "options.penetration PENETRATION_MODE_DEPTH (--penetration depth)"));
     if (!(std::isfinite(in.hysteresis) && in.hysteresis >= 0))
       return invalid_argument(field + ".hysteresis",
                               text("must be a finite distance >= 0 (metres), got ", in.hysteresis));
@@ -82,6 +88,7 @@ Expected<std::shared_ptr<const WatchSet>> resolve_thresholds(
     resolved.name = in.name;
     resolved.enter = in.distance;
     resolved.exit = in.distance + in.hysteresis;
+    if (!(in.distance > 0) && set->signed_threshold < 0) set->signed_threshold = std::int64_t(t);
     if (!std::isfinite(resolved.exit))
       return invalid_argument(field + ".hysteresis", "distance + hysteresis overflows");
     if (resolved.exit > set->max_exit) {
@@ -122,10 +129,22 @@ std::optional<Error> check_cutoff(const WatchSet& watches, double cutoff) {
            "the cutoff to at least the largest exit distance"));
 }
 
+std::optional<Error> check_penetration(const WatchSet& watches, const ResolvedOptions& options) {
+  if (watches.signed_threshold < 0 || options.engine.penetration_depth) return std::nullopt;
+  const ResolvedThreshold& threshold = watches.thresholds[std::size_t(watches.signed_threshold)];
+  return invalid_argument(
+      "options.penetration",
+      text("must be PENETRATION_MODE_DEPTH: thresholds[", watches.signed_threshold, "] (",
+           quoted(threshold.name), ") watches the signed distance ", threshold.enter,
+           " m, which only the depth mode reports"));
+}
+
 bool watch_distance(const model::PairReport& pair, double& distance) {
   switch (pair.status) {
     case model::PairStatus::intersecting:
-      distance = 0;
+    case model::PairStatus::touching:
+      // With the depth mode the signed distance (−depth); without, contact is 0.
+      distance = pair.has_signed_distance ? std::min(0.0, pair.signed_distance) : 0;
       return true;
     case model::PairStatus::beyond_cutoff:
       distance = pair.distance_lower_bound;

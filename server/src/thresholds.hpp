@@ -4,7 +4,8 @@
 // A stream's first update may name thresholds (nearpoint.v1.Threshold). Each resolves to a set of
 // the scene's selected pairs; every (pair, threshold) is a watch with an "inside" flag, false at
 // the start. After a pair's result changes, its watch distance w (the distance, 0 when
-// intersecting, the proven lower bound when beyond the cutoff) is compared: an outside watch
+// intersecting or touching — with PENETRATION_MODE_DEPTH the signed distance, −depth — the proven
+// lower bound when beyond the cutoff) is compared: an outside watch
 // with w < distance goes inside (ENTER), an inside watch with w > distance + hysteresis goes
 // outside (EXIT), anything between keeps the flag. So an event fires once per crossing, and a
 // pair that hovers at the threshold fires nothing until it leaves the hysteresis band.
@@ -56,6 +57,9 @@ struct WatchSet {
   double max_exit = 0;
   /// Index of the threshold with the largest exit distance (for messages).
   std::size_t max_exit_threshold = 0;
+  /// Index of the first threshold at or below 0 (a penetration depth, PENETRATION_MODE_DEPTH
+  /// only), or -1 when none is.
+  std::int64_t signed_threshold = -1;
   /// An upper bound on the bytes one update's events add to a report (every watch crossing).
   std::size_t event_bytes_per_update = 0;
 
@@ -64,10 +68,16 @@ struct WatchSet {
 };
 
 /// Validates `thresholds` (field paths "thresholds[i]. …") against `scene` and resolves them.
-/// At most `max_watches` (pair, threshold) watches.
+/// At most `max_watches` (pair, threshold) watches. `signed_distance`: the options they start
+/// under compute the signed distance (PENETRATION_MODE_DEPTH), so distances <= 0 are allowed.
 Expected<std::shared_ptr<const WatchSet>> resolve_thresholds(
     const SceneDefinition& scene, const std::vector<model::ThresholdInput>& thresholds,
-    std::size_t max_watches);
+    std::size_t max_watches, bool signed_distance);
+
+/// INVALID_ARGUMENT ("options.penetration") when `watches` hold a threshold at or below 0 and
+/// `options` do not compute the signed distance: every update of such a stream needs the depth
+/// mode (a later update may not turn it off).
+std::optional<Error> check_penetration(const WatchSet& watches, const ResolvedOptions& options);
 
 /// INVALID_ARGUMENT ("options.distance_cutoff") when `cutoff` is below a threshold's exit
 /// distance: a pair between the two would be BEYOND_CUTOFF, with no distance to compare.

@@ -198,14 +198,18 @@ Expected<ResolvedOptions> resolve_options(const ResolvedOptions& base,
       break;
     case model::PenetrationMode::none:
       out.engine.penetration_bound = false;
+      out.engine.penetration_depth = false;
       break;
     case model::PenetrationMode::bound:
       out.engine.penetration_bound = true;
+      out.engine.penetration_depth = false;
       break;
     case model::PenetrationMode::depth:
-      return invalid_argument(field + ".penetration",
-                              "PENETRATION_MODE_DEPTH (exact depth, EPA) is not supported by the "
-                              "engine yet; PENETRATION_MODE_BOUND gives a certified lower bound");
+      // The depth with its interval, and the signed distance; the engine's default tolerance
+      // and step cap (what double allows on polytopes, an honest interval on curved shapes).
+      out.engine.penetration_bound = false;
+      out.engine.penetration_depth = true;
+      break;
     case model::PenetrationMode::unknown:
       return invalid_argument(field + ".penetration", "unknown PenetrationMode value");
   }

@@ -5,6 +5,7 @@
     check_example_output.py NEARPOINT example PAIRS_JSONL   the shipped example, end to end
     check_example_output.py NEARPOINT missing-file          a missing FILE exits with 2
     check_example_output.py NEARPOINT help                  --help texts exist and show an example
+    check_example_output.py NEARPOINT depth                 "penetration": "depth" lines, analytic
 
 Exits non-zero with a message on the first failed check.
 """
@@ -65,7 +66,8 @@ def check_example(nearpoint, pairs_path):
         check(out.get("id") == expected_id, where + ": id %r, expected %r" % (out.get("id"), expected_id))
         by_id[out.get("id")] = out
         status = out.get("status")
-        check(status in ("separated", "intersecting", "iteration_limit", "error"), where + ": bad status")
+        check(status in ("separated", "intersecting", "touching", "iteration_limit", "error"),
+              where + ": bad status")
         if isinstance(given, dict):
             for side in ("a", "b"):
                 shape = given.get(side)
@@ -82,8 +84,8 @@ def check_example(nearpoint, pairs_path):
                   where + ": %s must be a finite non-negative number" % key)
         check(isinstance(out.get("iterations"), int) and out["iterations"] >= 0, where + ": iterations")
         check(isinstance(out.get("warm_started"), bool), where + ": warm_started")
-        if status == "intersecting":
-            check(out["distance"] == 0, where + ": intersecting with a non-zero distance")
+        if status in ("intersecting", "touching"):
+            check(out["distance"] == 0, where + ": %s with a non-zero distance" % status)
         options = given.get("options", {})
         near_points = options.get("near_points", False)
         check(("point_a" in out) == near_points and ("point_b" in out) == near_points,
@@ -93,8 +95,9 @@ def check_example(nearpoint, pairs_path):
             check(abs(gap - out["distance"]) <= 1e-9, where + ": |point_b - point_a| != distance")
             check(abs(math.hypot(*out["normal"]) - 1) <= 1e-9, where + ": normal is not a unit vector")
         asked_bound = options.get("penetration") == "bound"
-        check(("penetration_bound" in out) == (asked_bound and status == "intersecting"),
-              where + ": penetration_bound present iff asked and intersecting")
+        in_contact = status in ("intersecting", "touching")
+        check(("penetration_bound" in out) == (asked_bound and in_contact),
+              where + ": penetration_bound present iff asked and in contact")
         if "penetration_bound" in out:
             check(math.isfinite(out["penetration_bound"]) and out["penetration_bound"] >= 0,
                   where + ": penetration_bound")
@@ -109,7 +112,7 @@ def check_example(nearpoint, pairs_path):
     check(math.dist(spheres["point_b"], [2.5, 0, 0]) <= 1e-12, "spheres: point_b")
 
     touching = by_id["rounded-box-touching"]
-    check(touching["status"] in ("intersecting", "separated") and touching["distance"] <= 1e-12,
+    check(touching["status"] in ("intersecting", "touching", "separated") and touching["distance"] <= 1e-12,
           "touching pair: distance %r is not ~0" % touching["distance"])
 
     intersecting = by_id["cube-octahedron-intersecting"]
@@ -163,6 +166,76 @@ def check_help(nearpoint):
     print("help OK")
 
 
+DEPTH_KEYS = ("signed_distance", "signed_distance_lower", "signed_distance_upper",
+              "penetration_depth", "penetration_depth_lower", "penetration_depth_upper")
+
+
+def check_depth(nearpoint):
+    """`"penetration": "depth"` through the real binary: pairs whose depth is exact in double
+    (dyadic sizes and offsets), each within the printed certified interval."""
+    lines = [
+        # spheres r 0.5 and 0.25, centres 0.625 apart: depth 0.125 along +x
+        {"id": "spheres", "a": {"sphere": {}, "radius": 0.5},
+         "b": {"sphere": {}, "radius": 0.25, "pose": {"translation": [0.625, 0, 0]}},
+         "options": {"penetration": "depth"}, "depth": 0.125, "direction": [1, 0, 0]},
+        # boxes half 0.5 and 0.25, face overlap 0.125 along x (0.625 along y, 0.6875 along z)
+        {"id": "boxes", "a": {"box": [0.5, 0.5, 0.5]},
+         "b": {"box": [0.25, 0.25, 0.25], "pose": {"translation": [0.625, 0.125, 0.0625]}},
+         "options": {"penetration": "depth"}, "depth": 0.125, "direction": [1, 0, 0]},
+        # sphere r 0.5 whose centre is 0.375 below a box's face z = -0.5: depth 0.125 along -z
+        {"id": "sphere-box", "a": {"box": [0.5, 0.5, 0.5]},
+         "b": {"sphere": {}, "radius": 0.5, "pose": {"translation": [0, 0, -0.875]}},
+         "options": {"penetration": "depth"}, "depth": 0.125, "direction": [0, 0, -1]},
+        # separated spheres 1.5 apart, with near points: the depth 0, witnesses the near points
+        {"id": "apart", "a": {"sphere": {}, "radius": 1},
+         "b": {"sphere": {}, "radius": 0.5, "pose": {"translation": [3, 0, 0]}},
+         "options": {"penetration": "depth", "near_points": True}, "distance": 1.5},
+        # without "depth": no depth keys
+        {"id": "plain", "a": {"sphere": {}, "radius": 0.5},
+         "b": {"sphere": {}, "radius": 0.25, "pose": {"translation": [0.625, 0, 0]}}},
+    ]
+    expected = {line["id"]: line for line in lines}
+    given = "".join(json.dumps({k: v for k, v in line.items() if k in ("id", "a", "b", "options")}) + "\n"
+                    for line in lines)
+    result = run([nearpoint, "distance"], stdin=given)
+    check(result.returncode == 0, "depth: exit code %d, stderr %s" % (result.returncode, result.stderr))
+    outputs = [json.loads(line, parse_constant=reject_constant) for line in result.stdout.splitlines()]
+    check(len(outputs) == len(lines), "depth: %d output lines for %d" % (len(outputs), len(lines)))
+    for out in outputs:
+        want = expected[out["id"]]
+        where = "depth line %s (%s)" % (out["id"], json.dumps(out))
+        if out["id"] == "plain":
+            check(out["status"] == "intersecting", where + ": status")
+            check(not any(key in out for key in DEPTH_KEYS), where + ": depth keys without depth")
+            continue
+        for key in DEPTH_KEYS + ("depth_termination", "depth_iterations"):
+            check(key in out, where + ": missing " + key)
+        check(out["depth_termination"] in ("closed_form", "tolerance", "iteration_limit", "degenerate"),
+              where + ": depth_termination")
+        lower, upper = out["penetration_depth_lower"], out["penetration_depth_upper"]
+        s_lower, s_upper = out["signed_distance_lower"], out["signed_distance_upper"]
+        if "depth" in want:
+            depth = want["depth"]
+            check(out["status"] == "intersecting", where + ": status")
+            check(lower <= depth <= upper, where + ": the interval misses the exact depth %r" % depth)
+            check(lower <= out["penetration_depth"] <= upper, where + ": estimate outside its interval")
+            check(upper - lower <= 1e-9, where + ": interval wider than 1e-9")
+            check(s_lower <= -depth <= s_upper < 0, where + ": signed interval")
+            check(out["signed_distance"] == -out["penetration_depth"], where + ": signed != -depth")
+            direction = out["depth_direction"]
+            check(math.dist(direction, want["direction"]) <= 1e-9, where + ": direction")
+            gap = [a - b for a, b in zip(out["depth_point_a"], out["depth_point_b"])]
+            check(math.dist(gap, [out["penetration_depth"] * c for c in direction]) <= 1e-9,
+                  where + ": depth_point_a - depth_point_b != depth * direction")
+        else:
+            check(out["status"] == "separated", where + ": status")
+            check(out["penetration_depth"] == 0 and lower == 0 and upper == 0, where + ": depth 0")
+            check(0 <= s_lower <= want["distance"] <= s_upper, where + ": signed interval")
+            check(abs(out["signed_distance"] - out["distance"]) <= 1e-15, where + ": signed != distance")
+            check(math.dist(out["depth_point_a"], out["point_a"]) == 0, where + ": witness a")
+    print("depth lines OK: %d" % len(outputs))
+
+
 def main():
     if len(sys.argv) < 3:
         fail(__doc__)
@@ -173,6 +246,8 @@ def main():
         check_missing_file(nearpoint)
     elif case == "help":
         check_help(nearpoint)
+    elif case == "depth":
+        check_depth(nearpoint)
     else:
         fail(__doc__)
 

@@ -333,7 +333,7 @@ def case_schema(args):
                                   expect=0).stdout)]
         validate_all(v, reports, "query --json")
 
-        check(any(p["status"] == "intersecting" for p in reports[0]["pairs"]),
+        check(any(p["status"] in ("intersecting", "touching") for p in reports[0]["pairs"]),
               "the query at arm=2.5 intersects post")
         # gRPC stream, ok reports (with near points and penetration bounds) and error reports.
         grpc = json_lines(run(["stream", "schema-1", trajectory, "--json", "--near-points", *t],
@@ -360,6 +360,33 @@ def case_schema(args):
                   % (sorted(a), sorted(b)))
             for pa, pb in zip(a["pairs"], b["pairs"]):
                 check(set(pa) == set(pb), "gRPC and DDS pairs have the same keys: %s vs %s"
+                      % (sorted(pa), sorted(pb)))
+        # --penetration depth over both transports: the signed distance and the depth on every
+        # verdict, the same keys over gRPC and DDS, the schema; a negative threshold fires ENTER
+        # with the (negative) signed distance once a pair overlaps deeper than it.
+        depth_flags = ["--penetration", "depth", "--threshold=-0.000001,name=deep"]
+        grpc_depth = json_lines(run(["stream", "schema-1", trajectory, "--json", *depth_flags, *t],
+                                    cli, expect=0).stdout)
+        dds_depth = json_lines(run(["stream", "--dds", "schema-1", trajectory, "--json",
+                                    *depth_flags, domain, str(DDS_DOMAIN), prefix_flag, prefix],
+                                   cli, expect=0, timeout=180).stdout)
+        for name, reports in (("gRPC", grpc_depth), ("DDS", dds_depth)):
+            check(len(reports) == 40, "40 %s depth reports, got %d" % (name, len(reports)))
+            validate_all(v, reports, "stream --penetration depth --json (%s)" % name)
+            pairs = [p for r in reports for p in r["pairs"] if p["status"] != "beyond_cutoff"]
+            check(pairs and all("signed_distance" in p and "penetration_depth" in p for p in pairs),
+                  name + ": every evaluated pair carries the signed distance and the depth")
+            for p in pairs:
+                check(p["signed_distance_lower"] <= p["signed_distance"] <= p["signed_distance_upper"],
+                      name + ": signed distance outside its interval: %s" % p)
+            deep = [p for p in pairs if p["signed_distance"] < -1e-6]
+            check(deep, name + ": the trajectory overlaps somewhere (signed distance < 0)")
+            events = [e for r in reports for e in r["events"]]
+            check(any(e["crossing"] == "enter" and e["distance"] < 0 for e in events),
+                  name + ": the negative threshold fired ENTER: %s" % events)
+        for a, b in zip(grpc_depth, dds_depth):
+            for pa, pb in zip(a["pairs"], b["pairs"]):
+                check(set(pa) == set(pb), "gRPC and DDS depth pairs have the same keys: %s vs %s"
                       % (sorted(pa), sorted(pb)))
         dds_errors = json_lines(run(["stream", "--dds", "no-such-scene", bad_trajectory, "--json",
                                      domain, str(DDS_DOMAIN), prefix_flag, prefix],

@@ -228,21 +228,48 @@ TEST(DistanceCommand, PenetrationBoundOnlyWhenAskedAndIntersecting) {
   EXPECT_FALSE(separated.contains("penetration_bound"));
 }
 
-TEST(DistanceCommand, PenetrationDepthIsAnErrorNotANumber) {
+// "penetration": "depth": the signed distance and the depth with their intervals, the witnesses,
+// direction and termination, as the engine computes them on the same shapes (the cube and the
+// octahedron: true depth 0.5 along +x); the next line is answered as usual.
+TEST(DistanceCommand, PenetrationDepthLinesCarryTheEnginesDepth) {
   const CommandRun r =
       run(std::string(R"({"id": "deep", )") + kOverlappingPair +
           R"(, "options": {"penetration": "depth"}})" + "\n" + "{" + kSpherePair + "}\n");
   ASSERT_EQ(r.json.size(), 2u);
   const Json& out = r.json[0];
   EXPECT_EQ(out["id"], "deep");
-  EXPECT_EQ(out["status"], "error");
-  EXPECT_FALSE(out.contains("distance"));
-  EXPECT_FALSE(out.contains("penetration_depth"));
-  const std::string message = out["message"].get<std::string>();
-  EXPECT_NE(message.find("depth"), std::string::npos) << message;
-  EXPECT_NE(message.find("not available"), std::string::npos) << message;
-  EXPECT_NE(message.find("\"bound\""), std::string::npos) << message;
-  EXPECT_EQ(r.json[1]["status"], "separated");  // and the next line is answered as usual
+  ASSERT_EQ(out["status"], "intersecting") << out.dump();
+  EXPECT_FALSE(out.contains("penetration_bound"));
+  for (const char* key :
+       {"signed_distance", "signed_distance_lower", "signed_distance_upper", "penetration_depth",
+        "penetration_depth_lower", "penetration_depth_upper", "depth_point_a", "depth_point_b",
+        "depth_direction", "depth_termination", "depth_iterations"})
+    EXPECT_TRUE(out.contains(key)) << key << " in " << out.dump();
+  const double depth = out["penetration_depth"].get<double>();
+  EXPECT_LE(out["penetration_depth_lower"].get<double>(), 0.5);
+  EXPECT_GE(out["penetration_depth_upper"].get<double>(), 0.5);
+  EXPECT_NEAR(depth, 0.5, 1e-9);
+  EXPECT_EQ(out["signed_distance"].get<double>(), -depth);
+  EXPECT_NEAR((vec(out["depth_direction"]) - Vec(1, 0, 0)).norm(), 0.0, 1e-9);
+
+  DistanceOptions<double> options;
+  options.penetration_depth = true;
+  std::vector<Vec> cube;
+  for (int i = 0; i < 8; ++i) cube.emplace_back(i & 1 ? 1 : -1, i & 2 ? 1 : -1, i & 4 ? 1 : -1);
+  const std::vector<Vec> octahedron = {Vec(1, 0, 0),  Vec(-1, 0, 0), Vec(0, 1, 0),
+                                       Vec(0, -1, 0), Vec(0, 0, 1),  Vec(0, 0, -1)};
+  const DistanceResult<double> direct = distance(
+      Shape<double>(Polytope<double>(cube)), Pose<double>{},
+      Shape<double>(Polytope<double>(octahedron)), pose(1, 0, 0, 0, Vec(1.5, 0.25, 0)), options);
+  ASSERT_TRUE(direct.has_penetration_depth);
+  EXPECT_EQ(depth, direct.depth);
+  EXPECT_EQ(out["penetration_depth_lower"].get<double>(), direct.depth_lower);
+  EXPECT_EQ(out["signed_distance_upper"].get<double>(), direct.signed_distance_upper);
+  EXPECT_EQ(vec(out["depth_point_a"]), direct.depth_point_a);
+  EXPECT_EQ(out["depth_termination"], to_string(direct.depth_termination));
+  EXPECT_EQ(out["depth_iterations"], direct.depth_iterations);
+  EXPECT_EQ(r.json[1]["status"], "separated");          // and the next line is answered as usual
+  EXPECT_FALSE(r.json[1].contains("signed_distance"));  // only when asked
 }
 
 // --- ids ----------------------------------------------------------------------------------------

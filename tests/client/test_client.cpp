@@ -86,7 +86,8 @@ std::vector<std::vector<TruthInterval>> engine_intervals(int steps, std::vector<
       const auto r = distance(scene.object, scene.pose_at(double(t) / steps), scene.obstacles[k],
                               scene.obstacle_poses[k]);
       minima[k] = std::min(minima[k], r.nearest.distance);
-      const bool hit = r.nearest.status == Status::intersecting;
+      const bool hit =
+          r.nearest.status == Status::intersecting || r.nearest.status == Status::touching;
       if (hit && !inside) out[k].push_back({t, t});
       if (hit) out[k].back().t1 = t;
       inside = hit;
@@ -923,7 +924,7 @@ TEST_F(WithServer, SceneCreateQueryAndStreamAgreeWithGeometry) {
     // The gripper turns about z only, so its lowest point stays 0.08 below its origin.
     const double expected = std::max(0.0, step.poses[0].translation[2] - 0.08 - 0.02);
     EXPECT_NEAR(r["pairs"][0]["distance"].get<double>(), expected, 1e-12) << line;
-    touching += r["pairs"][0]["status"] == "intersecting";
+    touching += r["pairs"][0]["status"] == "intersecting" || r["pairs"][0]["status"] == "touching";
   }
   EXPECT_EQ(count, trajectory.steps.size());
   EXPECT_GT(touching, 0u);
@@ -953,7 +954,7 @@ TEST_F(WithServer, StreamThresholdsReportEnterAndExitEvents) {
   StreamCommandOptions stream;
   stream.remote = remote();
   stream.scene = scene.string();  // created on the first run, by id afterwards
-  stream.keep_scene = true;        // kept: the runs below stream on it by id
+  stream.keep_scene = true;       // kept: the runs below stream on it by id
   stream.trajectory = trajectory.string();
   stream.thresholds = {"0.05,hysteresis=0.05,pair=gripper:table,name=near-table"};
   out.str("");

@@ -28,6 +28,7 @@ inline constexpr std::uint32_t kDomainOverload = 103;
 inline constexpr std::uint32_t kDomainSharedScene = 104;
 inline constexpr std::uint32_t kDomainNoConfiguration = 105;
 inline constexpr std::uint32_t kDomainEvents = 106;
+inline constexpr std::uint32_t kDomainDepth = 107;
 inline constexpr std::uint32_t kDomainEndToEnd = 111;
 inline constexpr std::uint32_t kDomainPreloaded = 112;
 // 121: tests/cli/check_scene_lifecycle.py (cli.report_schema).
@@ -99,6 +100,14 @@ struct ReceivedPair {
   std::uint8_t status = 0;
   double distance = 0, error_bound = 0, distance_lower_bound = 0;
   bool warm_started = false;
+  // PENETRATION_MODE_DEPTH's fields.
+  bool has_signed_distance = false;
+  double signed_distance = 0, signed_distance_lower = 0, signed_distance_upper = 0;
+  bool has_penetration_depth = false;
+  double depth = 0, depth_lower = 0, depth_upper = 0;
+  std::array<double, 3> depth_point_a{}, depth_point_b{}, depth_direction{};
+  std::uint8_t depth_termination = 0;
+  std::uint32_t depth_iterations = 0;
 };
 struct ReceivedReport {
   std::uint64_t sequence = 0;
@@ -139,8 +148,28 @@ inline ReceivedReport copy_report(const cli::DistanceReportSample& sample) {
   }
   for (std::uint32_t i = 0; i < sample.pairs._length; ++i) {
     const auto& p = sample.pairs._buffer[i];
-    out.pairs.push_back({p.object_a, p.object_b, p.status, p.distance, p.error_bound,
-                         p.distance_lower_bound, p.warm_started});
+    ReceivedPair& pair = out.pairs.emplace_back();
+    pair.object_a = p.object_a;
+    pair.object_b = p.object_b;
+    pair.status = p.status;
+    pair.distance = p.distance;
+    pair.error_bound = p.error_bound;
+    pair.distance_lower_bound = p.distance_lower_bound;
+    pair.warm_started = p.warm_started;
+    pair.has_signed_distance = p.has_signed_distance;
+    pair.signed_distance = p.signed_distance;
+    pair.signed_distance_lower = p.signed_distance_lower;
+    pair.signed_distance_upper = p.signed_distance_upper;
+    pair.has_penetration_depth = p.has_penetration_depth;
+    pair.depth = p.penetration_depth;
+    pair.depth_lower = p.penetration_depth_lower;
+    pair.depth_upper = p.penetration_depth_upper;
+    auto array = [](const nearpoint_msg_dds__Vector3_& v) { return std::array{v.x, v.y, v.z}; };
+    pair.depth_point_a = array(p.depth_point_a);
+    pair.depth_point_b = array(p.depth_point_b);
+    pair.depth_direction = array(p.depth_direction);
+    pair.depth_termination = p.depth_termination;
+    pair.depth_iterations = p.depth_iterations;
   }
   return out;
 }

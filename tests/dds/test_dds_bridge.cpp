@@ -234,7 +234,7 @@ TEST(DdsBridge, BadSamplesGetErrorReportsAndTheStreamGoesOn) {
       {"unknown object", 5, "poses[0].object_id"},
       {"sequence not increasing", 3, "sequence"},
       {"quaternion far from unit", 3, "poses[0].pose.rotation"},
-      {"exact depth not supported", 3, "options.penetration"},
+      {"unknown penetration mode", 3, "options.penetration"},
       {"infinite rotation", 3, "poses[0].pose.rotation.w"},
       {"scene id of 10 kB", 3, "scene_id"},
       {"object id with a space", 3, "poses[0].object_id"},
@@ -254,7 +254,7 @@ TEST(DdsBridge, BadSamplesGetErrorReportsAndTheStreamGoesOn) {
     if (what == "unknown object") update.poses[0].object_id = "ghost";
     if (what == "sequence not increasing") update.sequence = 2;  // the last accepted one
     if (what == "quaternion far from unit") update.poses[0].rotation_wxyz = {2, 0, 0, 0};
-    if (what == "exact depth not supported") update.options.penetration = 3;
+    if (what == "unknown penetration mode") update.options.penetration = 9;
     if (what == "infinite rotation") update.poses[0].rotation_wxyz[0] = INFINITY;
     if (what == "scene id of 10 kB") update.scene_id = std::string(10'000, 's');
     if (what == "object id with a space") update.poses[0].object_id = "left arm";
@@ -275,6 +275,70 @@ TEST(DdsBridge, BadSamplesGetErrorReportsAndTheStreamGoesOn) {
   }
   server.bridge->shutdown();
   EXPECT_EQ(server.bridge->stats().updates_rejected, 10u);
+}
+
+// PENETRATION_MODE_DEPTH over DDS: spheres of radius 1.25 and 1, centres 2 apart, overlap by
+// exactly 0.25; the report's sample carries the signed distance and the depth with intervals
+// containing it, the direction and witnesses; a negative threshold fires ENTER with the signed
+// distance; the depth fields stay unset without the mode.
+TEST(DdsBridge, DepthModeReportsCarryTheSignedDistanceAndTheDepth) {
+  Server server = start(kDomainDepth, "depth");
+  ASSERT_TRUE(server.bridge);
+  auto sphere = [](double radius) {
+    Geometry g;
+    g.input.name = "sphere";
+    PieceInput& piece = g.input.pieces.emplace_back();
+    piece.shape = Point{};
+    piece.radius = radius;
+    std::vector<Piece<double>> pieces;
+    pieces.push_back({Shape<double>(Point{}, radius), Pose<double>{}});
+    g.local = Compound<double>(std::move(pieces));
+    return g;
+  };
+  const TestScene scene = create_scene(*server.scenes, {sphere(1.25), sphere(1.0)});
+  auto client = connect(kDomainDepth, server.prefix);
+  ASSERT_TRUE(client);
+  std::string error;
+  UpdateMessage update;
+  update.scene_id = scene.scene_id;
+  update.sequence = 1;
+  update.options.penetration = 3;  // PENETRATION_MODE_DEPTH
+  update.thresholds.push_back({"deep", scene.ids[0], scene.ids[1], -0.125, 0, 0});
+  ASSERT_TRUE(client->publish(update.sample(), error)) << error;
+  std::vector<ReceivedReport> reports = collect_reports(*client, 1);
+  ASSERT_EQ(reports.size(), 1u);
+  ASSERT_EQ(reports[0].status, 0u) << reports[0].error_field << ": " << reports[0].message;
+  ASSERT_EQ(reports[0].pairs.size(), 1u);
+  const ReceivedPair& pair = reports[0].pairs[0];
+  EXPECT_EQ(pair.status, 2);  // intersecting
+  ASSERT_TRUE(pair.has_penetration_depth);
+  ASSERT_TRUE(pair.has_signed_distance);
+  EXPECT_LE(pair.depth_lower, 0.25);
+  EXPECT_GE(pair.depth_upper, 0.25);
+  EXPECT_NEAR(pair.depth, 0.25, 1e-12);
+  EXPECT_EQ(pair.signed_distance, -pair.depth);
+  EXPECT_LE(pair.signed_distance_lower, -0.25);
+  EXPECT_GE(pair.signed_distance_upper, -0.25);
+  EXPECT_NEAR(pair.depth_direction[0], 1.0, 1e-12);
+  EXPECT_NEAR(pair.depth_point_a[0], 1.25, 1e-12);  // A's deepest point in B
+  EXPECT_NEAR(pair.depth_point_b[0], 1.0, 1e-12);   // B's deepest point in A
+  EXPECT_TRUE(pair.depth_termination == 1 || pair.depth_termination == 2)
+      << int(pair.depth_termination);
+  ASSERT_EQ(reports[0].events.size(), 1u);
+  EXPECT_EQ(reports[0].events[0].crossing, 1);  // enter
+  EXPECT_NEAR(reports[0].events[0].distance, -0.25, 1e-12);
+
+  // A later update without the depth mode: refused (the threshold needs it), naming the field.
+  UpdateMessage plain;
+  plain.scene_id = scene.scene_id;
+  plain.sequence = 2;
+  plain.options.penetration = 1;  // none
+  ASSERT_TRUE(client->publish(plain.sample(), error)) << error;
+  reports = collect_reports(*client, 1);
+  ASSERT_EQ(reports.size(), 1u);
+  EXPECT_EQ(reports[0].status, 3u);
+  EXPECT_EQ(reports[0].error_field, "options.penetration") << reports[0].message;
+  server.bridge->shutdown();
 }
 
 // A publisher faster than the server: DDS cannot hold it back, so updates beyond --max-in-flight

@@ -66,16 +66,25 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
           "an exception escaped the line's parsing: " + message.substr(0, 300));
       continue;
     }
-    NEARPOINT_FUZZ_CHECK(
-        status == "separated" || status == "intersecting" || status == "iteration_limit",
-        "unknown status: " + line.substr(0, 300));
+    const bool contact = status == "intersecting" || status == "touching";
+    NEARPOINT_FUZZ_CHECK(status == "separated" || contact || status == "iteration_limit",
+                         "unknown status: " + line.substr(0, 300));
     NEARPOINT_FUZZ_CHECK(answer["distance"].is_number() && answer["error_bound"].is_number(),
                          "answer without distance or error_bound: " + line.substr(0, 300));
     const double d = answer["distance"], e = answer["error_bound"];
     NEARPOINT_FUZZ_CHECK(std::isfinite(d) && d >= 0 && std::isfinite(e) && e >= 0,
                          "bad distance or error bound: " + line.substr(0, 300));
-    NEARPOINT_FUZZ_CHECK((status == "intersecting") == (d == 0) || status == "iteration_limit",
-                         "distance 0 if and only if intersecting: " + line.substr(0, 300));
+    NEARPOINT_FUZZ_CHECK(contact == (d == 0) || status == "iteration_limit",
+                         "distance 0 if and only if in contact: " + line.substr(0, 300));
+    if (answer.contains("signed_distance")) {  // "penetration": "depth"
+      const double s = answer["signed_distance"], lower = answer["signed_distance_lower"],
+                   upper = answer["signed_distance_upper"], h = answer["penetration_depth"],
+                   h_lower = answer["penetration_depth_lower"],
+                   h_upper = answer["penetration_depth_upper"];
+      NEARPOINT_FUZZ_CHECK(lower <= s && s <= upper && 0 <= h_lower && h_lower <= h &&
+                               h <= h_upper && (status != "separated" || lower >= 0),
+                           "signed distance or depth outside its interval: " + line.substr(0, 300));
+    }
   }
   NEARPOINT_FUZZ_CHECK(count == expected, "answered " + std::to_string(count) + " of " +
                                               std::to_string(expected) + " non-blank lines");

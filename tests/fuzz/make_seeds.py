@@ -354,6 +354,12 @@ def text_seeds():
                                "options": {"warm": True, "near_points": True,
                                            "penetration": "bound"}}) + "\n" for k in range(5))
     write("jsonl", "warm-chain", warm)
+    depth = "".join(json.dumps({"id": k, "a": {"box": [1, 1, 1]},
+                                "b": {"sphere": {}, "radius": 0.5,
+                                      "pose": {"translation": [2 - 0.5 * k, 0.1 * k, 0]}},
+                                "options": {"near_points": k % 2 == 0,
+                                            "penetration": "depth"}}) + "\n" for k in range(5))
+    write("jsonl", "depth", depth)
     write("jsonl", "errors",
           '{"id": [1, {"x": null}], "a": {"box": [1, 1]}, "b": {"sphere": {}}}\n\n'
           '{"a": {"polytope": []}, "b": {"cone": {"radius": -1, "half_height": 1}}}\r\n'

@@ -36,6 +36,7 @@ TEST(Vocabulary, EveryRowReadsBackAsItself) {
   expect_rows_round_trip<FlowControl>();
   expect_rows_round_trip<PairStatus>();
   expect_rows_round_trip<Crossing>();
+  expect_rows_round_trip<DepthTermination>();
 }
 
 TEST(Vocabulary, TheWireNumbersStayAsTheProtosHaveThem) {
@@ -51,6 +52,15 @@ TEST(Vocabulary, TheWireNumbersStayAsTheProtosHaveThem) {
   EXPECT_EQ(to_wire(FlowControl::coalesce), 2);
   EXPECT_EQ(to_wire(PairStatus::separated), 1);
   EXPECT_EQ(to_wire(PairStatus::engine_error), 5);
+  EXPECT_EQ(to_wire(PairStatus::touching), 6);  // appended: 1-5 keep their meaning
+  EXPECT_EQ(to_dds(PairStatus::touching), 6);
+  EXPECT_EQ(spelling_of(PairStatus::touching), "touching");
+  EXPECT_TRUE(in_contact(PairStatus::touching));
+  EXPECT_TRUE(in_contact(PairStatus::intersecting));
+  EXPECT_FALSE(in_contact(PairStatus::separated));
+  EXPECT_FALSE(in_contact(PairStatus::engine_error));
+  EXPECT_EQ(to_wire(DepthTermination::closed_form), 1);
+  EXPECT_EQ(to_wire(DepthTermination::degenerate), 4);
   EXPECT_EQ(to_wire(Crossing::enter), 1);
   EXPECT_EQ(to_wire(Crossing::exit), 2);
 }
@@ -63,6 +73,7 @@ TEST(Vocabulary, UnknownNumbersAndSpellingsReadAsTheDocumentedFallback) {
   EXPECT_EQ(from_wire<FlowControl>(3), FlowControl::unknown);
   EXPECT_EQ(from_wire<PairStatus>(0), PairStatus::engine_error);
   EXPECT_EQ(from_dds<PairStatus>(9), PairStatus::engine_error);
+  EXPECT_EQ(from_wire<DepthTermination>(7), DepthTermination::unknown);
   EXPECT_EQ(from_wire<Crossing>(0), Crossing::enter);
   EXPECT_EQ(from_spelling<ReportMode>(""), ReportMode::unknown);
   EXPECT_EQ(from_spelling<ReportMode>("all_pairs"), ReportMode::unknown);

@@ -90,7 +90,10 @@ class PythonClientTest(unittest.TestCase):
         self.assertLessEqual(abs(pair.distance - truth), pair.error_bound + 1e-12,
                              f"{what}: distance {pair.distance!r}, truth {truth!r}")
         self.assertLess(pair.error_bound, 1e-9, what)
-        self.assertEqual(pair.status, "separated" if truth > 1e-9 else "intersecting", what)
+        if truth > 1e-9:
+            self.assertEqual(pair.status, "separated", what)
+        else:  # overlapping or touching: in contact either way
+            self.assertTrue(pair.in_contact, f"{what}: {pair.status}")
         if pair.point_a is not None and pair.status == "separated":
             gap = math.dist(pair.point_a, pair.point_b)
             self.assertAlmostEqual(gap, pair.distance, delta=1e-12, msg=what)
@@ -157,7 +160,7 @@ class PythonClientTest(unittest.TestCase):
                 i, j = names.index(pair.object_a), names.index(pair.object_b)
                 truth = box_distance(centres[i], placed[i], centres[j], placed[j])
                 self.check_pair(pair, truth, f"trial {trial} {pair.object_a}-{pair.object_b}")
-                verdicts[pair.status] += 1
+                verdicts["intersecting" if pair.in_contact else pair.status] += 1
         # The sample exercises both verdicts.
         self.assertGreater(verdicts["separated"], 30, verdicts)
         self.assertGreater(verdicts["intersecting"], 20, verdicts)
@@ -212,7 +215,8 @@ class PythonClientTest(unittest.TestCase):
     def test_padding_is_subtracted_per_body(self):
         """padding=, self_padding= and bodies= reach the server: two unit cubes 3 m apart (gap
         2 m) report 2 - 0.3 - 0.2 against each other as separate bodies, 2 - 0.1 - 0.1 as one
-        body (self padding), and intersect when the padding covers the gap."""
+        body (self padding), touch when the padding closes the gap exactly and intersect when it
+        overlaps."""
         ids = [self.register_box((0.5, 0.5, 0.5)) for _ in range(2)]
         objects = {"a": (ids[0], (0, 0, 0)), "b": (ids[1], (3, 0, 0))}
         pads = {"a": 0.3, "b": 0.2}
@@ -223,7 +227,56 @@ class PythonClientTest(unittest.TestCase):
                                        bodies={"a": "arm", "b": "arm"})
         self.assertAlmostEqual(self.client.query(one).pairs[0].distance, 1.8, places=12)
         wide = self.client.create_scene(objects, padding={"a": 1.5, "b": 0.5})
-        self.assertEqual(self.client.query(wide).pairs[0].status, "intersecting")
+        # The paddings (1.5 + 0.5) close the 2 m gap exactly: contact within the bound.
+        self.assertEqual(self.client.query(wide).pairs[0].status, "touching")
+        deep = self.client.create_scene(objects, padding={"a": 1.5, "b": 0.75})
+        self.assertEqual(self.client.query(deep).pairs[0].status, "intersecting")
+
+    def test_depth_mode_reports_signed_distance_and_depth(self):
+        """penetration="depth" reaches the server and the fields come back: unit cubes whose
+        centres are 0.875 apart along x overlap by exactly 0.125 (face contact); a sphere of
+        radius 0.5 whose centre is 0.375 from a cube's face overlaps it by 0.125. Each exact depth
+        lies in the reported interval; without the option the fields are None; a negative
+        threshold fires ENTER in depth mode."""
+        cube = self.register_box((0.5, 0.5, 0.5))
+        ball = self.client.register_geometry([npc.sphere(0.5)], name="ball")
+        objects = {"a": (cube, (0, 0, 0)), "b": (cube, (0.875, 0.25, 0.125)),
+                   "s": (ball, (0, 0, -0.875))}
+        scene = self.client.create_scene(objects, pairs=[("a", "b"), ("a", "s")],
+                                          options={"penetration": "depth"})
+        report = self.client.query(scene)
+        self.assertIsNone(report.error)
+        for pair, direction in zip(report.pairs, [(1, 0, 0), (0, 0, -1)]):
+            what = f"{pair.object_a}-{pair.object_b}"
+            self.assertEqual(pair.status, "intersecting", what)
+            self.assertTrue(pair.in_contact, what)
+            self.assertLessEqual(pair.penetration_depth_lower, 0.125, what)
+            self.assertGreaterEqual(pair.penetration_depth_upper, 0.125, what)
+            self.assertLessEqual(pair.penetration_depth_lower, pair.penetration_depth, what)
+            self.assertLessEqual(pair.penetration_depth, pair.penetration_depth_upper, what)
+            self.assertLess(pair.penetration_depth_upper - pair.penetration_depth_lower, 1e-9, what)
+            self.assertEqual(pair.signed_distance, -pair.penetration_depth, what)
+            self.assertLessEqual(pair.signed_distance_lower, -0.125, what)
+            self.assertGreaterEqual(pair.signed_distance_upper, -0.125, what)
+            self.assertLess(math.dist(pair.depth_direction, direction), 1e-9, what)
+            gap = [a - b for a, b in zip(pair.depth_point_a, pair.depth_point_b)]
+            self.assertLess(math.dist(gap, [pair.penetration_depth * c for c in direction]), 1e-9,
+                            what)
+            self.assertIn(pair.depth_termination, ("closed_form", "tolerance"), what)
+            self.assertIsInstance(pair.depth_iterations, int)
+        plain = self.client.query(scene, options={"penetration": "none"}).pairs[0]
+        self.assertEqual(plain.status, "intersecting")
+        self.assertIsNone(plain.signed_distance)
+        self.assertIsNone(plain.penetration_depth)
+        self.assertIsNone(plain.depth_termination)
+        # A negative threshold: ENTER when the cubes overlap deeper than 0.0625.
+        watch = npc.threshold(-0.0625, pair=("a", "b"), name="deep")
+        xs = [1.5, 0.875]
+        reports = list(self.client.stream(scene, ({"b": (x, 0.25, 0.125)} for x in xs),
+                                          thresholds=[watch]))
+        events = [(e.sequence, e.crossing, e.threshold) for r in reports for e in r.events]
+        self.assertEqual(events, [(2, "enter", "deep")])
+        self.assertAlmostEqual(reports[1].events[0].distance, -0.125, places=9)
 
     def test_thresholds_report_enter_and_exit_events(self):
         """thresholds= reaches the server and events come back: box b (half-size 0.5, like a)

@@ -260,7 +260,7 @@ TEST(ReportLimits, AReportTooLargeToSendIsReplacedByAnErrorReport) {
 // DistanceReport the field counts fail first: the bound must learn the new field.
 TEST(ReportLimits, TheReportSizeBoundHoldsForWorstCaseReports) {
   namespace size = report_size;
-  EXPECT_EQ(v1::PairDistance::descriptor()->field_count(), 21);
+  EXPECT_EQ(v1::PairDistance::descriptor()->field_count(), 34);
   EXPECT_EQ(v1::DistanceReport::descriptor()->field_count(), 9);
   EXPECT_EQ(v1::ThresholdEvent::descriptor()->field_count(), 7);
   EXPECT_EQ(v1::ReportTiming::descriptor()->field_count(), 4);
@@ -271,9 +271,10 @@ TEST(ReportLimits, TheReportSizeBoundHoldsForWorstCaseReports) {
     v.set_y(2.5e-300);
     v.set_z(3.25);
   };
-  for (const auto& [near_points, penetration, gradient] :
-       {std::tuple{false, false, false}, std::tuple{true, false, false},
-        std::tuple{true, true, true}, std::tuple{false, true, true}}) {
+  for (const auto& [near_points, penetration, gradient, depth] :
+       {std::tuple{false, false, false, false}, std::tuple{true, false, false, false},
+        std::tuple{true, true, true, false}, std::tuple{false, true, true, false},
+        std::tuple{false, false, false, true}, std::tuple{true, true, true, true}}) {
     for (const std::size_t id_length : {std::size_t(1), std::size_t(127), std::size_t(128)}) {
       constexpr int kPairCount = 50;
       v1::DistanceReport report;
@@ -327,14 +328,29 @@ TEST(ReportLimits, TheReportSizeBoundHoldsForWorstCaseReports) {
           for (v1::PoseGradient* g : {pair.mutable_gradient_a(), pair.mutable_gradient_b()})
             fill(*g->mutable_translation()), fill(*g->mutable_rotation());
         }
+        if (depth) {
+          pair.set_has_signed_distance(true);
+          pair.set_signed_distance(-1.5), pair.set_signed_distance_lower(-1.5);
+          pair.set_signed_distance_upper(-1.5);
+          pair.set_has_penetration_depth(true);
+          pair.set_penetration_depth(1.5), pair.set_penetration_depth_lower(1.5);
+          pair.set_penetration_depth_upper(1.5);
+          fill(*pair.mutable_depth_point_a()), fill(*pair.mutable_depth_point_b());
+          fill(*pair.mutable_depth_direction());
+          pair.set_depth_termination(
+              v1::DepthTermination(v1::DepthTermination_descriptor()
+                                       ->value(v1::DepthTermination_descriptor()->value_count() - 1)
+                                       ->number()));
+          pair.set_depth_iterations(~0u);
+        }
         bound += size::kPairEntryOverhead + size::kPairFixed +
                  size::pair_ids(id_length, id_length) +
-                 size::pair_options(near_points, penetration, gradient);
+                 size::pair_options(near_points, penetration, gradient, depth);
       }
       const std::size_t actual = report.ByteSizeLong();
-      SCOPED_TRACE(::testing::Message()
-                   << "near points " << near_points << ", penetration " << penetration
-                   << ", gradient " << gradient << ", ids " << id_length << " bytes");
+      SCOPED_TRACE(::testing::Message() << "near points " << near_points << ", penetration "
+                                        << penetration << ", gradient " << gradient << ", depth "
+                                        << depth << ", ids " << id_length << " bytes");
       EXPECT_LE(actual, bound);
       EXPECT_LE(bound - actual, std::size_t(kPairCount) * 1 + 4);
     }

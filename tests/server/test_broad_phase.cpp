@@ -617,9 +617,8 @@ bool candidate(const PairReport& pair, double cutoff) {
   return !(pair.status == PairStatus::separated && pair.distance > cutoff);
 }
 double how_near(const PairReport& pair) {
-  return pair.status == PairStatus::intersecting || pair.status == PairStatus::engine_error
-             ? 0.0
-             : pair.distance;
+  return model::in_contact(pair.status) || pair.status == PairStatus::engine_error ? 0.0
+                                                                                   : pair.distance;
 }
 
 /// Moves 1-5 random objects in `poses` and lists them in `input`.
@@ -932,7 +931,7 @@ TEST(Thresholds, EventsMatchABruteForceReferenceThroughCoalescedUpdates) {
         const Report all = recompute_all(service, info->scene_id, poses, scene.input, cutoff);
         for (std::size_t p = 0; p < pairs; ++p) {
           const PairReport& pair = all.pairs[p];
-          const double d = pair.status == PairStatus::intersecting    ? 0.0
+          const double d = model::in_contact(pair.status)             ? 0.0
                            : pair.status == PairStatus::beyond_cutoff ? pair.distance_lower_bound
                                                                       : pair.distance;
           for (std::size_t t = 0; t < 4; ++t) {
@@ -1189,7 +1188,7 @@ TEST(Padding, PaddedReportsMatchTheUnpaddedEngineLessThePadding) {
         const bool self = !a.body.empty() && a.body == b.body;
         self_pairs += self;
         const double pad = self ? a.self_padding + b.self_padding : a.padding + b.padding;
-        const double d = want.status == PairStatus::intersecting ? 0.0 : want.distance;
+        const double d = model::in_contact(want.status) ? 0.0 : want.distance;
         const std::string at = where + " pair " + std::to_string(p);
         if (std::abs(d - pad) < 1e-9 || std::abs(d - pad - cutoff) < 1e-9) continue;  // ties
         if (d - pad > cutoff) {
@@ -1203,7 +1202,7 @@ TEST(Padding, PaddedReportsMatchTheUnpaddedEngineLessThePadding) {
             EXPECT_NEAR(pair.distance, d - pad, want.error_bound + 1e-9) << at;
           }
         } else if (d <= pad) {
-          EXPECT_EQ(pair.status, PairStatus::intersecting) << at << " d " << d << " pad " << pad;
+          EXPECT_TRUE(model::in_contact(pair.status)) << at << " d " << d << " pad " << pad;
           EXPECT_EQ(pair.distance, 0.0) << at;
           if (d > 0) {
             ++padded_only;

@@ -167,8 +167,9 @@ TEST_F(GrpcServerTest, RejectedUpdateGetsAnErrorReportAndTheStreamContinues) {
   EXPECT_EQ(report.error().code(), v1::ERROR_CODE_NOT_FOUND);
   EXPECT_EQ(report.error().field(), "poses[2].object_id");
 
+  // A penetration mode this server does not know (a newer client's): refused, naming the field.
   v1::PoseUpdate depth = make_update(scene, 6, poses);
-  depth.mutable_options()->set_penetration(v1::PENETRATION_MODE_DEPTH);
+  depth.mutable_options()->set_penetration(v1::PenetrationMode(42));
   report = send(depth);
   EXPECT_EQ(report.error().code(), v1::ERROR_CODE_INVALID_ARGUMENT);
   EXPECT_EQ(report.error().field(), "options.penetration");
@@ -824,9 +825,9 @@ TEST_F(GrpcServerTest, InvalidScenesAreRejectedNamingTheField) {
       {"NaN epsilon",
        [](v1::CreateSceneRequest& r) { r.mutable_default_options()->set_epsilon(std::nan("")); },
        grpc::StatusCode::INVALID_ARGUMENT, "default_options.epsilon"},
-      {"penetration depth",
+      {"unknown penetration mode",
        [](v1::CreateSceneRequest& r) {
-         r.mutable_default_options()->set_penetration(v1::PENETRATION_MODE_DEPTH);
+         r.mutable_default_options()->set_penetration(v1::PenetrationMode(42));
        },
        grpc::StatusCode::INVALID_ARGUMENT, "default_options.penetration"},
   };
@@ -879,10 +880,8 @@ TEST_F(GrpcServerTest, InvalidQueriesAndUnknownIdsAreRejectedNamingTheField) {
          r.mutable_poses(0)->mutable_pose()->mutable_translation()->set_z(-INFINITY);
        },
        grpc::StatusCode::INVALID_ARGUMENT, "poses[0].pose.translation.z"},
-      {"penetration depth",
-       [](v1::QueryRequest& r) {
-         r.mutable_options()->set_penetration(v1::PENETRATION_MODE_DEPTH);
-       },
+      {"unknown penetration mode",
+       [](v1::QueryRequest& r) { r.mutable_options()->set_penetration(v1::PenetrationMode(42)); },
        grpc::StatusCode::INVALID_ARGUMENT, "options.penetration"},
       {"negative cutoff", [](v1::QueryRequest& r) { r.mutable_options()->set_distance_cutoff(-1); },
        grpc::StatusCode::INVALID_ARGUMENT, "options.distance_cutoff"},

@@ -150,6 +150,7 @@ def _spellings_by_number(enum) -> dict:
 
 _STATUS_NAMES = _spellings_by_number(distance_pb.PairStatus)
 _CROSSING_NAMES = _spellings_by_number(distance_pb.ThresholdCrossing)
+_DEPTH_TERMINATION_NAMES = _spellings_by_number(distance_pb.DepthTermination)
 
 
 def _tuple(v: geometry_pb.Vector3) -> Vec3:
@@ -160,10 +161,21 @@ def _tuple(v: geometry_pb.Vector3) -> Vec3:
 class PairDistance:
     """One pair of a report. Distances in metres; points and normal in the world frame.
 
-    `status` is "separated", "intersecting" (distance 0; touching counts), "beyond_cutoff" (only
-    `distance_lower_bound` is meaningful), "iteration_limit" or "engine_error" (see `message`).
+    `status` is "separated", "intersecting" (overlap proven, distance 0), "touching" (contact
+    within the bound: the signed distance's interval contains 0; distance 0), "beyond_cutoff"
+    (only `distance_lower_bound` is meaningful), "iteration_limit" or "engine_error" (see
+    `message`). `in_contact` is true for "intersecting" and "touching".
     `point_a`, `point_b` and `normal` (unit, A towards B) are None unless near points were asked
-    for; `penetration_bound` is None unless asked for and the pair intersects.
+    for; `penetration_bound` is None unless asked for and the pair is in contact.
+
+    With penetration="depth" (separated, intersecting and touching pairs): `signed_distance`
+    (the distance when apart, -depth when overlapping) within [`signed_distance_lower`,
+    `signed_distance_upper`], certified; `penetration_depth` (>= 0) within
+    [`penetration_depth_lower`, `penetration_depth_upper`]; witness points `depth_point_a`,
+    `depth_point_b` and the unit `depth_direction` (A towards B; depth_point_a - depth_point_b =
+    penetration_depth * depth_direction; None for a separated pair without near points);
+    `depth_termination` ("closed_form", "tolerance", "iteration_limit", "degenerate") and
+    `depth_iterations`. Otherwise all None.
     """
 
     object_a: str
@@ -179,10 +191,30 @@ class PairDistance:
     normal: Optional[Vec3]
     penetration_bound: Optional[float]
     message: str
+    signed_distance: Optional[float] = None
+    signed_distance_lower: Optional[float] = None
+    signed_distance_upper: Optional[float] = None
+    penetration_depth: Optional[float] = None
+    penetration_depth_lower: Optional[float] = None
+    penetration_depth_upper: Optional[float] = None
+    depth_point_a: Optional[Vec3] = None
+    depth_point_b: Optional[Vec3] = None
+    depth_direction: Optional[Vec3] = None
+    depth_termination: Optional[str] = None
+    depth_iterations: Optional[int] = None
+
+    @property
+    def in_contact(self) -> bool:
+        """Intersecting or touching: what every "is it a collision" test should ask."""
+        return self.status in ("intersecting", "touching")
 
     @staticmethod
     def from_proto(p: distance_pb.PairDistance) -> "PairDistance":
         near = p.has_near_points
+        signed = p.has_signed_distance
+        depth = p.has_penetration_depth
+        witnessed = depth and (p.depth_direction.x, p.depth_direction.y,
+                               p.depth_direction.z) != (0.0, 0.0, 0.0)
         return PairDistance(
             object_a=p.object_a, object_b=p.object_b,
             status=_STATUS_NAMES.get(p.status, "unspecified"),
@@ -192,7 +224,19 @@ class PairDistance:
             point_b=_tuple(p.point_b) if near else None,
             normal=_tuple(p.normal) if near else None,
             penetration_bound=p.penetration_bound if p.has_penetration_bound else None,
-            message=p.message)
+            message=p.message,
+            signed_distance=p.signed_distance if signed else None,
+            signed_distance_lower=p.signed_distance_lower if signed else None,
+            signed_distance_upper=p.signed_distance_upper if signed else None,
+            penetration_depth=p.penetration_depth if depth else None,
+            penetration_depth_lower=p.penetration_depth_lower if depth else None,
+            penetration_depth_upper=p.penetration_depth_upper if depth else None,
+            depth_point_a=_tuple(p.depth_point_a) if witnessed else None,
+            depth_point_b=_tuple(p.depth_point_b) if witnessed else None,
+            depth_direction=_tuple(p.depth_direction) if witnessed else None,
+            depth_termination=(_DEPTH_TERMINATION_NAMES.get(p.depth_termination, "unknown")
+                               if depth else None),
+            depth_iterations=p.depth_iterations if depth else None)
 
 
 @dataclass(frozen=True)
@@ -235,7 +279,9 @@ def threshold(distance: float, hysteresis: float = 0.0, *, pair: Optional[Tuple[
     """A watched distance for `Client.stream(thresholds=...)`: reports carry an "enter" event
     when a watched pair comes closer than `distance` (metres) and an "exit" event when it gets
     farther than `distance + hysteresis`. Watches `pair` (two object ids), or `object_id`'s
-    pairs, or every selected pair; `groups` (SceneObject.group bits) narrows them further."""
+    pairs, or every selected pair; `groups` (SceneObject.group bits) narrows them further.
+    With the stream's penetration="depth" the signed distance is compared, and `distance` may be
+    zero or negative (an overlap deeper than -distance); otherwise it must be > 0."""
     if pair is not None and object_id is not None:
         raise ValueError("give pair or object_id, not both")
     message = scene_pb.Threshold(name=name, distance=distance, hysteresis=hysteresis,
@@ -303,7 +349,9 @@ def query_options(epsilon: Optional[float] = None, near_points: Optional[bool] =
                   change_tolerance: Optional[float] = None) -> scene_pb.QueryOptions:
     """Query options; every argument left as None inherits (update → scene → server defaults).
 
-    `penetration` is "none" or "bound" (a certified lower bound on the penetration depth).
+    `penetration` is "none", "bound" (a certified lower bound on the penetration depth) or
+    "depth" (the signed distance and the penetration depth with certified intervals; thresholds
+    may then be <= 0: the signed distance is compared).
     `report_mode` chooses which pairs a report holds: "all", "within-cutoff", "nearest" (each
     object's nearest pair), "global" (the one nearest pair) or "changed" (pairs whose status, or
     distance by more than `change_tolerance` metres, changed since the stream's previous report).

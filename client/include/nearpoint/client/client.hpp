@@ -144,16 +144,20 @@ struct ObjectPose {
 // ---- answers ----
 
 using PairStatus = model::PairStatus;
-/// The status as the CLI prints it: separated, intersecting, beyond_cutoff, …
-/// (model/vocabulary.hpp).
+/// The status as the CLI prints it: separated, intersecting, touching, beyond_cutoff, …
+/// (model/vocabulary.hpp). "In contact" is intersecting or touching: model::in_contact(status).
 const char* to_string(PairStatus status);
+using DepthTermination = model::DepthTermination;
+/// closed_form, tolerance, iteration_limit or degenerate ("" for unspecified or unknown).
+const char* to_string(DepthTermination termination);
 /// The mode's name as the CLI spells it: all, within-cutoff, nearest, global, changed.
 const char* to_string(ReportMode mode);
 
 /// One object pair's answer (see nearpoint.v1.PairDistance): the engine's answer as the model
 /// holds it (world frame, metres; near points with options.near_points, d⁻ with penetration =
-/// bound, the gradient with options.gradient, each behind its has_ flag), the pair named by the
-/// objects' ids.
+/// bound, the signed distance and the penetration depth with their certified intervals with
+/// penetration = depth, the gradient with options.gradient, each behind its has_ flag), the pair
+/// named by the objects' ids.
 struct PairDistance : model::PairAnswer {
   std::string object_a, object_b;
   /// For engine_error: the server's reason.
@@ -171,7 +175,8 @@ struct ThresholdEvent {
   std::uint32_t threshold_index = 0;
   std::string object_a, object_b;
   Crossing crossing = Crossing::enter;
-  /// The distance that crossed, metres (0 when intersecting; beyond the cutoff, its lower bound).
+  /// The distance that crossed, metres (0 when intersecting or touching, the signed distance
+  /// with penetration = depth; beyond the cutoff, its lower bound).
   double distance = 0;
   /// The update whose poses crossed (an absorbed one's when the server coalesced updates).
   std::uint64_t sequence = 0;

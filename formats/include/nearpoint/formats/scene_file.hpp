@@ -27,6 +27,7 @@
 //                "change_tolerance": t},
 //    "thresholds": [{"name": "near", "distance": d, "hysteresis": h, "object_a": "arm",
 //                    "object_b": "table", "groups": 2}, ...]}   watched by every stream
+//                    (with "penetration": "depth" a distance may be <= 0: a depth to watch)
 // Units: metres and radians. Unknown keys are errors (a misspelt key must not silently vanish).
 #pragma once
 

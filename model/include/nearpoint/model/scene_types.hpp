@@ -130,7 +130,8 @@ struct PairSelectionInput {
 struct ThresholdInput {
   /// Echoed in events; at most 256 bytes of UTF-8, may be empty.
   std::string name;
-  /// Metres, finite, > 0.
+  /// Metres, finite; > 0 unless the stream's penetration mode is depth (then the signed distance
+  /// is compared, and a negative threshold watches a penetration deeper than −distance).
   double distance = 0;
   /// Metres, finite, >= 0.
   double hysteresis = 0;
@@ -201,6 +202,26 @@ enum class PairStatus : unsigned char {
   beyond_cutoff,
   iteration_limit,
   engine_error,
+  /// Contact within the bound: the signed distance's certified interval contains 0 (see
+  /// nearpoint.v1.PAIR_STATUS_TOUCHING). "In contact" is intersecting or touching: in_contact().
+  touching,
+};
+
+/// Whether `status` says the pair is in contact: proven overlapping (intersecting) or within its
+/// error bound of touching (touching). Every "counts as a collision" test uses this.
+constexpr bool in_contact(PairStatus status) {
+  return status == PairStatus::intersecting || status == PairStatus::touching;
+}
+
+/// How a pair's penetration-depth computation ended (see nearpoint.v1.DepthTermination and
+/// nearpoint::DepthTermination). `unknown`: a number the reader does not know (a newer server).
+enum class DepthTermination : unsigned char {
+  unspecified,
+  closed_form,
+  tolerance,
+  iteration_limit,
+  degenerate,
+  unknown,
 };
 
 /// What the engine answered for one object pair, whoever names the pair (see
@@ -228,6 +249,25 @@ struct PairAnswer {
   /// (∂/∂translation, ∂/∂rotation vector), world frame.
   Eigen::Matrix<double, 6, 1> gradient_a = Eigen::Matrix<double, 6, 1>::Zero();
   Eigen::Matrix<double, 6, 1> gradient_b = Eigen::Matrix<double, 6, 1>::Zero();
+  /// With PENETRATION_MODE_DEPTH: the signed distance (distance when apart, −depth when
+  /// overlapping), metres, and its certified interval [lower, upper].
+  bool has_signed_distance = false;
+  double signed_distance = 0;
+  double signed_distance_lower = 0;
+  double signed_distance_upper = 0;
+  /// With PENETRATION_MODE_DEPTH: the penetration depth (>= 0), metres, its certified interval,
+  /// witness points on A and B (world frame, point_a − point_b = depth·direction), the unit
+  /// direction A → B along which moving B by `depth` separates the pair, how the computation
+  /// ended and its expansion steps.
+  bool has_penetration_depth = false;
+  double depth = 0;
+  double depth_lower = 0;
+  double depth_upper = 0;
+  Vec3d depth_point_a = Vec3d::Zero();
+  Vec3d depth_point_b = Vec3d::Zero();
+  Vec3d depth_direction = Vec3d::Zero();
+  DepthTermination depth_termination = DepthTermination::unspecified;
+  std::uint32_t depth_iterations = 0;
 };
 
 /// The answer for one object pair of a scene, as the server computes it.
@@ -250,8 +290,9 @@ struct ThresholdEvent {
   std::uint32_t object_a = 0;
   std::uint32_t object_b = 0;
   Crossing crossing = Crossing::enter;
-  /// The distance that crossed, metres: the pair's distance (0 when intersecting), or for a pair
-  /// proven beyond the cutoff the lower bound that proves it.
+  /// The distance that crossed, metres: the pair's distance (0 when in contact; with
+  /// PENETRATION_MODE_DEPTH the signed distance, negative when overlapping), or for a pair proven
+  /// beyond the cutoff the lower bound that proves it.
   double distance = 0;
   /// The update whose poses crossed (an absorbed one's when coalesced).
   std::uint64_t sequence = 0;

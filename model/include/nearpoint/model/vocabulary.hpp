@@ -15,7 +15,8 @@
 // Unknown values, one rule everywhere: a number or a spelling that no row holds reads as the
 // enum's `Vocabulary<E>::unknown`. For the enums of a request (ReportMode, PenetrationMode,
 // FlowControl) that is their `unknown` enumerator, which validation rejects naming the field; a
-// PairStatus the reader does not know (a newer server) reads as engine_error, a Crossing as enter.
+// PairStatus the reader does not know (a newer server) reads as engine_error, a Crossing as enter,
+// a DepthTermination as its `unknown`.
 // Going the other way, a value without a row (unspecified, unknown) has wire and DDS number 0,
 // the name "" and the spelling "". A gRPC status code outside the table is named "CODE_<n>".
 #pragma once
@@ -81,14 +82,28 @@ struct Vocabulary<FlowControl> {
 
 template <>
 struct Vocabulary<PairStatus> {
-  static constexpr std::array<Term<PairStatus>, 5> terms{{
+  static constexpr std::array<Term<PairStatus>, 6> terms{{
       {PairStatus::separated, "PAIR_STATUS_SEPARATED", "separated", 1, 1},
       {PairStatus::intersecting, "PAIR_STATUS_INTERSECTING", "intersecting", 2, 2},
       {PairStatus::beyond_cutoff, "PAIR_STATUS_BEYOND_CUTOFF", "beyond_cutoff", 3, 3},
       {PairStatus::iteration_limit, "PAIR_STATUS_ITERATION_LIMIT", "iteration_limit", 4, 4},
       {PairStatus::engine_error, "PAIR_STATUS_ENGINE_ERROR", "engine_error", 5, 5},
+      {PairStatus::touching, "PAIR_STATUS_TOUCHING", "touching", 6, 6},
   }};
   static constexpr PairStatus unknown = PairStatus::engine_error;
+};
+
+template <>
+struct Vocabulary<DepthTermination> {
+  static constexpr std::array<Term<DepthTermination>, 5> terms{{
+      {DepthTermination::unspecified, "DEPTH_TERMINATION_UNSPECIFIED", "", 0, 0},
+      {DepthTermination::closed_form, "DEPTH_TERMINATION_CLOSED_FORM", "closed_form", 1, 1},
+      {DepthTermination::tolerance, "DEPTH_TERMINATION_TOLERANCE", "tolerance", 2, 2},
+      {DepthTermination::iteration_limit, "DEPTH_TERMINATION_ITERATION_LIMIT", "iteration_limit", 3,
+       3},
+      {DepthTermination::degenerate, "DEPTH_TERMINATION_DEGENERATE", "degenerate", 4, 4},
+  }};
+  static constexpr DepthTermination unknown = DepthTermination::unknown;
 };
 
 template <>
