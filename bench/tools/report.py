@@ -282,6 +282,7 @@ def plot_depth(rows_in, save):
                             textcoords="offset points")
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # overlapping labels
         ax.set_xlabel("median time per query (ns)")
         ax.set_ylabel("max |depth − exact| / D(K)")
         ax.set_title(title)
