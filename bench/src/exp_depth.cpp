@@ -23,8 +23,8 @@
 // interleaved block by block, a first untimed round records the answers.
 //
 // Output: depth.csv (per setting and set), depth_cases.csv (per stiff case and setting),
-// depth_violations.csv (every nearpoint interval that misses the exact depth, with the input in
-// hex floats so the case can be replayed), depth_meta.csv.
+// depth_violations.csv (every nearpoint interval — depth or signed distance — that misses the
+// exact value, with the input in hex floats so the case can be replayed), depth_meta.csv.
 #include <algorithm>
 #include <map>
 #include <numbers>
@@ -37,6 +37,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "common/exact_distance.hpp"
 #include "common/paper_family.hpp"
 #include "common/random_hull.hpp"
 #include "exact_depth.hpp"
@@ -55,6 +56,9 @@ struct DepthCase {
   double relative_depth = kNaN;  ///< stiff contacts: the intended depth / size
   PairInput input;
   ExactDepth exact;
+  /// The exact distance, correctly rounded (0 when the hulls meet): the paper family's own, or
+  /// CGAL's (common/exact_distance.hpp) for a stiff case that the rounding of its pose separated.
+  double exact_distance = kNaN;
 };
 
 struct Setting {
@@ -132,7 +136,11 @@ std::vector<DepthCase> stiff_cases(bool quick) {
           in.pose_a.translation = base;
           in.pose_b.rotation = r;
           in.pose_b.translation = base + r * offset_b;
-          DepthCase c{set, group, size, rel, in, ExactDepth(*a, in.pose_a, *b, in.pose_b)};
+          DepthCase c{set, group, size, rel, in, ExactDepth(*a, in.pose_a, *b, in.pose_b), 0.0};
+          if (!c.exact.intersecting()) {
+            const testkit::ExactDistance x = testkit::exact_distance(*a, in.pose_a, *b, in.pose_b);
+            c.exact_distance = x.intersecting ? 0.0 : x.distance;
+          }
           cases.push_back(std::move(c));
         };
         const VertexList box_a = box_vertices(Vec3<double>(1, 2, 3) * size);
@@ -369,6 +377,9 @@ int run_depth(const Args& args) {
                                              "max_rel_width",
                                              "median_rel_width",
                                              "wider_than_1e-12",
+                                             "signed_violations",
+                                             "max_rel_signed_width",
+                                             "median_rel_signed_width",
                                              "capped",
                                              "degenerate",
                                              "hung",
@@ -378,8 +389,8 @@ int run_depth(const Args& args) {
                {"impl", "knob", "value", "set", "group", "size", "relative_depth", "exact_depth",
                 "diameter", "depth", "rel_error", "rel_width", "violation", "median_ns"});
   Csv violations_csv(output_path(args, "depth_violations.csv"),
-                     {"knob_value", "set", "group", "exact_depth", "depth_lower", "depth_upper",
-                      "side", "vertices_a", "pose_a", "vertices_b", "pose_b"});
+                     {"knob_value", "set", "group", "exact_depth", "lower", "upper", "what",
+                      "vertices_a", "pose_a", "vertices_b", "pose_b"});
   const std::vector<std::string> sets = {"paper_intersecting", "paper_touching", "stiff",
                                          "stiff_far"};
   long total_violations = 0;
@@ -391,13 +402,14 @@ int run_depth(const Args& args) {
         if (cases[i].set == set) members.push_back(i);
       if (!s.runner) {
         table << s.impl << s.knob << s.value << set << members.size() << kNaN << kNaN << kNaN
-              << kNaN << kNaN << 0 << 0 << 0 << 0 << 0 << kNaN << kNaN << 0 << 0 << 0 << 0 << 0
-              << s.declined;
+              << kNaN << kNaN << 0 << 0 << 0 << 0 << 0 << kNaN << kNaN << 0 << 0 << kNaN << kNaN
+              << 0 << 0 << 0 << 0 << s.declined;
         table.end_row();
         continue;
       }
       std::vector<float> times;
-      std::vector<double> errors, widths;
+      std::vector<double> errors, widths, signed_widths;
+      int signed_violations = 0;
       int missed = 0, nans = 0, violations = 0, no_interval = 0, wide = 0, capped = 0,
           degenerate = 0, hung_cases = 0, aborted = 0, threw = 0;
       for (const std::size_t i : members) {
@@ -431,6 +443,26 @@ int run_depth(const Args& args) {
           // Coal's and libccd's codes are statuses; nearpoint's code_a is its DepthTermination.
           if (o.code_a == int(DepthTermination::iteration_limit)) ++capped;
           if (o.code_a == int(DepthTermination::degenerate)) ++degenerate;
+          // The signed distance's interval: its width, and whether it holds the exact φ (the
+          // exact distance, correctly rounded, when separated — a double outside [l, u] proves φ
+          // outside, the ends being doubles —; −depth, decided exactly, when intersecting).
+          if (!std::isnan(o.signed_lower) && !std::isnan(o.signed_upper)) {
+            signed_widths.push_back((o.signed_upper - o.signed_lower) / d);
+            bool miss = false;
+            if (c.exact.intersecting()) {
+              miss = c.exact.below(-o.signed_lower) || c.exact.above(-o.signed_upper);
+            } else {
+              miss = c.exact_distance < o.signed_lower || c.exact_distance > o.signed_upper;
+            }
+            if (miss) {
+              ++signed_violations;
+              violations_csv << s.value << c.set << c.group << c.exact.depth() << o.signed_lower
+                             << o.signed_upper << "signed distance interval misses"
+                             << hex_vertices(*c.input.a) << hex_pose(c.input.pose_a)
+                             << hex_vertices(*c.input.b) << hex_pose(c.input.pose_b);
+              violations_csv.end_row();
+            }
+          }
           if (std::isnan(o.depth_lower) || std::isnan(o.depth_upper)) {
             ++no_interval;
           } else {
@@ -443,7 +475,9 @@ int run_depth(const Args& args) {
               violation = true;
               ++violations;
               violations_csv << s.value << c.set << c.group << c.exact.depth() << o.depth_lower
-                             << o.depth_upper << (low ? "lower above exact" : "upper below exact")
+                             << o.depth_upper
+                             << (low ? "depth_lower above the exact depth"
+                                     : "depth_upper below the exact depth")
                              << hex_vertices(*c.input.a) << hex_pose(c.input.pose_a)
                              << hex_vertices(*c.input.b) << hex_pose(c.input.pose_b);
               violations_csv.end_row();
@@ -459,7 +493,10 @@ int run_depth(const Args& args) {
           per_case.end_row();
         }
       }
-      total_violations += violations;
+      total_violations += violations + signed_violations;
+      const double max_signed_width =
+          signed_widths.empty() ? kNaN
+                                : *std::max_element(signed_widths.begin(), signed_widths.end());
       const double max_error =
           errors.empty() ? kNaN : *std::max_element(errors.begin(), errors.end());
       const double max_width =
@@ -467,7 +504,8 @@ int run_depth(const Args& args) {
       table << s.impl << s.knob << s.value << set << members.size() << median(times)
             << quantile(times, 0.99) << max_error << median(errors) << quantile(errors, 0.9)
             << missed << nans << threw << violations << no_interval << max_width << median(widths)
-            << wide << capped << degenerate << hung_cases << aborted << "";
+            << wide << signed_violations << max_signed_width << median(signed_widths) << capped
+            << degenerate << hung_cases << aborted << "";
       table.end_row();
     }
   }

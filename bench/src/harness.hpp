@@ -58,6 +58,8 @@ struct Outcome {
   double depth = kNaN;
   double depth_lower = kNaN, depth_upper = kNaN;
   double diameter_bound = kNaN;
+  /// nearpoint's signed distance interval (distance when separated, −depth when intersecting).
+  double signed_lower = kNaN, signed_upper = kNaN;
 };
 
 /// One implementation with fixed settings, prepared on a fixed list of inputs.

@@ -46,6 +46,8 @@ class NearpointRunner final : public Runner {
       out.depth_lower = r.has_penetration_depth ? r.depth_lower : kNaN;
       out.depth_upper = r.has_penetration_depth ? r.depth_upper : kNaN;
       out.diameter_bound = r.diameter_bound;
+      out.signed_lower = r.has_signed_distance ? r.signed_distance_lower : kNaN;
+      out.signed_upper = r.has_signed_distance ? r.signed_distance_upper : kNaN;
       out.code_a = int(r.depth_termination);
       out.code_b = r.depth_iterations;
     }
