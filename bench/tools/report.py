@@ -297,9 +297,16 @@ class Report:
         self.dir = results
         self.summary = summary
         self.rel = os.path.relpath(results, os.path.dirname(os.path.abspath(summary)) or ".")
-        self.machine = {r["key"]: r["value"] for r in read(self.path("machine.csv"))}
+        # A folder filled by `bench/run.sh --only …` may lack other experiments' files: their
+        # sections then say so instead of failing the whole report.
+        self.machine = self.keyvalues("machine.csv")
         self.targets = []  # (target, measured, met)
-        self.meta = {r["key"]: r["value"] for r in read(self.path("paper_meta.csv"))}
+        self.meta = self.keyvalues("paper_meta.csv")
+
+    def keyvalues(self, name):
+        if not os.path.exists(self.path(name)):
+            return {}
+        return {r["key"]: r["value"] for r in read(self.path(name))}
 
     def path(self, name):
         return os.path.join(self.dir, name)
@@ -909,7 +916,12 @@ class Report:
                     ("Stability report (issue 4)", self.stability),
                     ("Primitives against specialised routines (issue 25)", self.primitives),
                     ("Penetration depth against the exact depth (issue 31)", self.depth)]
-        bodies = [(title, fn()) for title, fn in sections]
+        def body(fn):
+            try:
+                return fn()
+            except FileNotFoundError as missing:
+                return f"Not run in this results folder ({os.path.basename(missing.filename)} is missing).\n"
+        bodies = [(title, body(fn)) for title, fn in sections]
         seconds = {k[len("seconds_"):]: v for k, v in m.items() if k.startswith("seconds_")}
         out = ["# nearpoint benchmarks: results\n",
                "Written by `bench/tools/report.py` from the CSV files of one run of "
