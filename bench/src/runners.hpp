@@ -101,7 +101,8 @@ std::unique_ptr<Runner> make_primitive_peer_runner(PrimitivePeer peer,
 ///   fcl_epa:     fcl::distance with enable_signed_distance, GST_LIBCCD (FCL's copy of libccd's
 ///                GJK + EPA, ccdGJKSignedDist); knob: distance_tolerance (its EPA tolerance too);
 ///   fcl_mpr:     fcl::collide with enable_contact, GST_LIBCCD: FCL 0.7 answers this with libccd's
-///                MPR (ccdMPRPenetration), not EPA; no knob (defaults);
+///                MPR (ccdMPRPenetration), not EPA; knob: CollisionRequest::gjk_tolerance (its
+///                mpr_tolerance, default 1e-6);
 ///   libccd_epa:  libccd 2.1's ccdGJKPenetration (GJK + EPA); knob: ccd_t::epa_tolerance
 ///                (default 1e-4);
 ///   bullet:      btGjkEpaSolver2::Penetration (double build, margins 0); accuracies compiled in.
