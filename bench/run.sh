@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # SPDX-License-Identifier: Apache-2.0
 # The whole benchmark suite in one command: configures a Release build in build-bench (with the
-# peers FCL, libccd and Bullet), builds it, runs the five experiments one after another (never two
+# peers FCL, libccd and Bullet), builds it, runs the experiments one after another (never two
 # at once: they would disturb each other's timings), then writes the tables, the plots and
 # bench/RESULTS.md from what the run measured.
 #
@@ -13,6 +13,10 @@
 #                           built from source"); also NEARPOINT_PEERS_DIR. No default: without
 #                           either, openGJK and coal are left out, saying so, and the rest runs.
 #                           They are built once into the build tree; a missing one is named.
+#   bench/run.sh --only depth[,paper,…]  run only these experiments, keeping the other results
+#                           (and machine.csv) of the last full run; RESULTS.md is rewritten from
+#                           all of them. Each experiment's own date, commit and load are in
+#                           run_EXPERIMENT.csv.
 #
 # Environment: BUILD_DIR (default build-bench), JOBS (build parallelism, default 1: the machine is
 # shared), PYTHON (default /usr/bin/python3, which needs python3-matplotlib: deploy/install-deps.sh
@@ -23,6 +27,8 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 
 quick=0
+only=""
+all_experiments="paper table1 error-time large stability primitives depth"
 peers="${NEARPOINT_PEERS_DIR:-}"
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -30,11 +36,24 @@ while [ $# -gt 0 ]; do
     --peers) [ $# -ge 2 ] || { echo "bench/run.sh: --peers needs a folder" >&2; exit 2; }
              peers="$2"; shift ;;
     --peers=*) peers="${1#--peers=}" ;;
-    -h|--help) sed -n '3,20p' "$0"; exit 0 ;;
+    --only) [ $# -ge 2 ] || { echo "bench/run.sh: --only needs a list of experiments" >&2; exit 2; }
+            only="$2"; shift ;;
+    --only=*) only="${1#--only=}" ;;
+    -h|--help) sed -n '3,24p' "$0"; exit 0 ;;
     *) echo "bench/run.sh: unknown option '$1'" >&2; exit 2 ;;
   esac
   shift
 done
+experiments="$all_experiments"
+if [ -n "$only" ]; then
+  experiments="${only//,/ }"
+  for e in $experiments; do
+    case " $all_experiments " in
+      *" $e "*) ;;
+      *) echo "bench/run.sh: unknown experiment '$e' in --only (one of: $all_experiments)" >&2; exit 2 ;;
+    esac
+  done
+fi
 if [ -z "$peers" ]; then
   echo "bench/run.sh: no peers folder given (--peers DIR or NEARPOINT_PEERS_DIR): the bench runs" \
        "without openGJK and coal (bench/README.md, \"Peers built from source\", says how to make" \
@@ -93,11 +112,13 @@ else
   results_md="bench/RESULTS.md"
   flags=()
 fi
-rm -rf "$out"
+if [ -z "$only" ]; then
+  rm -rf "$out"
+fi
 mkdir -p "$out"
 
-# The machine, as the report states it.
-{
+# The machine, as the report states it (a run of some experiments only keeps the full run's).
+[ -n "$only" ] || {
   echo "key,value"
   echo "cpu,\"$(lscpu | sed -n 's/^Model name: *//p' | head -n 1)\""
   echo "cores,$(nproc)"
@@ -117,13 +138,28 @@ mkdir -p "$out"
   echo "build_seconds,$((built - start))"
 } >"$out/machine.csv"
 
-for experiment in paper table1 error-time large stability primitives; do
+for experiment in $experiments; do
   t0=$(date +%s)
+  load_before="$(cut -d' ' -f1-3 /proc/loadavg)"
   "$build/bench/nearpoint-bench" "$experiment" --out "$out" "${flags[@]}"
-  echo "seconds_$experiment,$(($(date +%s) - t0))" >>"$out/machine.csv"
+  [ -n "$only" ] || echo "seconds_$experiment,$(($(date +%s) - t0))" >>"$out/machine.csv"
+  # This experiment's own run (what the report states for it when it was run alone).
+  {
+    echo "key,value"
+    echo "date,$(date -u +%Y-%m-%dT%H:%MZ)"
+    echo "commit,$(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
+    echo "working_tree,$(git status --porcelain -- . ':!bench/results' ':!bench/RESULTS.md' \
+      2>/dev/null | grep -q . && echo modified || echo clean)"
+    echo "load_before,\"$load_before\""
+    echo "load_after,\"$(cut -d' ' -f1-3 /proc/loadavg)\""
+    echo "seconds,$(($(date +%s) - t0))"
+    echo "command,bench/run.sh${flags[*]:+ ${flags[*]}}${only:+ --only $only}"
+  } >"$out/run_${experiment//-/_}.csv"
 done
-echo "load_after,\"$(cut -d' ' -f1-3 /proc/loadavg)\"" >>"$out/machine.csv"
-echo "total_seconds,$(($(date +%s) - start))" >>"$out/machine.csv"
+if [ -z "$only" ]; then
+  echo "load_after,\"$(cut -d' ' -f1-3 /proc/loadavg)\"" >>"$out/machine.csv"
+  echo "total_seconds,$(($(date +%s) - start))" >>"$out/machine.csv"
+fi
 
 "$python" bench/tools/report.py --results "$out" --summary "$results_md"
 echo "bench/run.sh: results in $out, summary in $results_md ($(($(date +%s) - start)) s)"

@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// The five experiments. Each writes its CSV files under `args.out_dir`; bench/tools/report.py
+// The experiments. Each writes its CSV files under `args.out_dir`; bench/tools/report.py
 // turns them into tables, plots and bench/RESULTS.md.
 #pragma once
 
@@ -19,5 +19,7 @@ int run_large(const Args& args);
 int run_stability(const Args& args);
 /// (6) Primitives against FCL's and coal's specialised routines (issue 25).
 int run_primitives(const Args& args);
+/// (7) Penetration depth against the exact depth, peers side by side (issue 31).
+int run_depth(const Args& args);
 
 }  // namespace nearpoint::bench

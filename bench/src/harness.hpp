@@ -53,6 +53,13 @@ struct Outcome {
   /// Implementation-specific exit codes for the stability report, -1 when none: Bullet's
   /// m_lastUsedMethod and m_degenerateSimplex. Plain ints, so that filling them costs nothing.
   int code_a = -1, code_b = -1;
+  /// The depth experiment: the reported penetration depth (0 when the implementation reports no
+  /// penetration), and nearpoint's certified interval and D(K) (NaN for peers: they report none).
+  double depth = kNaN;
+  double depth_lower = kNaN, depth_upper = kNaN;
+  double diameter_bound = kNaN;
+  /// nearpoint's signed distance interval (distance when separated, −depth when intersecting).
+  double signed_lower = kNaN, signed_upper = kNaN;
 };
 
 /// One implementation with fixed settings, prepared on a fixed list of inputs.
@@ -103,7 +110,8 @@ inline double median(std::vector<double>& values) {
 // ---- command line and output ----
 
 struct Args {
-  std::string experiment;  ///< paper | table1 | error-time | large | stability | all
+  std::string
+      experiment;  ///< paper | table1 | error-time | large | stability | primitives | depth | all
   std::string out_dir = "bench/results";
   bool quick = false;  ///< smoke test: a small sample, few rounds
   int rounds = 0;      ///< 0: the experiment's default

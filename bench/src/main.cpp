@@ -13,9 +13,10 @@
 namespace {
 
 int usage() {
-  std::fprintf(stderr,
-               "usage: nearpoint-bench paper|table1|error-time|large|stability|primitives|all "
-               "[--out DIR] [--quick] [--rounds N]\n");
+  std::fprintf(
+      stderr,
+      "usage: nearpoint-bench paper|table1|error-time|large|stability|primitives|depth|all "
+      "[--out DIR] [--quick] [--rounds N]\n");
   return 2;
 }
 
@@ -60,6 +61,7 @@ int main(int argc, char** argv) {
   maybe("large", run_large);
   maybe("stability", run_stability);
   maybe("primitives", run_primitives);
+  maybe("depth", run_depth);
   if (!ran) return usage();
   return status;
 }

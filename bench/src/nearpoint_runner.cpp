@@ -9,6 +9,9 @@
 namespace nearpoint::bench {
 namespace {
 
+// With `Depth`, the depth experiment's answer (depth, its interval, D(K)) is copied out too; the
+// other experiments' runners do not pay for those stores.
+template <bool Depth>
 class NearpointRunner final : public Runner {
  public:
   NearpointRunner(std::span<const PairInput> inputs, const DistanceOptions<double>& options,
@@ -37,6 +40,17 @@ class NearpointRunner final : public Runner {
     out.error_bound = r.error_bound;
     out.exit = exit_of(r);
     out.termination = to_string(r.termination);
+    if constexpr (Depth) {
+      // No depth answer (no verdict: the iteration cap, invalid input): NaN, counted.
+      out.depth = r.has_penetration_depth ? r.depth : kNaN;
+      out.depth_lower = r.has_penetration_depth ? r.depth_lower : kNaN;
+      out.depth_upper = r.has_penetration_depth ? r.depth_upper : kNaN;
+      out.diameter_bound = r.diameter_bound;
+      out.signed_lower = r.has_signed_distance ? r.signed_distance_lower : kNaN;
+      out.signed_upper = r.has_signed_distance ? r.signed_distance_upper : kNaN;
+      out.code_a = int(r.depth_termination);
+      out.code_b = r.depth_iterations;
+    }
   }
 
   void reset() override { cache_ = SimplexCache{}; }
@@ -60,7 +74,9 @@ class NearpointRunner final : public Runner {
 std::unique_ptr<Runner> make_nearpoint_runner(std::span<const PairInput> inputs,
                                               const DistanceOptions<double>& options, bool warm,
                                               bool climb) {
-  return std::make_unique<NearpointRunner>(inputs, options, warm, climb);
+  if (options.penetration_depth)
+    return std::make_unique<NearpointRunner<true>>(inputs, options, warm, climb);
+  return std::make_unique<NearpointRunner<false>>(inputs, options, warm, climb);
 }
 
 const char* to_string(Peer peer) {
@@ -77,6 +93,22 @@ const char* to_string(Peer peer) {
       return "opengjk";
     case Peer::coal:
       return "coal";
+  }
+  return "?";
+}
+
+const char* to_string(DepthPeer peer) {
+  switch (peer) {
+    case DepthPeer::coal:
+      return "coal_epa";
+    case DepthPeer::fcl_epa:
+      return "fcl_libccd_epa";
+    case DepthPeer::fcl_mpr:
+      return "fcl_libccd_mpr";
+    case DepthPeer::libccd_epa:
+      return "libccd_epa";
+    case DepthPeer::bullet:
+      return "bullet_gjkepa2";
   }
   return "?";
 }

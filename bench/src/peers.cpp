@@ -20,6 +20,7 @@
 // openGJK and coal are compiled in when bench/cmake/source_peers.cmake found their snapshots
 // (NEARPOINT_BENCH_HAVE_OPENGJK / _COAL); otherwise their runners decline with the reason.
 #include <BulletCollision/CollisionShapes/btConvexHullShape.h>
+#include <BulletCollision/NarrowPhaseCollision/btGjkEpa2.h>
 #include <BulletCollision/NarrowPhaseCollision/btGjkPairDetector.h>
 #include <BulletCollision/NarrowPhaseCollision/btPointCollector.h>
 #include <BulletCollision/NarrowPhaseCollision/btVoronoiSimplexSolver.h>
@@ -29,6 +30,7 @@
 #include <fcl/geometry/shape/capsule.h>
 #include <fcl/geometry/shape/convex.h>
 #include <fcl/geometry/shape/sphere.h>
+#include <fcl/narrowphase/collision.h>
 #include <fcl/narrowphase/distance.h>
 
 #if NEARPOINT_BENCH_HAVE_OPENGJK
@@ -134,6 +136,92 @@ class FclRunner final : public Runner {
   std::vector<Query> queries_;
 };
 
+fcl::Transform3d fcl_transform(const Pose<double>& pose) {
+  fcl::Transform3d t = fcl::Transform3d::Identity();
+  t.linear() = pose.rotation;
+  t.translation() = pose.translation;
+  return t;
+}
+
+std::unique_ptr<fcl::Convexd> fcl_convex(const VertexList& v) {
+  const Hull& hull = cached_hull(v);
+  auto vertices = std::make_shared<std::vector<fcl::Vector3d>>();
+  for (const Vec3<double>& p : hull.vertices) vertices->push_back(p);
+  auto faces = std::make_shared<std::vector<int>>();
+  for (const std::vector<int>& f : hull.faces) {
+    faces->push_back(int(f.size()));
+    faces->insert(faces->end(), f.begin(), f.end());
+  }
+  return std::make_unique<fcl::Convexd>(vertices, int(hull.faces.size()), faces);
+}
+
+// The depth experiment: fcl::distance with signed distance (FCL's libccd-based GJK + EPA) or
+// fcl::collide with contacts (libccd's MPR in FCL 0.7), on fcl::Convex from the hull.
+class FclDepthRunner final : public Runner {
+ public:
+  FclDepthRunner(std::span<const PairInput> inputs, bool epa, double tolerance)
+      : epa_(epa),
+        distance_request_(/*enable_nearest_points=*/true, /*enable_signed_distance=*/true),
+        collision_request_(/*num_max_contacts=*/1, /*enable_contact=*/true) {
+    distance_request_.gjk_solver_type = fcl::GST_LIBCCD;
+    collision_request_.gjk_solver_type = fcl::GST_LIBCCD;
+    if (!std::isnan(tolerance)) {
+      distance_request_.distance_tolerance = tolerance;
+      collision_request_.gjk_tolerance = tolerance;
+    }
+    queries_.reserve(inputs.size());
+    for (const PairInput& in : inputs)
+      queries_.push_back(
+          {convex(in.a), fcl_transform(in.pose_a), convex(in.b), fcl_transform(in.pose_b)});
+  }
+
+  void run(std::size_t i, Outcome& out) override {
+    const Query& q = queries_[i];
+    out.exit = Exit::unknown;
+    if (epa_) {
+      fcl::DistanceResultd result;
+      // FCL's EPA throws std::logic_error on some inputs ("faceNormalPointingOutward(): Cannot
+      // compute face normal for a degenerate (zero-area) triangle"): a failed query, NaN.
+      try {
+        fcl::distance(q.a, q.ta, q.b, q.tb, distance_request_, result);
+      } catch (const std::exception&) {
+        out.intersecting = false;
+        out.depth = kNaN;
+        out.exit = Exit::invalid_input;
+        return;
+      }
+      const double d = result.min_distance;
+      out.intersecting = d < 0;
+      out.depth = d < 0 ? -d : (std::isnan(d) ? d : 0.0);
+    } else {
+      fcl::CollisionResultd result;
+      fcl::collide(q.a, q.ta, q.b, q.tb, collision_request_, result);
+      out.intersecting = result.isCollision();
+      out.depth = out.intersecting && result.numContacts() > 0
+                      ? result.getContact(0).penetration_depth
+                      : 0.0;
+    }
+  }
+
+ private:
+  struct Query {
+    const fcl::Convexd* a;
+    fcl::Transform3d ta;
+    const fcl::Convexd* b;
+    fcl::Transform3d tb;
+  };
+  const fcl::Convexd* convex(const VertexList& v) {
+    auto [it, inserted] = shapes_.try_emplace(v.get());
+    if (inserted) it->second = fcl_convex(v);
+    return it->second.get();
+  }
+  bool epa_;
+  fcl::DistanceRequestd distance_request_;
+  fcl::CollisionRequestd collision_request_;
+  std::map<const void*, std::unique_ptr<fcl::Convexd>> shapes_;
+  std::vector<Query> queries_;
+};
+
 // ---------------------------------------------------------------------------------------------
 // Bullet
 
@@ -204,6 +292,47 @@ class BulletRunner final : public Runner {
   std::vector<Query> queries_;
 };
 
+// The depth experiment: btGjkEpaSolver2::Penetration (GJK, then EPA when the origin is inside),
+// the solver behind Bullet's btGjkEpaPenetrationDepthSolver, with its initial guess (the
+// difference of the two origins).
+class BulletDepthRunner final : public Runner {
+ public:
+  explicit BulletDepthRunner(std::span<const PairInput> inputs) {
+    queries_.reserve(inputs.size());
+    for (const PairInput& in : inputs) {
+      const btTransform ta = bt_transform(in.pose_a), tb = bt_transform(in.pose_b);
+      queries_.push_back({shape(in.a), ta, shape(in.b), tb, ta.getOrigin() - tb.getOrigin()});
+    }
+  }
+
+  void run(std::size_t i, Outcome& out) override {
+    const Query& q = queries_[i];
+    btGjkEpaSolver2::sResults result;
+    const bool hit = btGjkEpaSolver2::Penetration(q.a, q.ta, q.b, q.tb, q.guess, result);
+    out.intersecting = hit;
+    const double d = double(result.distance);
+    out.depth = hit ? -d : 0.0;
+    out.exit = Exit::unknown;
+    out.code_a = int(result.status);
+  }
+
+ private:
+  struct Query {
+    const btConvexHullShape* a;
+    btTransform ta;
+    const btConvexHullShape* b;
+    btTransform tb;
+    btVector3 guess;
+  };
+  const btConvexHullShape* shape(const VertexList& v) {
+    auto [it, inserted] = shapes_.try_emplace(v.get());
+    if (inserted) it->second = bt_hull(*v, 0);
+    return it->second.get();
+  }
+  std::map<const void*, std::unique_ptr<btConvexHullShape>> shapes_;
+  std::vector<Query> queries_;
+};
+
 // ---------------------------------------------------------------------------------------------
 // libccd
 
@@ -262,6 +391,39 @@ class CcdRunner final : public Runner {
     out.distance = kNaN;  // a yes/no answer only
     out.iterations = -1;
     out.exit = Exit::unknown;
+  }
+
+ private:
+  ccd_t ccd_;
+  std::vector<std::pair<CcdObject, CcdObject>> objects_;
+};
+
+// The depth experiment: libccd's own GJK + EPA (ccdGJKPenetration).
+class CcdDepthRunner final : public Runner {
+ public:
+  CcdDepthRunner(std::span<const PairInput> inputs, double tolerance) {
+    CCD_INIT(&ccd_);
+    ccd_.support1 = ccd_support;
+    ccd_.support2 = ccd_support;
+    ccd_.max_iterations = 1000;  // as CcdRunner: a finite cap
+    if (!std::isnan(tolerance)) ccd_.epa_tolerance = tolerance;
+    objects_.reserve(inputs.size());
+    for (const PairInput& in : inputs) {
+      objects_.push_back(
+          {{in.a->data(), in.a->size(), in.pose_a.rotation, in.pose_a.translation, 0},
+           {in.b->data(), in.b->size(), in.pose_b.rotation, in.pose_b.translation, 0}});
+    }
+  }
+
+  void run(std::size_t i, Outcome& out) override {
+    ccd_real_t depth = 0;
+    ccd_vec3_t dir, pos;
+    const int rc =
+        ccdGJKPenetration(&objects_[i].first, &objects_[i].second, &ccd_, &depth, &dir, &pos);
+    out.intersecting = rc == 0;
+    out.depth = rc == 0 ? double(depth) : 0.0;
+    out.exit = Exit::unknown;
+    out.code_a = rc;
   }
 
  private:
@@ -392,6 +554,68 @@ class CoalRunner final : public Runner {
     return it->second.get();
   }
 
+  coal::GJKSolver solver_;
+  std::map<const void*, std::unique_ptr<Convex>> shapes_;
+  std::vector<Query> queries_;
+};
+#endif
+
+#if NEARPOINT_BENCH_HAVE_COAL
+// The depth experiment: coal's GJK + EPA on coal::Convex, gjk_tolerance = epa_tolerance = the
+// knob, EPA's default iteration cap (64).
+class CoalDepthRunner final : public Runner {
+ public:
+  CoalDepthRunner(std::span<const PairInput> inputs, double tolerance) {
+    if (!std::isnan(tolerance)) {
+      solver_.gjk_tolerance = tolerance;
+      solver_.epa_tolerance = tolerance;
+    }
+    queries_.reserve(inputs.size());
+    for (const PairInput& in : inputs)
+      queries_.push_back(
+          {convex(in.a), coal_transform(in.pose_a), convex(in.b), coal_transform(in.pose_b)});
+  }
+
+  void run(std::size_t i, Outcome& out) override {
+    const Query& q = queries_[i];
+    coal::Vec3s p1, p2, normal;
+    const double d =
+        solver_.shapeDistance(*q.a, q.ta, *q.b, q.tb, /*compute_penetration=*/true, p1, p2, normal);
+    // A negative distance is −depth (EPA); a collision found by GJK within its tolerance
+    // without EPA reports a small distance ≥ 0: depth 0.
+    const bool hit = solver_.gjk.status == coal::details::GJK::Collision ||
+                     solver_.gjk.status == coal::details::GJK::CollisionWithPenetrationInformation;
+    out.intersecting = hit;
+    out.depth = std::isnan(d) ? d : (d < 0 ? -d : 0.0);
+    out.exit =
+        solver_.epa.status == coal::details::EPA::Failed ? Exit::iteration_cap : Exit::unknown;
+    out.code_a = int(solver_.gjk.status);
+    out.code_b = int(solver_.epa.status);
+  }
+
+ private:
+  using Convex = coal::Convex<coal::Triangle>;
+  struct Query {
+    const Convex* a;
+    coal::Transform3s ta;
+    const Convex* b;
+    coal::Transform3s tb;
+  };
+  const Convex* convex(const VertexList& v) {
+    auto [it, inserted] = shapes_.try_emplace(v.get());
+    if (inserted) {
+      const Hull& hull = cached_hull(v);
+      auto points = std::make_shared<std::vector<coal::Vec3s>>();
+      for (const Vec3<double>& p : hull.vertices) points->push_back(p);
+      auto triangles = std::make_shared<std::vector<coal::Triangle>>();
+      for (const std::vector<int>& f : hull.faces)
+        for (std::size_t k = 1; k + 1 < f.size(); ++k)
+          triangles->emplace_back(std::size_t(f[0]), std::size_t(f[k]), std::size_t(f[k + 1]));
+      it->second = std::make_unique<Convex>(points, unsigned(points->size()), triangles,
+                                            unsigned(triangles->size()));
+    }
+    return it->second.get();
+  }
   coal::GJKSolver solver_;
   std::map<const void*, std::unique_ptr<Convex>> shapes_;
   std::vector<Query> queries_;
@@ -587,6 +811,35 @@ std::unique_ptr<Runner> make_primitive_peer_runner(PrimitivePeer peer,
       if (why) *why = "coal's snapshot was not found (NEARPOINT_PEERS_DIR, bench/run.sh --peers)";
       return nullptr;
 #endif
+  }
+  if (why) *why = "unknown peer";
+  return nullptr;
+}
+
+std::unique_ptr<Runner> make_depth_peer_runner(DepthPeer peer, std::span<const PairInput> inputs,
+                                               const PeerSettings& settings, std::string* why) {
+  for (const PairInput& in : inputs) {
+    if (in.radius_a > 0 || in.radius_b > 0) {
+      if (why) *why = "the depth experiment's peers take polytopes only";
+      return nullptr;
+    }
+  }
+  switch (peer) {
+    case DepthPeer::coal:
+#if NEARPOINT_BENCH_HAVE_COAL
+      return std::make_unique<CoalDepthRunner>(inputs, settings.tolerance);
+#else
+      if (why) *why = "coal's snapshot was not found (NEARPOINT_PEERS_DIR, bench/run.sh --peers)";
+      return nullptr;
+#endif
+    case DepthPeer::fcl_epa:
+    case DepthPeer::fcl_mpr:
+      return std::make_unique<FclDepthRunner>(inputs, peer == DepthPeer::fcl_epa,
+                                              settings.tolerance);
+    case DepthPeer::libccd_epa:
+      return std::make_unique<CcdDepthRunner>(inputs, settings.tolerance);
+    case DepthPeer::bullet:
+      return std::make_unique<BulletDepthRunner>(inputs);
   }
   if (why) *why = "unknown peer";
   return nullptr;

@@ -21,6 +21,12 @@ std::unique_ptr<Runner> make_primitive_peer_runner(PrimitivePeer, std::span<cons
   return nullptr;
 }
 
+std::unique_ptr<Runner> make_depth_peer_runner(DepthPeer, std::span<const PairInput>,
+                                               const PeerSettings&, std::string* why) {
+  if (why) *why = "built without NEARPOINT_BENCH_PEERS";
+  return nullptr;
+}
+
 std::string check_peer_builds() {
   return "";
 }

@@ -12,10 +12,12 @@
 
 namespace nearpoint::bench {
 
-/// nearpoint on `inputs`. With `warm`, one SimplexCache is carried from each query to the next
-/// (Section VIII: consecutive inputs are consecutive steps of a path); `reset()` empties it.
-/// With `climb`, polytopes are built by nearpoint::hull_polytope (hull vertices and faces), so
-/// large ones climb their edges instead of scanning.
+/// nearpoint on `inputs`. With `options.penetration_depth` the Outcome carries the depth, its
+/// interval, D(K), and in code_a / code_b the DepthTermination and the expansion steps. With
+/// `warm`, one SimplexCache is carried from each query to the next (Section VIII: consecutive
+/// inputs are consecutive steps of a path); `reset()` empties it. With `climb`, polytopes are built
+/// by nearpoint::hull_polytope (hull vertices and faces), so large ones climb their edges instead
+/// of scanning.
 std::unique_ptr<Runner> make_nearpoint_runner(std::span<const PairInput> inputs,
                                               const DistanceOptions<double>& options, bool warm,
                                               bool climb = false);
@@ -92,6 +94,25 @@ const char* to_string(PrimitivePeer peer);
 std::unique_ptr<Runner> make_primitive_peer_runner(PrimitivePeer peer,
                                                    std::span<const PrimitiveInput> inputs,
                                                    std::string* why);
+
+/// The peers' penetration depth (the depth experiment), each through its documented entry point:
+///   coal:        GJKSolver::shapeDistance(compute_penetration = true) on coal::Convex (GJK then
+///                EPA); knob: gjk_tolerance = epa_tolerance (default 1e-6), EPA's default cap;
+///   fcl_epa:     fcl::distance with enable_signed_distance, GST_LIBCCD (FCL's copy of libccd's
+///                GJK + EPA, ccdGJKSignedDist); knob: distance_tolerance (its EPA tolerance too);
+///   fcl_mpr:     fcl::collide with enable_contact, GST_LIBCCD: FCL 0.7 answers this with libccd's
+///                MPR (ccdMPRPenetration), not EPA; knob: CollisionRequest::gjk_tolerance (its
+///                mpr_tolerance, default 1e-6);
+///   libccd_epa:  libccd 2.1's ccdGJKPenetration (GJK + EPA); knob: ccd_t::epa_tolerance
+///                (default 1e-4);
+///   bullet:      btGjkEpaSolver2::Penetration (double build, margins 0); accuracies compiled in.
+/// `depth` in the Outcome is the reported depth, 0 when the peer reports no penetration;
+/// code_a / code_b carry the peer's status codes where it has them (coal: GJK / EPA status;
+/// Bullet: sResults::status; libccd / FCL: the return value).
+enum class DepthPeer : unsigned char { coal, fcl_epa, fcl_mpr, libccd_epa, bullet };
+const char* to_string(DepthPeer peer);
+std::unique_ptr<Runner> make_depth_peer_runner(DepthPeer peer, std::span<const PairInput> inputs,
+                                               const PeerSettings& settings, std::string* why);
 
 /// Checks, by computing with it, that the Bullet library linked uses the same btScalar as the
 /// headers we were compiled with (BT_USE_DOUBLE_PRECISION on both sides). Returns "" when
