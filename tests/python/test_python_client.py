@@ -133,9 +133,14 @@ class PythonClientTest(unittest.TestCase):
             truth = box_distance((0, 0, 0), (0.5, 0.5, 0.5), centre, (1.0, 0.25, 0.1))
             # The example prints 9 decimals.
             self.assertLessEqual(abs(distance - truth), bound + 1e-9, line)
-            self.assertEqual(match.group(5), "separated" if truth > 0 else "intersecting", line)
+            # Overlapping boxes: the least per-axis overlap is the depth; 0 is a touch (x = 1.5).
+            overlap = min(0.5 + h - abs(c) for c, h in zip(centre, (1.0, 0.25, 0.1)))
+            expected = ("separated" if truth > 0 else "intersecting" if overlap > 0
+                        else "touching")
+            self.assertEqual(match.group(5), expected, line)
             statuses.add(match.group(5))
-        self.assertEqual(statuses, {"separated", "intersecting"})  # the slab passes through
+        # The slab passes through, touching the cube's face on the way.
+        self.assertEqual(statuses, {"separated", "touching", "intersecting"})
 
     def test_query_matches_analytic_box_distances(self):
         rng = random.Random(20261121)
