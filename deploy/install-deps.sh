@@ -20,6 +20,8 @@ build_packages=(
   nlohmann-json3-dev libcli11-dev libassimp-dev libcgal-dev libgmp-dev libmpfr-dev
   # scene files in YAML (optional at build time; JSON always works)
   libyaml-cpp-dev
+  # robot descriptions (robots/): URDF through urdfdom, MJCF and SRDF through tinyxml2
+  liburdfdom-dev libtinyxml2-dev
   # server: gRPC (nearpointd, its protos, reflection and health checking); the Python client's
   # modules are generated at configure time with grpc_python_plugin (protobuf-compiler-grpc)
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
@@ -39,6 +41,9 @@ test_packages=(
   clang libclang-rt-14-dev
   # tests: GoogleTest (CGAL, above, is also the distance oracle)
   libgtest-dev libgmock-dev
+  # the robot importers' references (tests/robots): KDL read by kdl_parser for URDF, MuJoCo and
+  # its sample models for MJCF
+  liborocos-kdl-dev libkdl-parser-dev libmujoco-dev libmujoco-samples
   # Python client (client/python): Debian's /usr/bin/python3 with the runtimes matching the
   # protoc 3.21 / grpc_python_plugin 1.51 above, which generate its modules
   python3-grpcio python3-protobuf
