@@ -216,6 +216,8 @@ class Parser {
       }
       if (const char* dir = e->Attribute("assetdir")) meshdir_ = dir;
       if (const char* dir = e->Attribute("meshdir")) meshdir_ = dir;
+      if (const char* autolimits = e->Attribute("autolimits"))
+        autolimits_ = std::string_view(autolimits) == "true";
       if (const char* coordinate = e->Attribute("coordinate"))
         if (std::string_view(coordinate) != "local")
           return fail(e, "coordinate=\"" + std::string(coordinate) + "\" is not supported");
@@ -503,7 +505,11 @@ class Parser {
       const std::string limited = get(e, defaults, "limited").value_or("auto");
       if (limited != "true" && limited != "false" && limited != "auto")
         return fail(e, "attribute 'limited' must be true, false or auto");
-      if (joint.type != JointType::ball && present && (limited == "true" || limited == "auto")) {
+      // limited="auto" (the default) means limited when a range is given only with the
+      // compiler's autolimits (false in MuJoCo 2.2, which then refuses a range without
+      // `limited`; here the joint is reported unlimited: limits are reports, not geometry).
+      if (joint.type != JointType::ball && present &&
+          (limited == "true" || (limited == "auto" && autolimits_))) {
         joint.limited = true;
         joint.lower = rotational ? angle(v[0]) : v[0];
         joint.upper = rotational ? angle(v[1]) : v[1];
@@ -739,6 +745,7 @@ class Parser {
   tinyxml2::XMLDocument doc_;
   std::string error_;
   bool degrees_ = true;
+  bool autolimits_ = false;
   std::string eulerseq_ = "xyz";
   std::string meshdir_;
   Collision collision_ = Collision::all;

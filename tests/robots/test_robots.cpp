@@ -503,7 +503,7 @@ bool capsule_or_sphere(const mjModel* m, int g) {
 // pair it selects (contype/conaffinity, welds, parents, excludes) whose distance is below the
 // margin, with dist = the pair's distance (negative when penetrating) for capsules and spheres.
 void check_mujoco_distances(const fs::path& file, double margin, int samples, int nconmax,
-                            bool every_pair) {
+                            bool every_pair, int at_least = 100) {
   const RobotImport imported = load_mjcf(file);
   ASSERT_TRUE(imported.ok()) << imported.error;
   const Robot& robot = imported.robot;
@@ -511,6 +511,7 @@ void check_mujoco_distances(const fs::path& file, double margin, int samples, in
   MujocoModel mj(file, nconmax);
   ASSERT_NE(mj.d, nullptr);
   for (int g = 0; g < mj.m->ngeom; ++g) mj.m->geom_margin[g] = margin;
+  for (int p = 0; p < mj.m->npair; ++p) mj.m->pair_margin[p] = margin;  // <pair>s have their own
   const auto objects = object_index(robot);
   std::vector<int> object_of_geom(mj.m->ngeom);
   std::vector<int> geom_of_object(robot.objects.size());
@@ -569,7 +570,7 @@ void check_mujoco_distances(const fs::path& file, double margin, int samples, in
       ++compared;
     }
   }
-  EXPECT_GT(compared, 100);
+  EXPECT_GE(compared, at_least);
   EXPECT_LT(worst, 1e-9) << file;
   std::cout << compared << " capsule/sphere distances compared, largest difference " << worst
             << " m\n";
@@ -580,6 +581,48 @@ TEST(Mjcf, HumanoidPairsAndDistancesEqualMujoco) {
 }
 TEST(Mjcf, TwentyTwoHumanoidsPairsAndDistancesEqualMujoco) {
   check_mujoco_distances(kMujocoModels / "humanoid" / "22_humanoids.xml", 0.3, 5, 100000, false);
+}
+
+// The MJCF features MuJoCo's humanoids do not use — eulerseq, axisangle, xyaxes, zaxis, quat,
+// nested default classes and childclass, ball and slide joints with anchors, a cylinder and an
+// ellipsoid from fromto/size, contype/conaffinity, <exclude>, <pair>, radians — against MuJoCo.
+TEST(Mjcf, FeaturesEqualMujoco) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("nearpoint-robots-mjcf-" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  for (const char* angle : {"degree", "radian"}) {
+    std::ofstream(dir / "features.xml") << R"(<mujoco model="features">
+  <compiler angle=")" << angle << R"(" eulerseq="zYx"/>
+  <default><geom type="capsule" size="0.05"/>
+    <default class="limb"><joint type="hinge" limited="true" range="-1 1" axis="0 1 0"/>
+      <default class="ball"><joint type="ball" range="0 1"/></default></default></default>
+  <worldbody>
+    <geom name="floor" type="plane" size="0 0 0.1"/>
+    <geom name="post" type="box" size="0.1 0.1 0.5" pos="1 0 0.5" zaxis="0 1 1"/>
+    <body name="fixed" pos="0.5 0.5 0.2" euler="10 20 30"><geom name="rock" type="sphere" size="0.1"/></body>
+    <body name="base" pos="0 0 1" quat="0.9 0 0.1 0" childclass="limb">
+      <freejoint name="root"/>
+      <geom name="torso" fromto="0 -0.1 0 0 0.1 0"/>
+      <body name="arm" pos="0 0 0.2" euler="10 20 30">
+        <joint name="shoulder" class="ball" pos="0 0 0.05"/>
+        <geom name="upper" type="cylinder" fromto="0 0 0 0.3 0 0.1"/>
+        <body name="fore" pos="0.35 0 0" axisangle="0 0 1 0.7">
+          <joint name="elbow" pos="0.01 0 0" axis="1 1 0" ref="0.2"/>
+          <joint name="slide" type="slide" axis="1 0 1" limited="false" range="0 0.1" ref="0.05"/>
+          <geom name="hand" type="ellipsoid" size="0.05 0.06 0.08" xyaxes="1 0 0 0 1 1"/>
+          <geom name="tool" type="box" size="0.02 0.03 0.04" pos="0.1 0 0" contype="2" conaffinity="2"/>
+          <geom type="sphere" size="0.04" pos="0.1 0 0"/>
+          <body name="tip" pos="0.2 0 0"><geom name="nail" size="0.01 0.02" euler="0.1 0.2 0.3"/></body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <contact><exclude body1="base" body2="fore"/><pair geom1="tool" geom2="post"/></contact>
+</mujoco>)";
+    check_mujoco_kinematics(dir / "features.xml", 100);
+    check_mujoco_distances(dir / "features.xml", 10.0, 20, 5000, true, 10);
+  }
+  fs::remove_all(dir);
 }
 
 // Gradients through ball and free joints (the humanoid100's objects, the humanoid's root) and
