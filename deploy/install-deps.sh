@@ -20,8 +20,6 @@ build_packages=(
   nlohmann-json3-dev libcli11-dev libassimp-dev libcgal-dev libgmp-dev libmpfr-dev
   # scene files in YAML (optional at build time; JSON always works)
   libyaml-cpp-dev
-  # robot descriptions (robots/): URDF through urdfdom, MJCF and SRDF through tinyxml2
-  liburdfdom-dev libtinyxml2-dev
   # server: gRPC (nearpointd, its protos, reflection and health checking); the Python client's
   # modules are generated at configure time with grpc_python_plugin (protobuf-compiler-grpc)
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
@@ -41,6 +39,9 @@ test_packages=(
   clang libclang-rt-14-dev
   # tests: GoogleTest (CGAL, above, is also the distance oracle)
   libgtest-dev libgmock-dev
+  # robot descriptions (robots/, optional at build time: no program links it yet, so the image
+  # leaves it out): URDF through urdfdom, MJCF and SRDF through tinyxml2
+  liburdfdom-dev libtinyxml2-dev
   # the robot importers' references (tests/robots): KDL read by kdl_parser for URDF, MuJoCo and
   # its sample models for MJCF
   liborocos-kdl-dev libkdl-parser-dev libmujoco-dev libmujoco-samples

@@ -532,12 +532,13 @@ class Parser {
     Attributes defaults;
     if (!class_attributes(e, childclass, "geom", defaults)) return false;
     const std::string type = get(e, defaults, "type").value_or("sphere");
+    // MuJoCo fits a primitive to a mesh named on a non-mesh geom: geometry we would not match.
+    if (type != "mesh" && get(e, defaults, "mesh"))
+      return fail(e, "a " + type + " fitted to a mesh is not supported");
     std::vector<double> size;
-    bool has_size = false;
     if (const auto text = get(e, defaults, "size")) {
       if (!numbers(e, "size", *text, size)) return false;
       if (size.size() > 3) return fail(e, "attribute 'size': at most 3 numbers");
-      has_size = true;
     }
     size.resize(3, 0.0);
     auto positive = [&](int count, const char* what) {
@@ -593,7 +594,6 @@ class Parser {
       const double hy = size[1] > 0 ? size[1] : 100.0;
       piece.shape = Box<double>{Vec3d(hx, hy, 0.5)};
       piece.offset.translation = Vec3d(0, 0, -0.5);
-      (void)has_size;
     } else if (type == "mesh") {
       const auto name = get(e, defaults, "mesh");
       if (!name) return fail(e, "a mesh geom needs a 'mesh'");
