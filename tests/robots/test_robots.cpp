@@ -727,7 +727,16 @@ TEST(Hostile, Urdf) {
       <joint name="j1" type="fixed"><parent link="a"/><child link="b"/></joint>
       <joint name="j2" type="fixed"><parent link="b"/><child link="a"/></joint></robot>)",
                           "cycle.urdf", ".", options),
-               {"cycle.urdf"});
+               {"cycle.urdf", "cycle through link"});
+  expect_error(parse_urdf(R"(<robot name="s"><link name="a"/>
+      <joint name="self" type="fixed"><parent link="a"/><child link="a"/></joint></robot>)",
+                          "self.urdf", ".", options),
+               {"self.urdf", "cycle through link 'a'"});
+  expect_error(parse_urdf(R"(<robot name="t"><link name="a"/><link name="b"/><link name="c"/>
+      <joint name="j1" type="fixed"><parent link="a"/><child link="c"/></joint>
+      <joint name="j2" type="fixed"><parent link="b"/><child link="c"/></joint></robot>)",
+                          "two.urdf", ".", options),
+               {"two.urdf", "joint 'j2'", "link 'c' already has a parent"});
   expect_error(parse_urdf(R"(<robot name="n"><link name="a"><collision><origin xyz="nan 0 0"/>
       <geometry><box size="1 1 1"/></geometry></collision></link></robot>)",
                           "nan.urdf", ".", options),
