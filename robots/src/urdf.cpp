@@ -190,11 +190,13 @@ struct Builder {
 
 // Links with two parents and joint cycles (a joint from a link to itself included), refused before
 // urdfdom sees them: its link tree holds children by shared pointer, so a cycle is never freed
-// (found by fuzz_robots under LeakSanitizer). "" or the reason; XML that does not parse is left
-// to urdfdom's message.
+// (found by fuzz_robots under LeakSanitizer). XML that tinyxml2 refuses is refused here too, not
+// left to urdfdom: its parser accepts some of it, and this check must see what urdfdom sees.
 std::string check_joint_graph(const std::string& xml, const std::string& label) {
   tinyxml2::XMLDocument doc;
-  if (doc.Parse(xml.data(), xml.size()) != tinyxml2::XML_SUCCESS) return {};
+  if (doc.Parse(xml.data(), xml.size()) != tinyxml2::XML_SUCCESS)
+    return label + ": not valid XML (line " + std::to_string(doc.ErrorLineNum()) + ": " +
+           doc.ErrorStr() + ")";
   const tinyxml2::XMLElement* robot = doc.RootElement();
   if (robot == nullptr) return {};
   std::map<std::string, std::string> parent_of;
@@ -248,6 +250,14 @@ RobotImport parse_urdf(const std::string& xml, const std::string& label,
       return out;
     }
   }
+  // Should the two parsers ever disagree on the joints, a cycle urdfdom built is still freed.
+  struct BreakCycles {
+    urdf::ModelInterface& model;
+    ~BreakCycles() {
+      for (auto& [name, link] : model.links_)
+        if (link) link->child_links.clear();
+    }
+  } break_cycles{*model};
   Robot& robot = out.robot;
   robot.name = model->getName();
   const urdf::LinkConstSharedPtr root = model->getRoot();

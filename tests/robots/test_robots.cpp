@@ -720,7 +720,7 @@ void expect_error(const RobotImport& imported, const std::vector<std::string>& w
 TEST(Hostile, Urdf) {
   const ImportOptions options = arm_options();
   expect_error(parse_urdf("<robot name='x'><link name='a'>", "bad.urdf", ".", options),
-               {"bad.urdf", "not a valid URDF"});
+               {"bad.urdf", "not valid XML"});
   expect_error(parse_urdf("", "empty.urdf", ".", options), {"empty.urdf"});
   // A cycle: every link has a parent, so there is no root.
   expect_error(parse_urdf(R"(<robot name="c"><link name="a"/><link name="b"/>
