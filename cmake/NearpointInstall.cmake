@@ -21,8 +21,11 @@ if(TARGET nearpoint)
 endif()
 install(FILES ${PROJECT_SOURCE_DIR}/deploy/cyclonedds-loopback.xml
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint COMPONENT runtime)
+# examples/robots (the robot importers' test arm) is not installed until an installed program reads
+# it: install.examples runs every installed example.
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/
-        DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/examples COMPONENT runtime)
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/examples COMPONENT runtime
+        PATTERN robots EXCLUDE)
 # The JSON Schema of the reports `nearpoint query|stream --json` print (gRPC and DDS alike).
 install(FILES ${PROJECT_SOURCE_DIR}/client/schema/report.schema.json
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/schema COMPONENT runtime)

@@ -39,6 +39,12 @@ test_packages=(
   clang libclang-rt-14-dev
   # tests: GoogleTest (CGAL, above, is also the distance oracle)
   libgtest-dev libgmock-dev
+  # robot descriptions (robots/, optional at build time: no program links it yet, so the image
+  # leaves it out): URDF through urdfdom, MJCF and SRDF through tinyxml2
+  liburdfdom-dev libtinyxml2-dev
+  # the robot importers' references (tests/robots): KDL read by kdl_parser for URDF, MuJoCo and
+  # its sample models for MJCF
+  liborocos-kdl-dev libkdl-parser-dev libmujoco-dev libmujoco-samples
   # Python client (client/python): Debian's /usr/bin/python3 with the runtimes matching the
   # protoc 3.21 / grpc_python_plugin 1.51 above, which generate its modules
   python3-grpcio python3-protobuf

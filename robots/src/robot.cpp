@@ -1,0 +1,116 @@
+// SPDX-License-Identifier: Apache-2.0
+#include <algorithm>
+#include <cmath>
+#include <type_traits>
+#include <variant>
+
+#include "nearpoint/robots/robot.hpp"
+
+namespace nearpoint::robots {
+namespace {
+
+model::PoseInput to_input(const Pose3d& pose) {
+  const Eigen::Quaterniond q(pose.rotation);
+  model::PoseInput out;
+  out.rotation_wxyz = {q.w(), q.x(), q.y(), q.z()};
+  out.translation = pose.translation;
+  return out;
+}
+
+Pose3d from_input(const model::PoseInput& pose) {
+  const auto& r = pose.rotation_wxyz;
+  return Pose3d::from_quaternion(Eigen::Quaterniond(r[0], r[1], r[2], r[3]), pose.translation);
+}
+
+}  // namespace
+
+Pose3d Robot::object_pose(const KinematicState& state, int object) const {
+  const RobotObject& o = objects[object];
+  return o.link < 0 ? o.offset : state.links[o.link].compose(o.offset);
+}
+
+Eigen::VectorXd Robot::joint_gradient(const KinematicState& state, int object_a,
+                                      const Vec6d& gradient_a, int object_b,
+                                      const Vec6d& gradient_b) const {
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(tree.nv());
+  tree.add_joint_gradient(state, objects[object_a].link, object_pose(state, object_a).translation,
+                          gradient_a, out);
+  tree.add_joint_gradient(state, objects[object_b].link, object_pose(state, object_b).translation,
+                          gradient_b, out);
+  return out;
+}
+
+formats::SceneFile Robot::to_scene(const KinematicState& state) const {
+  formats::SceneFile out;
+  out.scene.name = name;
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    const RobotObject& o = objects[i];
+    out.geometries.emplace_back(o.name, o.geometry);
+    out.geometry_names.push_back(o.name);
+    model::ObjectInput object;
+    object.id = o.name;
+    object.pose = to_input(object_pose(state, static_cast<int>(i)));
+    object.padding = o.padding;
+    out.scene.objects.push_back(std::move(object));
+  }
+  const std::size_t n = objects.size();
+  const std::size_t all = n * (n - (n > 0 ? 1 : 0)) / 2;
+  if (pairs.size() == all) {
+    out.scene.pair_selection.mode = model::PairSelectionInput::Mode::all_pairs;
+  } else if (pairs.size() <= all - pairs.size()) {
+    out.scene.pair_selection.mode = model::PairSelectionInput::Mode::listed_pairs;
+    for (const auto& [a, b] : pairs)
+      out.scene.pair_selection.pairs.emplace_back(objects[a].name, objects[b].name);
+  } else {
+    out.scene.pair_selection.mode = model::PairSelectionInput::Mode::excluded_pairs;
+    std::vector<std::pair<int, int>> sorted = pairs;
+    std::sort(sorted.begin(), sorted.end());
+    for (std::size_t a = 0; a < n; ++a)
+      for (std::size_t b = a + 1; b < n; ++b)
+        if (!std::binary_search(sorted.begin(), sorted.end(),
+                                std::pair<int, int>(static_cast<int>(a), static_cast<int>(b))))
+          out.scene.pair_selection.pairs.emplace_back(objects[a].name, objects[b].name);
+  }
+  return out;
+}
+
+std::string make_compound(const model::GeometryInput& geometry, Compound<double>& out) {
+  std::vector<Piece<double>> pieces;
+  for (const model::PieceInput& input : geometry.pieces) {
+    Piece<double> piece;
+    piece.offset = from_input(input.offset);
+    const bool ok = std::visit(
+        [&](const auto& shape) -> bool {
+          using T = std::decay_t<decltype(shape)>;
+          if constexpr (std::is_same_v<T, std::monostate>) {
+            return false;
+          } else if constexpr (std::is_same_v<T, model::PolytopeInput>) {
+            piece.shape = Shape<double>(Polytope<double>(shape.vertices), input.radius);
+            return true;
+          } else {
+            piece.shape = Shape<double>(shape, input.radius);
+            return true;
+          }
+        },
+        input.shape);
+    if (!ok) return "geometry '" + geometry.name + "': a piece has no shape";
+    if (const char* why = invalid_reason(piece.shape))
+      return "geometry '" + geometry.name + "': " + why;
+    pieces.push_back(std::move(piece));
+  }
+  out = Compound<double>(std::move(pieces));
+  if (const char* why = out.invalid_reason()) return "geometry '" + geometry.name + "': " + why;
+  return {};
+}
+
+RobotImport load_robot(const std::filesystem::path& file, const ImportOptions& options) {
+  const std::string ext = file.extension().string();
+  if (ext == ".urdf") return load_urdf(file, options);
+  if (ext == ".xml" || ext == ".mjcf") return load_mjcf(file, options);
+  RobotImport out;
+  out.error =
+      file.string() + ": unknown robot description (expected .urdf, or .xml/.mjcf for MJCF)";
+  return out;
+}
+
+}  // namespace nearpoint::robots
