@@ -478,8 +478,43 @@ template <class S, class K>
                                                               S magnitude, S slack,
                                                               int& support_calls) {
   constexpr int kVerdictIterations = 32;  // a touch ends at once (no progress); overlaps in a few
-  DepthOutcome<S> depth;
   const S margin = S(4) * (slack + distance_roundoff(magnitude));
+  // The common touch first, for a support call or two: the loop ended on a triangle of K's points
+  // through the origin, or a tetrahedron with a face through it (two faces in contact). Any unit
+  // u bounds the depth from above, depth ≤ h_K(u); when that is within the margin for the
+  // triangle's normal (either side) or for the outward normal of a face at the origin, no
+  // overlap can be proven at this precision: the pair touches.
+  const auto touch_along = [&](const Vec3<S>& u) {
+    Vec3<S> w, on_a, on_b;
+    std::int32_t ia, ib;
+    k_set.support(u, w, on_a, on_b, ia, ib);
+    ++support_calls;
+    return u.dot(w) <= margin;
+  };
+  const unsigned subset = loop.nearest.subset;
+  int idx[4], n = 0;
+  for (int i = 0; i < 4; ++i)
+    if (subset & (1u << i)) idx[n++] = i;
+  const Vec3<S>* y = loop.simplex.y;
+  if (n == 3) {
+    Vec3<S> normal = (y[idx[1]] - y[idx[0]]).cross(y[idx[2]] - y[idx[0]]);
+    const S length = normal.norm();
+    if (length > 0) {
+      normal /= length;
+      if (touch_along(normal) || touch_along(-normal)) return false;
+    }
+  } else if (n == 4) {
+    for (int drop = 0; drop < 4; ++drop) {
+      const Vec3<S>& p = y[idx[(drop + 1) % 4]];
+      Vec3<S> normal = (y[idx[(drop + 2) % 4]] - p).cross(y[idx[(drop + 3) % 4]] - p);
+      const S length = normal.norm();
+      if (!(length > 0)) continue;
+      normal /= length;
+      if (normal.dot(y[idx[drop]] - p) > 0) normal = -normal;  // outward: away from the 4th
+      if (normal.dot(p) <= margin && touch_along(normal)) return false;
+    }
+  }
+  DepthOutcome<S> depth;
   expand_polytope(k_set, loop, magnitude, slack, S(0), kVerdictIterations, depth, margin);
   support_calls += depth.support_calls;
   return depth.lower > 0;

@@ -624,7 +624,8 @@ void check_result(const DistanceResult<S>& r, ExactPair<S>& pair, int piece_a, i
   // The signed distance and depth (penetration_depth): ordered intervals holding their
   // estimates, the verdict the interval's sign, and the depth's lower end against an independent
   // upper bracket: for single shapes the true depth is at most h_A(u) + h_B(−u) for every unit u
-  // (moving B that far along u separates them), the answer's own direction among the u tried.
+  // (moving B that far along u separates them; below 0 the shapes are apart and the depth is 0),
+  // the answer's own direction among the u tried.
   if (r.has_signed_distance) {
     NEARPOINT_FUZZ_CHECK(r.signed_distance_lower <= r.signed_distance &&
                              r.signed_distance <= r.signed_distance_upper &&
@@ -642,7 +643,8 @@ void check_result(const DistanceResult<S>& r, ExactPair<S>& pair, int piece_a, i
     NEARPOINT_FUZZ_CHECK(unit == 0 || std::abs(unit - 1) <= kNormalUlps * eps,
                          "depth direction neither zero nor unit; " + where());
     if (r.in_contact() && std::isfinite(depth_upper) &&
-        !(LD(r.depth_lower) <= depth_upper + ref_slack + LD(std::numeric_limits<S>::denorm_min())))
+        !(LD(r.depth_lower) <=
+          std::max(LD(0), depth_upper) + ref_slack + LD(std::numeric_limits<S>::denorm_min())))
       fuzz::fail(__FILE__, __LINE__,
                  "depth lower end " + number(r.depth_lower) +
                      " above the support bracket of the true depth " + number(depth_upper) + "; " +
