@@ -293,6 +293,23 @@ template <class S, class K>
   return 1;
 }
 
+/// The support plane with unit normal n̂ (towards ν) proves d ≥ n̂·s_K(−n̂): raises
+/// `out.lower_bound` and sharpens `out.gap` when it proves more than the loop's planes did.
+template <class S, class K>
+[[gnu::always_inline]] inline void sharpen_by_plane(const K& k_set, const Vec3<S>& normal,
+                                                    const Nearest<S>& nearest, S magnitude,
+                                                    LoopOutcome<S>& out) {
+  Vec3<S> w, on_a, on_b;
+  std::int32_t ia, ib;
+  k_set.support(-normal, w, on_a, on_b, ia, ib);
+  const S plane_bound = normal.dot(w);
+  if (plane_bound > out.lower_bound) {
+    out.lower_bound = plane_bound;
+    out.gap = certified_gap(out.gap, nearest.nu_norm2, plane_bound,
+                            roundoff_gap(nearest.nu_norm2, magnitude));
+  }
+}
+
 /// A sharper certificate near contact, for an answer ν on a triangle (y0, y1, y2) of K's points.
 /// ν's direction carries an error of ~ulp(M)/|ν|, so when ν is short the support plane normal to
 /// ν proves little; the triangle's own normal (accurate whatever |ν| is) gives the plane of K's
@@ -309,15 +326,7 @@ template <class S, class K>
   if (!(length > 0)) return 0;
   normal /= length;
   if (normal.dot(nearest.nu) < 0) normal = -normal;
-  Vec3<S> w, on_a, on_b;
-  std::int32_t ia, ib;
-  k_set.support(-normal, w, on_a, on_b, ia, ib);
-  const S plane_bound = normal.dot(w);
-  if (plane_bound > out.lower_bound) {
-    out.lower_bound = plane_bound;
-    out.gap = certified_gap(out.gap, nearest.nu_norm2, plane_bound,
-                            roundoff_gap(nearest.nu_norm2, magnitude));
-  }
+  sharpen_by_plane(k_set, normal, nearest, magnitude, out);
   return 1;
 }
 
@@ -341,15 +350,7 @@ template <class S, class K>
   const S length = normal.norm();
   if (!(length > 0)) return 0;
   normal /= length;
-  Vec3<S> w, on_a, on_b;
-  std::int32_t ia, ib;
-  k_set.support(-normal, w, on_a, on_b, ia, ib);
-  const S plane_bound = normal.dot(w);
-  if (plane_bound > out.lower_bound) {
-    out.lower_bound = plane_bound;
-    out.gap = certified_gap(out.gap, nearest.nu_norm2, plane_bound,
-                            roundoff_gap(nearest.nu_norm2, magnitude));
-  }
+  sharpen_by_plane(k_set, normal, nearest, magnitude, out);
   return 1;
 }
 
