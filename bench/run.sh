@@ -134,7 +134,8 @@ mkdir -p "$out"
     2>/dev/null | grep -q . && echo modified || echo clean)"
   echo "load_before,\"$(cut -d' ' -f1-3 /proc/loadavg)\""
   echo "command,bench/run.sh${flags[*]:+ ${flags[*]}}"
-  echo "peers_dir,\"$peers\""
+  # The snapshots used, by name (the folder is the caller's: nothing outside the repository is named).
+  echo "peer_snapshots,\"$( [ -n "$peers" ] && cd "$peers" 2>/dev/null && ls *.tar.gz 2>/dev/null | tr '\n' ' ')\""
   echo "build_seconds,$((built - start))"
 } >"$out/machine.csv"
 
