@@ -303,7 +303,10 @@ TEST(Urdf, JointGradientEqualsFiniteDifferencesAndKdl) {
     const std::vector<double> q = random_q(robot.tree, rng);
     KinematicState state;
     ASSERT_EQ(robot.tree.forward(q, state), "");
-    for (const auto& [a, b] : robot.pairs) {
+    for (const auto& [pair_a, pair_b] : robot.pairs) {
+      // Copies: clang before 16 cannot capture structured bindings in a lambda (P1091).
+      const auto a = pair_a;
+      const auto b = pair_b;
       const CompoundResult<double> r = evaluator.evaluate(state, a, b);
       // Smooth points only: separated by more than the step moves anything.
       if (r.nearest.status != Status::separated || r.nearest.distance < 1e-3) continue;
@@ -547,7 +550,10 @@ void check_mujoco_distances(const fs::path& file, double margin, int samples, in
     for (const auto& [pair, dist] : theirs)
       EXPECT_TRUE(ours.count(pair))
           << robot.objects[pair.first].name << "–" << robot.objects[pair.second].name;
-    for (const auto& [a, b] : robot.pairs) {
+    for (const auto& [pair_a, pair_b] : robot.pairs) {
+      // Copies: clang before 16 cannot capture structured bindings in a lambda (P1091).
+      const auto a = pair_a;
+      const auto b = pair_b;
       const int ga = geom_of_object[a];
       const int gb = geom_of_object[b];
       const auto it = theirs.find({a, b});
@@ -639,7 +645,10 @@ TEST(Mjcf, JointGradientEqualsFiniteDifferences) {
     const std::vector<double> q = random_q(robot.tree, rng);
     KinematicState state;
     ASSERT_EQ(robot.tree.forward(q, state), "");
-    for (const auto& [a, b] : robot.pairs) {
+    for (const auto& [pair_a, pair_b] : robot.pairs) {
+      // Copies: clang before 16 cannot capture structured bindings in a lambda (P1091).
+      const auto a = pair_a;
+      const auto b = pair_b;
       const CompoundResult<double> r = evaluator.evaluate(state, a, b);
       if (r.nearest.status != Status::separated || r.nearest.distance < 1e-3) continue;
       const Eigen::VectorXd g =
@@ -688,7 +697,10 @@ TEST(Mjcf, BallJointGradientEqualsFiniteDifferences) {
     const std::vector<double> q = random_q(robot.tree, rng);
     KinematicState state;
     ASSERT_EQ(robot.tree.forward(q, state), "");
-    for (const auto& [a, b] : robot.pairs) {
+    for (const auto& [pair_a, pair_b] : robot.pairs) {
+      // Copies: clang before 16 cannot capture structured bindings in a lambda (P1091).
+      const auto a = pair_a;
+      const auto b = pair_b;
       const CompoundResult<double> r = evaluator.evaluate(state, a, b);
       if (r.nearest.status != Status::separated || r.nearest.distance < 1e-3) continue;
       const Eigen::VectorXd g =
