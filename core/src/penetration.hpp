@@ -597,7 +597,11 @@ template <class S, class K>
     result.depth_iterations = depth.iterations;
     result.depth_termination = depth.termination;
     // |ν| − e bounds the distance, not φ: below 0 only the expansion's upper end bounds −φ.
-    phi_lower = -depth.upper;
+    // Every point of K lies within D(K) of the origin (eq. 37), so the depth never exceeds it: the
+    // cap when the expansion ended before any support plane bounded it (found by fuzz_engine: a
+    // float box and polytope, depth_upper = inf, answered "not representable").
+    const S cap = in.diameter * (S(1) + S(16) * u) + slack;
+    phi_lower = -(depth.upper <= cap ? depth.upper : cap);
     if (depth.lower > 0) phi_upper = std::min(phi_upper, -depth.lower);
     if (enclosed || depth.estimate > 0) {
       phi = -depth.estimate;
