@@ -24,13 +24,16 @@
 namespace nearpoint::server {
 namespace {
 
-using UpdateSample = nearpoint_msg_dds__PoseUpdate_;
-using ReportSample = nearpoint_msg_dds__DistanceReport_;
-using PairSample = nearpoint_msg_dds__PairDistance_;
+using UpdateSample = nearpoint_msgs_msg_dds__PoseUpdate_;
+using ReportSample = nearpoint_msgs_msg_dds__DistanceReport_;
+using PairSample = nearpoint_msgs_msg_dds__PairDistance_;
+using EventSample = nearpoint_msgs_msg_dds__ThresholdEvent_;
 using Guid = std::array<std::uint8_t, 16>;
 
 /// The highest domain id Cyclone's default port mapping allows (7400 + 250·d + … < 65536).
 constexpr std::uint32_t kMaxDomainId = 230;
+/// A keep-last depth beyond this is a resource limit, not a history.
+constexpr std::int32_t kMaxHistoryDepth = 100000;
 /// Samples taken per dds_take call.
 constexpr std::int32_t kTakeBatch = 32;
 /// How long a new stream's first evaluation waits for the report writer to discover a reader of
@@ -49,12 +52,31 @@ std::string own(const char* text) {
   return text ? std::string(text) : std::string();
 }
 
-nearpoint_msg_dds__Vector3_ to_sample(const model::Vec3d& v) {
+geometry_msgs_msg_dds__Vector3_ to_vector(const model::Vec3d& v) {
   return {v.x(), v.y(), v.z()};
 }
 
-nearpoint_msg_dds__PoseGradient_ to_sample(const Eigen::Matrix<double, 6, 1>& gradient) {
-  return {to_sample(model::Vec3d(gradient.head<3>())), to_sample(model::Vec3d(gradient.tail<3>()))};
+geometry_msgs_msg_dds__Point_ to_point(const model::Vec3d& v) {
+  return {v.x(), v.y(), v.z()};
+}
+
+nearpoint_msgs_msg_dds__PoseGradient_ to_sample(const Eigen::Matrix<double, 6, 1>& gradient) {
+  return {to_vector(model::Vec3d(gradient.head<3>())), to_vector(model::Vec3d(gradient.tail<3>()))};
+}
+
+/// An update's std_msgs/Header, echoed in its report and events (not interpreted).
+struct Header {
+  std::int32_t sec = 0;
+  std::uint32_t nanosec = 0;
+  std::string frame_id;
+};
+
+Header own(const std_msgs_msg_dds__Header_& header) {
+  return {header.stamp.sec, header.stamp.nanosec, own(header.frame_id)};
+}
+
+std_msgs_msg_dds__Header_ borrow(const Header& header) {
+  return {{header.sec, header.nanosec}, borrow(header.frame_id)};
 }
 
 /// The sample as the scene API's input. Mechanical, like proto_convert: the scene API validates,
@@ -65,15 +87,15 @@ model::PoseUpdateInput to_input(const UpdateSample& sample) {
   out.sequence = sample.sequence_number;
   out.poses.reserve(sample.poses._length);
   for (std::uint32_t i = 0; i < sample.poses._length; ++i) {
-    const nearpoint_msg_dds__ObjectPose_& in = sample.poses._buffer[i];
+    const nearpoint_msgs_msg_dds__ObjectPose_& in = sample.poses._buffer[i];
     model::ObjectPoseInput& pose = out.poses.emplace_back();
     pose.object_id = own(in.object_id);
-    const nearpoint_msg_dds__Quaternion_& q = in.pose.rotation;
+    const geometry_msgs_msg_dds__Quaternion_& q = in.pose.orientation;
     pose.pose.rotation_wxyz = {q.w, q.x, q.y, q.z};
-    const nearpoint_msg_dds__Vector3_& t = in.pose.translation;
+    const geometry_msgs_msg_dds__Point_& t = in.pose.position;
     pose.pose.translation = model::Vec3d(t.x, t.y, t.z);
   }
-  const nearpoint_msg_dds__QueryOptions_& options = sample.options;
+  const nearpoint_msgs_msg_dds__QueryOptions_& options = sample.options;
   if (options.has_epsilon) out.options.epsilon = options.epsilon;
   if (options.has_near_points) out.options.near_points = options.near_points;
   out.options.penetration = model::from_dds<model::PenetrationMode>(options.penetration);
@@ -86,21 +108,23 @@ model::PoseUpdateInput to_input(const UpdateSample& sample) {
   out.flow_control = model::from_dds<model::FlowControl>(sample.flow_control);
   out.thresholds.reserve(sample.thresholds._length);
   for (std::uint32_t i = 0; i < sample.thresholds._length; ++i) {
-    const nearpoint_msg_dds__Threshold_& in = sample.thresholds._buffer[i];
+    const nearpoint_msgs_msg_dds__Threshold_& in = sample.thresholds._buffer[i];
     out.thresholds.push_back(model::ThresholdInput{own(in.name), in.distance, in.hysteresis,
                                                    own(in.object_a), own(in.object_b), in.groups});
   }
   return out;
 }
 
-/// Who a report goes to: the update's scene (the key), its client id and writer.
+/// Who a report goes to: the update's scene, its client id and writer (and its header, echoed).
 struct Addressee {
   std::string scene_id;
   std::string client_id;
   Guid writer_guid{};
+  Header header;
 };
 
 void address(const Addressee& to, ReportSample& out) {
+  out.header = borrow(to.header);
   out.scene_id = borrow(to.scene_id);
   out.client_id = borrow(to.client_id);
   std::memcpy(out.writer_guid, to.writer_guid.data(), sizeof out.writer_guid);
@@ -124,6 +148,7 @@ struct StreamKey {
 struct Waiting {
   PreparedUpdate update;
   std::string client_id;
+  Header header;
   std::optional<PendingError> error;
 };
 
@@ -133,8 +158,8 @@ struct StreamState {
   StreamKey key;
   std::uint64_t number = 0;
   std::unique_ptr<PoseStream> stream;
-  /// `client_id` is the one of the update being evaluated (read by the pool thread while
-  /// `evaluating`, written only while not).
+  /// `client_id` and `header` are the ones of the update being evaluated (read by the pool thread
+  /// while `evaluating`, written only while not).
   Addressee to;
   /// The DDS participant of the stream's writer: its reports are for a reader there.
   Guid participant{};
@@ -171,6 +196,7 @@ struct DdsBridge::Impl {
   dds_entity_t participant = 0;
   dds_entity_t reader = 0;
   dds_entity_t writer = 0;
+  dds_entity_t event_writer = 0;
   dds_entity_t guard = 0;
   dds_entity_t waitset = 0;
   std::thread thread;
@@ -338,6 +364,7 @@ struct DdsBridge::Impl {
     const Clock::time_point received = Clock::now();
     model::PoseUpdateInput input = to_input(sample);
     std::string client_id = own(sample.client_id);
+    Header header = own(sample.header);
     std::lock_guard lock(mutex);
     ++stats.updates_taken;
     metrics::record_dds_sample(/*in=*/true);
@@ -349,7 +376,10 @@ struct DdsBridge::Impl {
     if (malformed) {
       dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, publication);
       if (!endpoint) return std::nullopt;  // the writer has gone: nobody to answer
-      Addressee to{input.scene_id.substr(0, kQuotedBytes), client_id.substr(0, kMaxNameBytes), {}};
+      Addressee to{input.scene_id.substr(0, kQuotedBytes),
+                   client_id.substr(0, kMaxNameBytes),
+                   {},
+                   std::move(header)};
       std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
       dds_builtintopic_free_endpoint(endpoint);
       return reject(nullptr, std::move(to), input.sequence, *malformed);
@@ -366,7 +396,7 @@ struct DdsBridge::Impl {
             .kv("sequence", input.sequence);
         return std::nullopt;
       }
-      Addressee to{input.scene_id, client_id, {}};
+      Addressee to{input.scene_id, client_id, {}, header};
       std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
       Guid participant{};
       std::memcpy(participant.data(), endpoint->participant_key.v, participant.size());
@@ -393,7 +423,7 @@ struct DdsBridge::Impl {
       // The error report is queued behind the stream's earlier answers, so that a stream's
       // reports, errors included, come in the order its updates were taken. (A stream whose
       // scene is unknown stays open, unbound and without caches, until its writer goes.)
-      Addressee to{stream.to.scene_id, client_id, stream.to.writer_guid};
+      Addressee to{stream.to.scene_id, client_id, stream.to.writer_guid, std::move(header)};
       Waiting entry;
       entry.error = reject(&stream, std::move(to), input.sequence, prepared.error());
       stream.waiting.push_back(std::move(entry));
@@ -410,7 +440,8 @@ struct DdsBridge::Impl {
           .kv("writer", dds::guid_hex(stream.to.writer_guid.data()))
           .kv("reader_matched", stream.ready ? "yes" : "not_yet");
     }
-    Waiting next{std::move(prepared.value()), std::move(client_id), std::nullopt};
+    Waiting next{std::move(prepared.value()), std::move(client_id), std::move(header),
+                 std::nullopt};
     // DDS cannot hold the publisher back: beyond the limit the newest update absorbs the newest
     // one waiting (its poses already include the older one's) and takes its place at the back,
     // and its report says so.
@@ -461,6 +492,7 @@ struct DdsBridge::Impl {
     --stream.waiting_updates;
     stream.evaluating = true;
     stream.to.client_id = std::move(next.client_id);
+    stream.to.header = std::move(next.header);
     ++evaluating;
     stream.stream->evaluate(std::move(next.update),
                             [this, &stream](Report report) { on_report(stream, report); });
@@ -487,9 +519,9 @@ struct DdsBridge::Impl {
       out.piece_b = in.piece_b;
       out.warm_started = in.warm_started;
       out.has_near_points = in.has_near_points;
-      out.point_a = to_sample(in.point_a);
-      out.point_b = to_sample(in.point_b);
-      out.normal = to_sample(in.normal);
+      out.point_a = to_point(in.point_a);
+      out.point_b = to_point(in.point_b);
+      out.normal = to_vector(in.normal);
       out.has_penetration_bound = in.has_penetration_bound;
       out.penetration_bound = in.penetration_bound;
       out.has_gradient = in.has_gradient;
@@ -504,9 +536,9 @@ struct DdsBridge::Impl {
       out.penetration_depth = in.depth;
       out.penetration_depth_lower = in.depth_lower;
       out.penetration_depth_upper = in.depth_upper;
-      out.depth_point_a = to_sample(in.depth_point_a);
-      out.depth_point_b = to_sample(in.depth_point_b);
-      out.depth_direction = to_sample(in.depth_direction);
+      out.depth_point_a = to_point(in.depth_point_a);
+      out.depth_point_b = to_point(in.depth_point_b);
+      out.depth_direction = to_vector(in.depth_direction);
       out.depth_termination = model::to_dds(in.depth_termination);
       out.depth_iterations = in.depth_iterations;
     }
@@ -526,10 +558,13 @@ struct DdsBridge::Impl {
     sample.counts = {report.counts.pairs_evaluated, report.counts.pairs_pruned,
                      report.counts.pairs_unmoved};
     sample.report_mode = model::to_dds(report.mode);
-    std::vector<nearpoint_msg_dds__ThresholdEvent_> events(report.events.size());
+    std::vector<EventSample> events(report.events.size());
     for (std::size_t i = 0; i < report.events.size(); ++i) {
       const model::ThresholdEvent& in = report.events[i];
-      nearpoint_msg_dds__ThresholdEvent_& out = events[i];
+      EventSample& out = events[i];
+      out.header = sample.header;
+      out.scene_id = sample.scene_id;
+      out.client_id = sample.client_id;
       out.threshold = borrow(
           report.threshold_names ? (*report.threshold_names)[in.threshold].c_str() : nullptr);
       out.threshold_index = in.threshold;
@@ -543,9 +578,17 @@ struct DdsBridge::Impl {
     sample.events._length = sample.events._maximum = std::uint32_t(events.size());
     sample.events._release = false;
     const dds_return_t written = dds_write(writer, &sample);
+    // Each crossing also on its own topic, for subscribers that want the events alone.
+    std::uint64_t event_failures = 0;
+    for (const EventSample& event : events)
+      if (dds_write(event_writer, &event) < 0) ++event_failures;
 
     std::lock_guard lock(mutex);
     if (count_write(written, report.sequence, &stream)) ++stream.reports;
+    if (event_failures > 0) {
+      stats.write_failures += event_failures;
+      log_warn("dds_event_write_failed").kv("stream", stream.number).kv("events", event_failures);
+    }
     stream.evaluating = false;
     --evaluating;
     if (stream.closing && stream.waiting.empty()) {
@@ -630,6 +673,9 @@ Outcome check_dds_config(const DdsConfig& config) {
         text("is ", config.domain_id, "; Cyclone DDS's port mapping allows 0-", kMaxDomainId));
   if (std::string problem = dds::check_topic_prefix(config.topic_prefix); !problem.empty())
     return invalid_argument("dds.prefix", problem);
+  if (config.history_depth < 1 || config.history_depth > kMaxHistoryDepth)
+    return invalid_argument("dds.history_depth", text("is ", config.history_depth, "; 1-",
+                                                      kMaxHistoryDepth, " samples"));
   return {};
 }
 
@@ -654,19 +700,26 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
     impl.participant = 0;
     return fail("dds_create_participant", code);
   }
-  const dds::QosPtr qos = dds::stream_qos();
+  const dds::QosPtr qos = dds::stream_qos(config.history_depth, config.best_effort);
   const dds_entity_t update_topic =
-      dds_create_topic(impl.participant, &nearpoint_msg_dds__PoseUpdate__desc,
+      dds_create_topic(impl.participant, &nearpoint_msgs_msg_dds__PoseUpdate__desc,
                        dds::pose_updates_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
   if (update_topic < 0) return fail("dds_create_topic(pose_updates)", update_topic);
   const dds_entity_t report_topic = dds_create_topic(
-      impl.participant, &nearpoint_msg_dds__DistanceReport__desc,
+      impl.participant, &nearpoint_msgs_msg_dds__DistanceReport__desc,
       dds::distance_reports_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
   if (report_topic < 0) return fail("dds_create_topic(distance_reports)", report_topic);
-  impl.reader = dds_create_reader(impl.participant, update_topic, qos.get(), nullptr);
+  const dds_entity_t event_topic = dds_create_topic(
+      impl.participant, &nearpoint_msgs_msg_dds__ThresholdEvent__desc,
+      dds::threshold_events_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  if (event_topic < 0) return fail("dds_create_topic(threshold_events)", event_topic);
+  const dds::QosPtr read_qos = dds::reader_qos(config.history_depth, config.best_effort);
+  impl.reader = dds_create_reader(impl.participant, update_topic, read_qos.get(), nullptr);
   if (impl.reader < 0) return fail("dds_create_reader", impl.reader);
   impl.writer = dds_create_writer(impl.participant, report_topic, qos.get(), nullptr);
   if (impl.writer < 0) return fail("dds_create_writer", impl.writer);
+  impl.event_writer = dds_create_writer(impl.participant, event_topic, qos.get(), nullptr);
+  if (impl.event_writer < 0) return fail("dds_create_writer(threshold_events)", impl.event_writer);
   if (const dds_return_t rc = dds_set_status_mask(
           impl.reader, DDS_DATA_AVAILABLE_STATUS | DDS_SUBSCRIPTION_MATCHED_STATUS);
       rc < 0)
@@ -690,7 +743,9 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
       .kv("domain", config.domain_id)
       .kv("updates_topic", dds::pose_updates_topic(config.topic_prefix))
       .kv("reports_topic", dds::distance_reports_topic(config.topic_prefix))
-      .kv("history_depth", dds::kHistoryDepth)
+      .kv("events_topic", dds::threshold_events_topic(config.topic_prefix))
+      .kv("history_depth", config.history_depth)
+      .kv("reliability", config.best_effort ? "best_effort" : "reliable")
       .kv("max_in_flight", impl.max_waiting)
       .kv("config", std::getenv("CYCLONEDDS_URI") ? std::getenv("CYCLONEDDS_URI") : "(default)");
   return self;

@@ -163,8 +163,15 @@ void add_transport_flags(CLI::App& app, Flags& flags) {
       ->capture_default_str()
       ->check(CLI::Range(0, 230));
   app.add_option("--dds-prefix", flags.dds_config.topic_prefix,
-                 "Topic prefix: <prefix>pose_updates and <prefix>distance_reports")
+                 "Topic prefix: <prefix>pose_updates, <prefix>distance_reports and "
+                 "<prefix>threshold_events (rt/ + a ROS 2 namespace)")
       ->capture_default_str();
+  app.add_option("--dds-history-depth", flags.dds_config.history_depth,
+                 "Keep-last depth of the DDS readers and writers (ROS 2's default: 10)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  app.add_flag("--dds-best-effort", flags.dds_config.best_effort,
+               "Best-effort DDS topics (ROS 2's sensor data profile) instead of reliable");
   app.add_flag("--dds-allow-default-config", flags.dds_config.allow_default_config,
                "Start DDS without CYCLONEDDS_URI (Cyclone's defaults use the external network "
                "interface and multicast)");

@@ -1,0 +1,171 @@
+// SPDX-License-Identifier: Apache-2.0
+// A stand-in for a ROS 2 node on rmw_cyclonedds, for tests/ros/test_ros_peer.cpp: a plain
+// Cyclone DDS participant whose types come from rosidl's own IDL of the .msg files
+// (tests/ros/peer/make_types.sh), not from nearpoint's generated IDL, and whose endpoints are
+// what a ROS 2 node makes: the topics rt/<ROS name>, ROS 2's default QoS (reliable, keep last 10,
+// volatile). It shares no code with nearpoint.
+//
+//   ros_peer DOMAIN SCENE X,Y,THETA...
+// publishes one nearpoint_msgs/PoseUpdate per X,Y,THETA (the object "mover" at (X, Y, 0) turned
+// by THETA about z) on rt/nearpoint/pose_updates, waits for each DistanceReport on
+// rt/nearpoint/distance_reports, and prints one JSON line per report:
+//   {"sequence": N, "status": S, "stamp_sec": N, "pairs": {"a/b": [distance, error_bound], ...}}
+// then one line per endpoint of other participants seen by discovery:
+//   {"endpoint": "publication"|"subscription", "topic": "...", "type": "..."}
+// Exit status 0, or 1 with the reason on stderr.
+#include <dds/dds.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <set>
+#include <string>
+#include <thread>
+#include <tuple>
+#include <vector>
+
+#include "nearpoint_msgs/msg/DistanceReport.h"
+#include "nearpoint_msgs/msg/PoseUpdate.h"
+
+namespace {
+
+int fail(const std::string& why) {
+  std::fprintf(stderr, "ros_peer: %s\n", why.c_str());
+  return 1;
+}
+
+dds_qos_t* ros_default_qos() {
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_MSECS(100));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 10);
+  dds_qset_durability(qos, DDS_DURABILITY_VOLATILE);
+  return qos;
+}
+
+std::string json_string(const char* s) {
+  std::string out = "\"";
+  for (const char* p = s ? s : ""; *p; ++p) {
+    if (*p == '"' || *p == '\\') out += '\\';
+    out += *p;
+  }
+  return out + "\"";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 4) return fail("usage: ros_peer DOMAIN SCENE X,Y,THETA...");
+  const auto domain = dds_domainid_t(std::atoi(argv[1]));
+  std::string scene = argv[2];
+  std::vector<std::tuple<double, double, double>> poses;
+  for (int i = 3; i < argc; ++i) {
+    double x, y, theta;
+    if (std::sscanf(argv[i], "%lf,%lf,%lf", &x, &y, &theta) != 3)
+      return fail(std::string("not X,Y,THETA: ") + argv[i]);
+    poses.emplace_back(x, y, theta);
+  }
+
+  const dds_entity_t participant = dds_create_participant(domain, nullptr, nullptr);
+  if (participant < 0) return fail(dds_strretcode(participant));
+  dds_qos_t* qos = ros_default_qos();
+  const dds_entity_t update_topic =
+      dds_create_topic(participant, &nearpoint_msgs_msg_dds__PoseUpdate__desc,
+                       "rt/nearpoint/pose_updates", qos, nullptr);
+  const dds_entity_t report_topic =
+      dds_create_topic(participant, &nearpoint_msgs_msg_dds__DistanceReport__desc,
+                       "rt/nearpoint/distance_reports", qos, nullptr);
+  if (update_topic < 0 || report_topic < 0) return fail("dds_create_topic failed");
+  const dds_entity_t writer = dds_create_writer(participant, update_topic, qos, nullptr);
+  const dds_entity_t reader = dds_create_reader(participant, report_topic, qos, nullptr);
+  dds_delete_qos(qos);
+  if (writer < 0 || reader < 0) return fail("dds_create_writer/reader failed");
+  const dds_entity_t publications =
+      dds_create_reader(participant, DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr);
+  const dds_entity_t subscriptions =
+      dds_create_reader(participant, DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION, nullptr, nullptr);
+  dds_guid_t own;
+  dds_get_guid(writer, &own);
+  dds_guid_t own_participant;
+  dds_get_guid(participant, &own_participant);
+
+  // Wait for nearpointd on both topics, then a little for its writer to see our reader.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  for (;;) {
+    dds_publication_matched_status_t pm{};
+    dds_subscription_matched_status_t sm{};
+    dds_get_publication_matched_status(writer, &pm);
+    dds_get_subscription_matched_status(reader, &sm);
+    if (pm.current_count > 0 && sm.current_count > 0) break;
+    if (std::chrono::steady_clock::now() > deadline) return fail("nearpointd not matched in 20 s");
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    const auto [x, y, theta] = poses[k];
+    nearpoint_msgs_msg_dds__ObjectPose_ pose{};
+    pose.object_id = const_cast<char*>("mover");
+    pose.pose.position = {x, y, 0};
+    pose.pose.orientation = {0, 0, std::sin(theta / 2), std::cos(theta / 2)};
+    nearpoint_msgs_msg_dds__PoseUpdate_ update{};
+    update.header.stamp = {int32_t(1000 + k), 0};
+    update.header.frame_id = const_cast<char*>("world");
+    update.scene_id = scene.data();
+    update.client_id = const_cast<char*>("ros_peer");
+    update.sequence_number = k + 1;
+    update.poses = {1, 1, &pose, false};
+    update.thresholds = {0, 0, nullptr, false};
+    if (const dds_return_t rc = dds_write(writer, &update); rc < 0)
+      return fail(std::string("dds_write: ") + dds_strretcode(rc));
+    bool answered = false;
+    const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (!answered && std::chrono::steady_clock::now() < wait_until) {
+      void* samples[1] = {nullptr};
+      dds_sample_info_t info;
+      if (dds_take(reader, samples, &info, 1, 1) != 1) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        continue;
+      }
+      const auto& report = *static_cast<const nearpoint_msgs_msg_dds__DistanceReport_*>(samples[0]);
+      if (info.valid_data && std::memcmp(report.writer_guid, own.v, 16) == 0 &&
+          report.sequence_number == k + 1) {
+        answered = true;
+        std::string line = "{\"sequence\": " + std::to_string(report.sequence_number) +
+                           ", \"status\": " + std::to_string(report.status) +
+                           ", \"stamp_sec\": " + std::to_string(report.header.stamp.sec) +
+                           ", \"message\": " + json_string(report.message) + ", \"pairs\": {";
+        for (uint32_t i = 0; i < report.pairs._length; ++i) {
+          const auto& p = report.pairs._buffer[i];
+          char numbers[80];
+          std::snprintf(numbers, sizeof numbers, "[%.17g, %.17g]", p.distance, p.error_bound);
+          line += (i ? ", " : "") +
+                  json_string((std::string(p.object_a) + "/" + p.object_b).c_str()) + ": " +
+                  numbers;
+        }
+        std::printf("%s}}\n", line.c_str());
+      }
+      dds_return_loan(reader, samples, 1);
+    }
+    if (!answered) return fail("no report for sequence " + std::to_string(k + 1));
+  }
+
+  std::set<std::string> seen;
+  for (const auto& [entity, kind] :
+       {std::pair{publications, "publication"}, std::pair{subscriptions, "subscription"}}) {
+    void* samples[64] = {nullptr};
+    dds_sample_info_t infos[64];
+    const dds_return_t n = dds_read(entity, samples, infos, 64, 64);
+    for (dds_return_t i = 0; i < n; ++i) {
+      const auto* e = static_cast<const dds_builtintopic_endpoint_t*>(samples[i]);
+      if (!infos[i].valid_data || std::memcmp(e->participant_key.v, own_participant.v, 16) == 0)
+        continue;
+      seen.insert(std::string("{\"endpoint\": \"") + kind + "\", \"topic\": " +
+                  json_string(e->topic_name) + ", \"type\": " + json_string(e->type_name) + "}");
+    }
+    if (n > 0) dds_return_loan(entity, samples, n);
+  }
+  for (const std::string& line : seen) std::printf("%s\n", line.c_str());
+  dds_delete(participant);
+  return 0;
+}

@@ -1,0 +1,138 @@
+// SPDX-License-Identifier: Apache-2.0
+// A ROS 2 node's view of nearpointd, without ROS 2: nearpointd --dds (default topic names) with
+// the shipped scene preloaded, and tests/ros/peer/ros_peer, a separate process whose types come
+// from rosidl's IDL of the .msg files (not from nearpoint's IDL), publishing PoseUpdates on
+// rt/nearpoint/pose_updates with ROS 2's default QoS and reading the reports. Checked: every
+// distance against its closed form, the header echoed, and the topic and type names that
+// discovery shows for nearpointd's endpoints, exactly those ROS 2 expects.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "common/child_process.hpp"
+
+namespace {
+
+using nearpoint::testkit::ChildProcess;
+using Json = nlohmann::json;
+
+// 131-140: tests/ros (101-130: tests/dds).
+constexpr int kDomain = 132;
+
+/// Distance from the vertical axis through (ax, ay) to the unit cube at (cx, cy) turned by theta
+/// about z, minus the round shape's radius (examples/dds_scene.json: both round shapes span the
+/// cube's height).
+double axis_to_cube(double ax, double ay, double cx, double cy, double theta, double r) {
+  const double dx = ax - cx, dy = ay - cy;
+  const double u = std::cos(theta) * dx + std::sin(theta) * dy;
+  const double v = -std::sin(theta) * dx + std::cos(theta) * dy;
+  const double gap = std::hypot(std::max(std::abs(u) - 0.5, 0.0), std::max(std::abs(v) - 0.5, 0.0));
+  return std::max(gap - r, 0.0);
+}
+
+TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
+  ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "2", "--dds",
+                       "--dds-domain", std::to_string(kDomain), "--scene",
+                       NEARPOINT_SOURCE_DIR "/examples/dds_scene.json"});
+  ASSERT_TRUE(server.started());
+  ASSERT_NE(server.wait_for_stderr("event=dds_ready", std::chrono::seconds(20)), "")
+      << server.stderr_text();
+
+  // `nearpoint dds echo` (ros2 topic echo's counterpart) sees every report of the scene.
+  ChildProcess echo({NEARPOINT_CLI_PATH, "dds", "echo", "--dds-domain", std::to_string(kDomain),
+                     "--scene", "dds-demo", "--count", "6", "--timeout-ms", "30000"});
+  ASSERT_TRUE(echo.started());
+  ASSERT_NE(echo.wait_for_stderr("listening", std::chrono::seconds(20)), "") << echo.stderr_text();
+  // Discovery runs in both directions: give nearpointd's writer a moment to see echo's reader.
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+
+  const std::vector<std::array<double, 3>> poses = {
+      {0, -2, 0}, {0, -1.2, 0.3}, {0.6, -0.4, 0.8}, {1.5, 0, 0.2}, {2.2, 0.1, 1.0}, {3, 1.4, 0}};
+  std::vector<std::string> argv = {ROS_PEER_PATH, std::to_string(kDomain), "dds-demo"};
+  for (const auto& [x, y, t] : poses)
+    argv.push_back(std::to_string(x) + "," + std::to_string(y) + "," + std::to_string(t));
+  ChildProcess peer(argv);
+  ASSERT_TRUE(peer.started());
+  ASSERT_EQ(peer.wait_exit(std::chrono::seconds(90)), 0) << peer.stderr_text() << "\nserver:\n"
+                                                         << server.stderr_text();
+
+  const std::vector<std::string> lines = peer.stdout_lines();
+  ASSERT_GE(lines.size(), poses.size());
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    SCOPED_TRACE(lines[k]);
+    const Json report = Json::parse(lines[k]);
+    ASSERT_EQ(report.at("sequence"), k + 1);
+    ASSERT_EQ(report.at("status"), 0);
+    EXPECT_EQ(report.at("stamp_sec"), 1000 + int(k)) << "the update's header is echoed";
+    const auto [x, y, theta] = poses[k];
+    const Json& pairs = report.at("pairs");
+    ASSERT_EQ(pairs.size(), 3u);
+    const double post = axis_to_cube(0, 0, x, y, theta, 0.2);
+    const double drum = axis_to_cube(3, 0, x, y, theta, 0.3);
+    EXPECT_NEAR(pairs.at("mover/post")[0].get<double>(), post,
+                pairs.at("mover/post")[1].get<double>() + 1e-12);
+    EXPECT_NEAR(pairs.at("mover/drum")[0].get<double>(), drum,
+                pairs.at("mover/drum")[1].get<double>() + 1e-12);
+    EXPECT_NEAR(pairs.at("post/drum")[0].get<double>(), 2.5, 1e-9);
+  }
+
+  std::set<std::string> endpoints;
+  for (std::size_t k = poses.size(); k < lines.size(); ++k) {
+    const Json e = Json::parse(lines[k]);
+    endpoints.insert(e.at("endpoint").get<std::string>() + " " + e.at("topic").get<std::string>() +
+                     " " + e.at("type").get<std::string>());
+  }
+  // nearpointd's three endpoints, and `nearpoint dds echo`'s two (still running then).
+  const std::set<std::string> expected = {
+      "subscription rt/nearpoint/pose_updates nearpoint_msgs::msg::dds_::PoseUpdate_",
+      "publication rt/nearpoint/distance_reports nearpoint_msgs::msg::dds_::DistanceReport_",
+      "publication rt/nearpoint/threshold_events nearpoint_msgs::msg::dds_::ThresholdEvent_",
+      "publication rt/nearpoint/pose_updates nearpoint_msgs::msg::dds_::PoseUpdate_",
+      "subscription rt/nearpoint/distance_reports nearpoint_msgs::msg::dds_::DistanceReport_"};
+  for (const std::string& name : expected) EXPECT_TRUE(endpoints.count(name)) << name;
+  for (const std::string& name : endpoints)
+    EXPECT_TRUE(expected.count(name)) << "unexpected: " << name;
+
+  ASSERT_EQ(echo.wait_exit(std::chrono::seconds(60)), 0) << echo.stderr_text();
+  const std::vector<std::string> echoed = echo.stdout_lines();
+  ASSERT_EQ(echoed.size(), poses.size());
+  for (std::size_t k = 0; k < echoed.size(); ++k) {
+    const Json report = Json::parse(echoed[k]);
+    EXPECT_EQ(report.at("scene_id"), "dds-demo");
+    EXPECT_EQ(report.at("client_id"), "ros_peer");
+    EXPECT_EQ(report.at("sequence"), k + 1);
+    EXPECT_EQ(report.at("pairs").size(), 3u);
+  }
+
+  // `nearpoint dds topics` lists nearpointd's topics with the names ROS 2 tools show.
+  ChildProcess topics({NEARPOINT_CLI_PATH, "dds", "topics", "--dds-domain", std::to_string(kDomain),
+                       "--wait-ms", "1500"});
+  ASSERT_TRUE(topics.started());
+  ASSERT_EQ(topics.wait_exit(std::chrono::seconds(30)), 0) << topics.stderr_text();
+  const std::vector<std::string> listed = topics.stdout_lines();
+  std::string all;
+  for (const std::string& line : listed) all += line + "\n";
+  auto has = [&](const std::string& text) {
+    for (const std::string& line : listed)
+      if (line.starts_with(text)) return true;
+    return false;
+  };
+  EXPECT_TRUE(
+      has("/nearpoint/pose_updates [nearpoint_msgs/msg/PoseUpdate]  dds: "
+          "rt/nearpoint/pose_updates nearpoint_msgs::msg::dds_::PoseUpdate_  "
+          "publishers: 0  subscribers: 1"))
+      << all;
+  EXPECT_TRUE(has("/nearpoint/distance_reports [nearpoint_msgs/msg/DistanceReport]")) << all;
+  EXPECT_TRUE(has("/nearpoint/threshold_events [nearpoint_msgs/msg/ThresholdEvent]")) << all;
+
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
+}
+
+}  // namespace
