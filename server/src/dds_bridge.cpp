@@ -11,10 +11,12 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string_view>
 #include <thread>
 #include <vector>
 
+#include "dds_joint_states.hpp"
 #include "metrics.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/log.hpp"
@@ -198,6 +200,15 @@ struct DdsBridge::Impl {
   dds_entity_t writer = 0;
   dds_entity_t event_writer = 0;
   dds_entity_t guard = 0;
+  /// One reader per --dds-joint-states binding, with its scene and, per writer, the sequence
+  /// number of its last JointState (JointState has none; the reports count them from 1).
+  struct JointReader {
+    dds_entity_t reader = 0;
+    std::string scene_id;
+    std::map<dds_instance_handle_t, std::uint64_t> sequences;
+    std::set<dds_instance_handle_t> warned;
+  };
+  std::vector<JointReader> joint_readers;
   dds_entity_t waitset = 0;
   std::thread thread;
 
@@ -232,6 +243,7 @@ struct DdsBridge::Impl {
       }
       reconcile_writers();
       take_updates();
+      for (JointReader& joints : joint_readers) take_joint_states(joints);
       // Reading the writer's matched status resets it, so that its condition stops triggering.
       dds_publication_matched_status_t publication{};
       dds_get_publication_matched_status(writer, &publication);
@@ -352,6 +364,61 @@ struct DdsBridge::Impl {
           errors.push_back(std::move(*error));
       }
       dds_return_loan(reader, samples.data(), taken);
+      for (const PendingError& error : errors) write_error(error);
+      if (taken < kTakeBatch) return;
+    }
+  }
+
+  /// Answers the JointState samples of one binding. Each is decoded and checked
+  /// (decode_joint_state); the joint positions apply to robot scenes only, which this server does
+  /// not have yet, so every sample is answered with an error report (FAILED_PRECONDITION naming
+  /// "joint_states", or the decoding's INVALID_ARGUMENT), logged once per writer.
+  void take_joint_states(JointReader& joints) {
+    for (;;) {
+      std::array<void*, kTakeBatch> samples{};
+      std::array<dds_sample_info_t, kTakeBatch> infos{};
+      const dds_return_t taken =
+          dds_take(joints.reader, samples.data(), infos.data(), samples.size(), kTakeBatch);
+      if (taken < 0) {
+        log_error("dds_take_failed").kv("message", dds::describe("dds_take(joint_states)", taken));
+        return;
+      }
+      std::vector<PendingError> errors;
+      for (dds_return_t i = 0; i < taken; ++i) {
+        const dds_sample_info_t& info = infos[std::size_t(i)];
+        if (!info.valid_data) continue;
+        const auto& sample =
+            *static_cast<const sensor_msgs_msg_dds__JointState_*>(samples[std::size_t(i)]);
+        dds_builtintopic_endpoint_t* endpoint =
+            dds_get_matched_publication_data(joints.reader, info.publication_handle);
+        if (!endpoint) continue;  // the writer has gone: nobody to answer
+        Addressee to{joints.scene_id, kJointStatesClientId, {}, own(sample.header)};
+        std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
+        dds_builtintopic_free_endpoint(endpoint);
+        const std::uint64_t sequence = ++joints.sequences[info.publication_handle];
+        Expected<JointPositions> positions = decode_joint_state(sample);
+        // The hookup to robot scenes: with them, `positions` become the update's joint positions
+        // (model::PoseUpdateInput::joints) and go through accept()'s stream path.
+        const Error error =
+            positions ? Error{ErrorCode::failed_precondition, "joint_states",
+                              text("scene '", joints.scene_id,
+                                   "' has no robot: joint positions apply to robot scenes, which "
+                                   "this server does not support yet")}
+                      : positions.error();
+        std::lock_guard lock(mutex);
+        ++stats.updates_taken;
+        ++stats.updates_rejected;
+        metrics::record_dds_sample(/*in=*/true);
+        if (joints.warned.insert(info.publication_handle).second)
+          log_warn("dds_joint_state_rejected")
+              .kv("scene", joints.scene_id)
+              .kv("writer", dds::guid_hex(to.writer_guid.data()))
+              .kv("code", to_string(error.code))
+              .kv("field", error.field)
+              .kv("message", error.message);
+        errors.push_back(PendingError{std::move(to), sequence, error});
+      }
+      if (taken > 0) dds_return_loan(joints.reader, samples.data(), taken);
       for (const PendingError& error : errors) write_error(error);
       if (taken < kTakeBatch) return;
     }
@@ -673,6 +740,22 @@ Outcome check_dds_config(const DdsConfig& config) {
         text("is ", config.domain_id, "; Cyclone DDS's port mapping allows 0-", kMaxDomainId));
   if (std::string problem = dds::check_topic_prefix(config.topic_prefix); !problem.empty())
     return invalid_argument("dds.prefix", problem);
+  std::set<std::string> joint_topics;
+  for (const JointStateBinding& binding : config.joint_states) {
+    if (std::string problem = dds::check_ros_topic(binding.topic); !problem.empty())
+      return invalid_argument("dds.joint_states.topic", "'" + binding.topic + "' " + problem);
+    if (std::optional<Error> bad = check_id(binding.scene_id, "dds.joint_states.scene"))
+      return *bad;
+    if (!joint_topics.insert(binding.topic).second)
+      return invalid_argument("dds.joint_states.topic",
+                              text("'", binding.topic, "' is bound to two scenes; one each"));
+    for (const std::string& own_topic : {dds::pose_updates_topic(config.topic_prefix),
+                                         dds::distance_reports_topic(config.topic_prefix),
+                                         dds::threshold_events_topic(config.topic_prefix)})
+      if (binding.topic == own_topic)
+        return invalid_argument("dds.joint_states.topic",
+                                text("'", binding.topic, "' is one of nearpointd's own topics"));
+  }
   if (config.history_depth < 1 || config.history_depth > kMaxHistoryDepth)
     return invalid_argument("dds.history_depth", text("is ", config.history_depth, "; 1-",
                                                       kMaxHistoryDepth, " samples"));
@@ -737,6 +820,26 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
     return fail("dds_waitset_attach(writer)", rc);
   if (const dds_return_t rc = dds_waitset_attach(impl.waitset, impl.guard, impl.guard); rc < 0)
     return fail("dds_waitset_attach(guard)", rc);
+  for (const JointStateBinding& binding : config.joint_states) {
+    const dds_entity_t topic =
+        dds_create_topic(impl.participant, &sensor_msgs_msg_dds__JointState__desc,
+                         binding.topic.c_str(), qos.get(), nullptr);
+    if (topic < 0) return fail("dds_create_topic(joint_states)", topic);
+    Impl::JointReader& joints = impl.joint_readers.emplace_back();
+    joints.scene_id = binding.scene_id;
+    joints.reader = dds_create_reader(impl.participant, topic, read_qos.get(), nullptr);
+    if (joints.reader < 0) return fail("dds_create_reader(joint_states)", joints.reader);
+    if (const dds_return_t rc = dds_set_status_mask(joints.reader, DDS_DATA_AVAILABLE_STATUS);
+        rc < 0)
+      return fail("dds_set_status_mask(joint_states)", rc);
+    if (const dds_return_t rc = dds_waitset_attach(impl.waitset, joints.reader, joints.reader);
+        rc < 0)
+      return fail("dds_waitset_attach(joint_states)", rc);
+    log_info("dds_joint_states")
+        .kv("scene", binding.scene_id)
+        .kv("topic", binding.topic)
+        .kv("type", "sensor_msgs::msg::dds_::JointState_");
+  }
 
   impl.thread = std::thread([&impl] { impl.run(); });
   log_info("dds_ready")

@@ -33,11 +33,25 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "nearpoint/server/errors.hpp"
 #include "nearpoint/server/scene_service.hpp"
 
 namespace nearpoint::server {
+
+/// A scene that takes sensor_msgs/JointState samples from a topic (--dds-joint-states; see
+/// dds_joint_states.hpp).
+struct JointStateBinding {
+  std::string scene_id;
+  /// The DDS topic (rt/ + the ROS 2 name).
+  std::string topic = "rt/joint_states";
+};
+
+/// "SCENE" or "SCENE=TOPIC" (TOPIC as a ROS 2 name, /joint_states, or as the DDS topic,
+/// rt/joint_states); INVALID_ARGUMENT naming `field` when the scene id or topic is not legal.
+Expected<JointStateBinding> parse_joint_state_binding(const std::string& spec,
+                                                      const std::string& field);
 
 struct DdsConfig {
   /// DDS domain id (0–230 with Cyclone's default port mapping).
@@ -51,6 +65,8 @@ struct DdsConfig {
   /// Best-effort instead of reliable (ROS 2's sensor data profile): lost updates are not
   /// resent. A reliable ROS 2 reader does not match a best-effort writer.
   bool best_effort = false;
+  /// Scenes fed by sensor_msgs/JointState topics, one topic each.
+  std::vector<JointStateBinding> joint_states;
   /// Start even when CYCLONEDDS_URI is unset (Cyclone's defaults: the external interface and
   /// multicast). Off by default: see deploy/cyclonedds-loopback.xml.
   bool allow_default_config = false;

@@ -22,7 +22,7 @@ namespace {
 using nearpoint::testkit::ChildProcess;
 using Json = nlohmann::json;
 
-// 131-140: tests/ros (101-130: tests/dds).
+// 131-140: tests/ros (101-130: tests/dds); this file uses 132 and 133.
 constexpr int kDomain = 132;
 
 /// Distance from the vertical axis through (ax, ay) to the unit cube at (cx, cy) turned by theta
@@ -133,6 +133,52 @@ TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
 
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
+}
+
+// sensor_msgs/JointState in: nearpointd --dds-joint-states binds the scene to rt/joint_states,
+// a JointState from the ROS-typed peer is decoded and answered on the reports topic, addressed
+// to the JointState's writer with its header. The shipped scene has no robot, so well-formed
+// samples are refused FAILED_PRECONDITION (9) naming "joint_states"; fewer positions than names
+// are INVALID_ARGUMENT (3) naming "joint_states.position".
+TEST(RosPeer, JointStatesAreDecodedAndAnswered) {
+  ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "2", "--dds",
+                       "--dds-domain", std::to_string(kDomain + 1), "--dds-joint-states",
+                       "dds-demo", "--scene", NEARPOINT_SOURCE_DIR "/examples/dds_scene.json"});
+  ASSERT_TRUE(server.started());
+  ASSERT_NE(server.wait_for_stderr("event=dds_ready", std::chrono::seconds(20)), "")
+      << server.stderr_text();
+  ASSERT_NE(
+      server.stderr_text().find("event=dds_joint_states scene=dds-demo topic=rt/joint_states"),
+      std::string::npos)
+      << server.stderr_text();
+  ChildProcess peer({ROS_PEER_PATH, std::to_string(kDomain + 1), "dds-demo", "--joint-states"});
+  ASSERT_TRUE(peer.started());
+  ASSERT_EQ(peer.wait_exit(std::chrono::seconds(60)), 0) << peer.stderr_text() << "\nserver:\n"
+                                                         << server.stderr_text();
+  const std::vector<std::string> lines = peer.stdout_lines();
+  ASSERT_EQ(lines.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    SCOPED_TRACE(lines[k]);
+    const Json report = Json::parse(lines[k]);
+    EXPECT_EQ(report.at("sequence"), k + 1);
+    EXPECT_EQ(report.at("scene_id"), "dds-demo");
+    EXPECT_EQ(report.at("client_id"), "joint_states");
+    EXPECT_EQ(report.at("stamp_sec"), 2000 + int(k));
+    EXPECT_EQ(report.at("status"), k < 2 ? 9 : 3);
+    EXPECT_EQ(report.at("error_field"), k < 2 ? "joint_states" : "joint_states.position");
+  }
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
+}
+
+// A bad binding stops nearpointd before it serves, naming the flag.
+TEST(RosPeer, BadJointStateBindingIsRefused) {
+  ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--dds", "--dds-domain",
+                       std::to_string(kDomain + 1), "--dds-joint-states", "dds-demo=/2bad"});
+  ASSERT_TRUE(server.started());
+  EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 2) << server.stderr_text();
+  EXPECT_NE(server.stderr_text().find("field=--dds-joint-states.topic"), std::string::npos)
+      << server.stderr_text();
 }
 
 }  // namespace

@@ -12,6 +12,12 @@
 //   {"sequence": N, "status": S, "stamp_sec": N, "pairs": {"a/b": [distance, error_bound], ...}}
 // then one line per endpoint of other participants seen by discovery:
 //   {"endpoint": "publication"|"subscription", "topic": "...", "type": "..."}
+//
+//   ros_peer DOMAIN SCENE --joint-states
+// publishes three sensor_msgs/JointState samples on rt/joint_states (two well formed, then one
+// with fewer positions than names) and prints, per DistanceReport addressed to that writer:
+//   {"sequence": N, "status": S, "scene_id": "...", "client_id": "...", "error_field": "...",
+//    "stamp_sec": N}
 // Exit status 0, or 1 with the reason on stderr.
 #include <dds/dds.h>
 
@@ -28,6 +34,7 @@
 
 #include "nearpoint_msgs/msg/DistanceReport.h"
 #include "nearpoint_msgs/msg/PoseUpdate.h"
+#include "sensor_msgs/msg/JointState.h"
 
 namespace {
 
@@ -56,11 +63,12 @@ std::string json_string(const char* s) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 4) return fail("usage: ros_peer DOMAIN SCENE X,Y,THETA...");
+  if (argc < 4) return fail("usage: ros_peer DOMAIN SCENE X,Y,THETA... | --joint-states");
   const auto domain = dds_domainid_t(std::atoi(argv[1]));
   std::string scene = argv[2];
+  const bool joint_states = std::string(argv[3]) == "--joint-states";
   std::vector<std::tuple<double, double, double>> poses;
-  for (int i = 3; i < argc; ++i) {
+  for (int i = 3; i < argc && !joint_states; ++i) {
     double x, y, theta;
     if (std::sscanf(argv[i], "%lf,%lf,%lf", &x, &y, &theta) != 3)
       return fail(std::string("not X,Y,THETA: ") + argv[i]);
@@ -76,8 +84,12 @@ int main(int argc, char** argv) {
   const dds_entity_t report_topic =
       dds_create_topic(participant, &nearpoint_msgs_msg_dds__DistanceReport__desc,
                        "rt/nearpoint/distance_reports", qos, nullptr);
-  if (update_topic < 0 || report_topic < 0) return fail("dds_create_topic failed");
-  const dds_entity_t writer = dds_create_writer(participant, update_topic, qos, nullptr);
+  const dds_entity_t joint_topic = dds_create_topic(
+      participant, &sensor_msgs_msg_dds__JointState__desc, "rt/joint_states", qos, nullptr);
+  if (update_topic < 0 || report_topic < 0 || joint_topic < 0)
+    return fail("dds_create_topic failed");
+  const dds_entity_t writer =
+      dds_create_writer(participant, joint_states ? joint_topic : update_topic, qos, nullptr);
   const dds_entity_t reader = dds_create_reader(participant, report_topic, qos, nullptr);
   dds_delete_qos(qos);
   if (writer < 0 || reader < 0) return fail("dds_create_writer/reader failed");
@@ -100,6 +112,43 @@ int main(int argc, char** argv) {
     if (pm.current_count > 0 && sm.current_count > 0) break;
     if (std::chrono::steady_clock::now() > deadline) return fail("nearpointd not matched in 20 s");
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+
+  if (joint_states) {
+    char* names[] = {const_cast<char*>("shoulder"), const_cast<char*>("elbow")};
+    double positions[] = {0.25, -0.5};
+    for (std::uint32_t k = 0; k < 3; ++k) {
+      sensor_msgs_msg_dds__JointState_ state{};
+      state.header.stamp = {int32_t(2000 + k), 0};
+      state.header.frame_id = const_cast<char*>("");
+      state.name = {2, 2, names, false};
+      state.position = {k < 2 ? 2u : 1u, k < 2 ? 2u : 1u, positions, false};
+      if (const dds_return_t rc = dds_write(writer, &state); rc < 0)
+        return fail(std::string("dds_write: ") + dds_strretcode(rc));
+    }
+    std::uint32_t answered = 0;
+    const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (answered < 3 && std::chrono::steady_clock::now() < wait_until) {
+      void* samples[1] = {nullptr};
+      dds_sample_info_t info;
+      if (dds_take(reader, samples, &info, 1, 1) != 1) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        continue;
+      }
+      const auto& r = *static_cast<const nearpoint_msgs_msg_dds__DistanceReport_*>(samples[0]);
+      if (info.valid_data && std::memcmp(r.writer_guid, own.v, 16) == 0) {
+        ++answered;
+        std::printf(
+            "{\"sequence\": %llu, \"status\": %u, \"scene_id\": %s, \"client_id\": %s, "
+            "\"error_field\": %s, \"stamp_sec\": %d}\n",
+            static_cast<unsigned long long>(r.sequence_number), r.status,
+            json_string(r.scene_id).c_str(), json_string(r.client_id).c_str(),
+            json_string(r.error_field).c_str(), r.header.stamp.sec);
+      }
+      dds_return_loan(reader, samples, 1);
+    }
+    dds_delete(participant);
+    return answered == 3 ? 0 : fail("reports missing for the joint states");
   }
 
   for (std::size_t k = 0; k < poses.size(); ++k) {
