@@ -209,6 +209,12 @@ struct DdsBridge::Impl {
     std::set<dds_instance_handle_t> warned;
   };
   std::vector<JointReader> joint_readers;
+  /// Discovery of other participants' endpoints: one whose topic is ours but whose type is not
+  /// (a peer built from other message definitions) never matches, silently on DDS's side, so
+  /// the bridge logs it, once per endpoint.
+  dds_entity_t publications = 0;
+  dds_entity_t subscriptions = 0;
+  std::set<std::string> mismatches_logged;
   dds_entity_t waitset = 0;
   std::thread thread;
 
@@ -244,6 +250,8 @@ struct DdsBridge::Impl {
       reconcile_writers();
       take_updates();
       for (JointReader& joints : joint_readers) take_joint_states(joints);
+      check_types(publications, /*publication=*/true);
+      check_types(subscriptions, /*publication=*/false);
       // Reading the writer's matched status resets it, so that its condition stops triggering.
       dds_publication_matched_status_t publication{};
       dds_get_publication_matched_status(writer, &publication);
@@ -365,6 +373,53 @@ struct DdsBridge::Impl {
       }
       dds_return_loan(reader, samples.data(), taken);
       for (const PendingError& error : errors) write_error(error);
+      if (taken < kTakeBatch) return;
+    }
+  }
+
+  /// The type each of our topics carries, for the endpoints of other participants: what a
+  /// publication (`publication`) or a subscription on it must name to match ours.
+  std::string expected_type(const std::string& topic, bool publication) const {
+    if (publication && topic == dds::pose_updates_topic(config.topic_prefix))
+      return dds::kPoseUpdateType;
+    if (!publication && topic == dds::distance_reports_topic(config.topic_prefix))
+      return dds::kDistanceReportType;
+    if (!publication && topic == dds::threshold_events_topic(config.topic_prefix))
+      return dds::kThresholdEventType;
+    if (publication)
+      for (const JointStateBinding& binding : config.joint_states)
+        if (topic == binding.topic) return "sensor_msgs::msg::dds_::JointState_";
+    return {};
+  }
+
+  /// Logs the endpoints discovered on our topics with another type (they will never match).
+  void check_types(dds_entity_t discovery, bool publication) {
+    if (discovery <= 0) return;
+    for (;;) {
+      std::array<void*, kTakeBatch> samples{};
+      std::array<dds_sample_info_t, kTakeBatch> infos{};
+      const dds_return_t taken =
+          dds_take(discovery, samples.data(), infos.data(), samples.size(), kTakeBatch);
+      if (taken <= 0) return;
+      for (dds_return_t i = 0; i < taken; ++i) {
+        if (!infos[std::size_t(i)].valid_data) continue;
+        const auto* e = static_cast<const dds_builtintopic_endpoint_t*>(samples[std::size_t(i)]);
+        const std::string topic = own(e->topic_name), type = own(e->type_name);
+        const std::string expected = expected_type(topic, publication);
+        if (expected.empty() || type == expected) continue;
+        const std::string key = dds::guid_hex(e->key.v);
+        if (!mismatches_logged.insert(key).second) continue;
+        log_warn("dds_type_mismatch")
+            .kv("endpoint", publication ? "publication" : "subscription")
+            .kv("topic", topic)
+            .kv("type", type)
+            .kv("expected", expected)
+            .kv("participant", dds::guid_hex(e->participant_key.v))
+            .kv("message",
+                "an endpoint on our topic with another type never matches ours; build it from "
+                "ros/nearpoint_msgs (ROS 2 types are matched by name)");
+      }
+      dds_return_loan(discovery, samples.data(), taken);
       if (taken < kTakeBatch) return;
     }
   }
@@ -839,6 +894,20 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
         .kv("scene", binding.scene_id)
         .kv("topic", binding.topic)
         .kv("type", "sensor_msgs::msg::dds_::JointState_");
+  }
+
+  impl.publications =
+      dds_create_reader(impl.participant, DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr);
+  impl.subscriptions =
+      dds_create_reader(impl.participant, DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION, nullptr, nullptr);
+  if (impl.publications < 0) return fail("dds_create_reader(DCPSPublication)", impl.publications);
+  if (impl.subscriptions < 0)
+    return fail("dds_create_reader(DCPSSubscription)", impl.subscriptions);
+  for (const dds_entity_t discovery : {impl.publications, impl.subscriptions}) {
+    if (const dds_return_t rc = dds_set_status_mask(discovery, DDS_DATA_AVAILABLE_STATUS); rc < 0)
+      return fail("dds_set_status_mask(discovery)", rc);
+    if (const dds_return_t rc = dds_waitset_attach(impl.waitset, discovery, discovery); rc < 0)
+      return fail("dds_waitset_attach(discovery)", rc);
   }
 
   impl.thread = std::thread([&impl] { impl.run(); });

@@ -22,7 +22,7 @@ namespace {
 using nearpoint::testkit::ChildProcess;
 using Json = nlohmann::json;
 
-// 131-140: tests/ros (101-130: tests/dds); this file uses 132 and 133.
+// 131-140: tests/ros (101-130: tests/dds); this file uses 132-134.
 constexpr int kDomain = 132;
 
 /// Distance from the vertical axis through (ax, ay) to the unit cube at (cx, cy) turned by theta
@@ -169,6 +169,33 @@ TEST(RosPeer, JointStatesAreDecodedAndAnswered) {
   }
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
+}
+
+// A participant built from other message definitions, publishing on our topic: DDS matches ROS 2
+// types by name, so it gets nothing, and nearpointd logs why (once), naming both types.
+TEST(RosPeer, MismatchedTypeGetsNothingAndIsLogged) {
+  ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--dds", "--dds-domain",
+                       std::to_string(kDomain + 2), "--scene",
+                       NEARPOINT_SOURCE_DIR "/examples/dds_scene.json"});
+  ASSERT_TRUE(server.started());
+  ASSERT_NE(server.wait_for_stderr("event=dds_ready", std::chrono::seconds(20)), "")
+      << server.stderr_text();
+  ChildProcess peer({ROS_PEER_PATH, std::to_string(kDomain + 2), "dds-demo", "--wrong-type"});
+  ASSERT_TRUE(peer.started());
+  ASSERT_EQ(peer.wait_exit(std::chrono::seconds(60)), 0) << peer.stderr_text();
+  ASSERT_EQ(peer.stdout_lines(), std::vector<std::string>{"{\"reports\": 0}"});
+  const std::string logged =
+      server.wait_for_stderr("event=dds_type_mismatch", std::chrono::seconds(10));
+  ASSERT_NE(logged, "") << server.stderr_text();
+  EXPECT_NE(logged.find("endpoint=publication topic=rt/nearpoint/pose_updates "
+                        "type=sensor_msgs::msg::dds_::JointState_ "
+                        "expected=nearpoint_msgs::msg::dds_::PoseUpdate_"),
+            std::string::npos)
+      << logged;
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
+  EXPECT_NE(server.stderr_text().find("event=dds_shutdown updates=0"), std::string::npos)
+      << server.stderr_text();
 }
 
 // A bad binding stops nearpointd before it serves, naming the flag.

@@ -18,6 +18,10 @@
 // with fewer positions than names) and prints, per DistanceReport addressed to that writer:
 //   {"sequence": N, "status": S, "scene_id": "...", "client_id": "...", "error_field": "...",
 //    "stamp_sec": N}
+//
+//   ros_peer DOMAIN SCENE --wrong-type
+// publishes a sensor_msgs/JointState on rt/nearpoint/pose_updates (a peer built from other
+// message definitions), waits 3 s and prints {"reports": N}: the reports addressed to it.
 // Exit status 0, or 1 with the reason on stderr.
 #include <dds/dds.h>
 
@@ -67,8 +71,9 @@ int main(int argc, char** argv) {
   const auto domain = dds_domainid_t(std::atoi(argv[1]));
   std::string scene = argv[2];
   const bool joint_states = std::string(argv[3]) == "--joint-states";
+  const bool wrong_type = std::string(argv[3]) == "--wrong-type";
   std::vector<std::tuple<double, double, double>> poses;
-  for (int i = 3; i < argc && !joint_states; ++i) {
+  for (int i = 3; i < argc && !joint_states && !wrong_type; ++i) {
     double x, y, theta;
     if (std::sscanf(argv[i], "%lf,%lf,%lf", &x, &y, &theta) != 3)
       return fail(std::string("not X,Y,THETA: ") + argv[i]);
@@ -79,7 +84,9 @@ int main(int argc, char** argv) {
   if (participant < 0) return fail(dds_strretcode(participant));
   dds_qos_t* qos = ros_default_qos();
   const dds_entity_t update_topic =
-      dds_create_topic(participant, &nearpoint_msgs_msg_dds__PoseUpdate__desc,
+      dds_create_topic(participant,
+                       wrong_type ? &sensor_msgs_msg_dds__JointState__desc
+                                  : &nearpoint_msgs_msg_dds__PoseUpdate__desc,
                        "rt/nearpoint/pose_updates", qos, nullptr);
   const dds_entity_t report_topic =
       dds_create_topic(participant, &nearpoint_msgs_msg_dds__DistanceReport__desc,
@@ -101,6 +108,27 @@ int main(int argc, char** argv) {
   dds_get_guid(writer, &own);
   dds_guid_t own_participant;
   dds_get_guid(participant, &own_participant);
+
+  if (wrong_type) {
+    // Nothing matches: wait for discovery, publish, and count what comes back.
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    sensor_msgs_msg_dds__JointState_ state{};
+    state.header.frame_id = const_cast<char*>("");
+    if (const dds_return_t rc = dds_write(writer, &state); rc < 0)
+      return fail(std::string("dds_write: ") + dds_strretcode(rc));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    int reports = 0;
+    void* samples[1] = {nullptr};
+    dds_sample_info_t info;
+    while (dds_take(reader, samples, &info, 1, 1) == 1) {
+      const auto& r = *static_cast<const nearpoint_msgs_msg_dds__DistanceReport_*>(samples[0]);
+      if (info.valid_data && std::memcmp(r.writer_guid, own.v, 16) == 0) ++reports;
+      dds_return_loan(reader, samples, 1);
+    }
+    std::printf("{\"reports\": %d}\n", reports);
+    dds_delete(participant);
+    return 0;
+  }
 
   // Wait for nearpointd on both topics, then a little for its writer to see our reader.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
