@@ -334,14 +334,24 @@ struct DdsBridge::Impl {
   }
 
   /// Ends the streams of writers that are no longer matched (deleted, or lost by liveliness).
+  /// A stream's writer may be matched by the pose reader or, for joint states, by a JointState
+  /// reader: the writers still there are those any of them matches.
   void reconcile_writers() {
-    dds_subscription_matched_status_t status{};
-    if (dds_get_subscription_matched_status(reader, &status) < 0) return;
-    if (status.current_count_change == 0 && status.total_count_change == 0) return;
-    std::vector<dds_instance_handle_t> matched(std::size_t(status.current_count) + 8);
-    dds_return_t count = dds_get_matched_publications(reader, matched.data(), matched.size());
-    if (count < 0) return;
-    matched.resize(std::min<std::size_t>(matched.size(), std::size_t(count)));
+    bool changed = false;
+    std::vector<dds_instance_handle_t> matched;
+    std::vector<dds_entity_t> readers{reader};
+    for (const JointReader& joints : joint_readers) readers.push_back(joints.reader);
+    for (const dds_entity_t source : readers) {
+      dds_subscription_matched_status_t status{};
+      if (dds_get_subscription_matched_status(source, &status) < 0) return;
+      changed = changed || status.current_count_change != 0 || status.total_count_change != 0;
+      std::vector<dds_instance_handle_t> some(std::size_t(status.current_count) + 8);
+      const dds_return_t count = dds_get_matched_publications(source, some.data(), some.size());
+      if (count < 0) return;
+      some.resize(std::min<std::size_t>(some.size(), std::size_t(count)));
+      matched.insert(matched.end(), some.begin(), some.end());
+    }
+    if (!changed) return;
     std::sort(matched.begin(), matched.end());
     std::lock_guard lock(mutex);
     for (auto it = streams.begin(); it != streams.end();) {
@@ -453,7 +463,8 @@ struct DdsBridge::Impl {
         const std::uint64_t sequence = ++joints.sequences[info.publication_handle];
         Expected<JointPositions> positions = decode_joint_state(sample);
         // The hookup to robot scenes: with them, `positions` become the update's joint positions
-        // (model::PoseUpdateInput::joints) and go through accept()'s stream path.
+        // (model::PoseUpdateInput::joints, with scene_id and sequence as here) and go through
+        // accept(input, kJointStatesClientId, header, joints.reader, info.publication_handle).
         const Error error =
             positions ? Error{ErrorCode::failed_precondition, "joint_states",
                               text("scene '", joints.scene_id,
@@ -483,10 +494,15 @@ struct DdsBridge::Impl {
   /// it is rejected. Cheap: no geometry.
   std::optional<PendingError> accept(const UpdateSample& sample,
                                      dds_instance_handle_t publication) {
+    return accept(to_input(sample), own(sample.client_id), own(sample.header), reader, publication);
+  }
+
+  /// As above for an update already in the scene API's terms (from a PoseUpdate or, for a robot
+  /// scene, a JointState), taken by `source` (the reader that matched its writer).
+  std::optional<PendingError> accept(model::PoseUpdateInput input, std::string client_id,
+                                     Header header, dds_entity_t source,
+                                     dds_instance_handle_t publication) {
     const Clock::time_point received = Clock::now();
-    model::PoseUpdateInput input = to_input(sample);
-    std::string client_id = own(sample.client_id);
-    Header header = own(sample.header);
     std::lock_guard lock(mutex);
     ++stats.updates_taken;
     metrics::record_dds_sample(/*in=*/true);
@@ -496,7 +512,7 @@ struct DdsBridge::Impl {
     std::optional<Error> malformed = check_id(input.scene_id, "scene_id");
     if (!malformed) malformed = check_name(client_id, "client_id");
     if (malformed) {
-      dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, publication);
+      dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(source, publication);
       if (!endpoint) return std::nullopt;  // the writer has gone: nobody to answer
       Addressee to{input.scene_id.substr(0, kQuotedBytes),
                    client_id.substr(0, kMaxNameBytes),
@@ -511,7 +527,7 @@ struct DdsBridge::Impl {
     if (found == streams.end()) {
       // The writer's GUID addresses the reports; a writer no longer matched has gone (its
       // samples arrived just before its deletion was seen) and cannot be answered.
-      dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, publication);
+      dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(source, publication);
       if (!endpoint) {
         log_warn("dds_update_from_unmatched_writer")
             .kv("scene", input.scene_id)
@@ -884,7 +900,8 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
     joints.scene_id = binding.scene_id;
     joints.reader = dds_create_reader(impl.participant, topic, read_qos.get(), nullptr);
     if (joints.reader < 0) return fail("dds_create_reader(joint_states)", joints.reader);
-    if (const dds_return_t rc = dds_set_status_mask(joints.reader, DDS_DATA_AVAILABLE_STATUS);
+    if (const dds_return_t rc = dds_set_status_mask(
+            joints.reader, DDS_DATA_AVAILABLE_STATUS | DDS_SUBSCRIPTION_MATCHED_STATUS);
         rc < 0)
       return fail("dds_set_status_mask(joint_states)", rc);
     if (const dds_return_t rc = dds_waitset_attach(impl.waitset, joints.reader, joints.reader);
