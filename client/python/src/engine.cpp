@@ -67,14 +67,23 @@ Array as_array(py::handle obj, const char* what) {
                             ": the array is not C-contiguous (pass numpy.ascontiguousarray(...))");
     return py::reinterpret_borrow<Array>(a);
   }
-  Array converted = Array::ensure(obj);
-  if (!converted) {
+  // Plain sequences: numbers only (integers and floats), converted to float64. numpy's own
+  // conversion would also take booleans and drop imaginary parts.
+  py::array raw = py::array::ensure(obj);
+  if (!raw) {
     PyErr_Clear();
     throw py::type_error(std::string(what) + ": expected an array of numbers, got " +
                          py::str(py::type::of(obj)).cast<std::string>());
   }
-  if (converted.dtype().kind() == 'O')
-    throw py::type_error(std::string(what) + ": expected an array of numbers");
+  const char kind = raw.dtype().kind();
+  if (kind != 'i' && kind != 'u' && kind != 'f')
+    throw py::type_error(std::string(what) + ": expected numbers, got elements of dtype " +
+                         dtype_name(raw));
+  Array converted = Array::ensure(raw);
+  if (!converted) {
+    PyErr_Clear();
+    throw py::type_error(std::string(what) + ": cannot convert to float64");
+  }
   return converted;
 }
 
