@@ -305,6 +305,7 @@ class BadInput(unittest.TestCase):
         rows[:, 0] = np.arange(8)
         rows[:, 3] = 1
         self.refuse(lambda: npt.distance_batch(a, rows, b, rows[:5]), ValueError)
+        self.refuse(lambda: npt.distance_batch(a, rows[:0], b, rows), ValueError)
         self.refuse(lambda: npt.distance_batch(a, rows[:, :6].copy(), b, None), ValueError)
         self.refuse(lambda: npt.distance_batch(a, rows[::2], b, None), ValueError)
         self.refuse(lambda: npt.distance_batch(a, rows.astype(np.float32), b, None), TypeError)
@@ -470,6 +471,8 @@ class Api(unittest.TestCase):
         self.assertEqual(len(empty), 0)
         one = npt.distance_batch(a, None, b, rows[0])
         self.assertEqual(len(one), 1)
+        self.assertEqual(str(one.status[0] == npt.Status.separated), "True")
+        self.assertEqual(str(npt.Status.touching), "touching")
         many = npt.distance_batch([a, b] * 3, None, b, rows, threads=0)
         self.assertEqual(many.status.dtype, np.uint8)
         self.assertTrue((many.status == npt.Status.separated).all())

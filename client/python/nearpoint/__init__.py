@@ -98,7 +98,8 @@ def distance_batch(a, poses_a, b, poses_b, *, threads: int = 1, cache: Optional[
     array of matrices or an (N, 7) array of (tx, ty, tz, qw, qx, qy, qz) rows: float64 and
     C-contiguous. Inputs with one row are broadcast against those with N.
 
-    `threads`: worker threads (0: one per core); rows are split into equal contiguous blocks.
+    `threads`: worker threads (0: one per core), at most one per 64 rows (starting a thread
+    costs more than a few dozen queries); rows are split into equal contiguous blocks.
     `cache`: a `Cache` holding one warm start per row, read and updated: pass the same Cache with
     the next poses of a trajectory. `errors`: "raise" (ValueError naming the first invalid row)
     or "status" (invalid rows keep Status.invalid_input in `status`). Other keywords are the

@@ -11,6 +11,7 @@
 //    message; an iteration limit is a result (its status says so), not an error.
 //  - The batch call converts nothing per pair into Python objects: it reads the pose arrays and
 //    writes the result arrays with the GIL released, optionally on several threads.
+#include <pybind11/eval.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -18,6 +19,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <deque>
 #include <limits>
 #include <memory>
 #include <span>
@@ -488,6 +490,15 @@ PoseColumn pose_column(py::handle obj, const char* what) {
 struct ShapeColumn {
   std::vector<Side> sides;  // 1 (broadcast) or N
   std::vector<py::object> keep;
+  // Single shapes meeting compounds, wrapped once here rather than per row on the hot path.
+  std::deque<Compound<double>> wrapped;
+  void wrap_singles() {
+    for (Side& side : sides) {
+      if (side.compound) continue;
+      wrapped.push_back(as_compound(*side.shape));
+      side = {nullptr, &wrapped.back()};
+    }
+  }
   bool any_compound = false;
   std::size_t max_pieces = 1;
 };
@@ -624,32 +635,34 @@ void write_row(const Columns& c, py::ssize_t i, const PyResult& q) {
   }
 }
 
-py::ssize_t rows_of(py::ssize_t n, py::ssize_t rows, const char* what) {
-  if (rows == 1 || n == 1 || rows == n) return std::max(n, rows);
-  throw py::value_error(std::string("distance_batch: ") + what + " has " + std::to_string(rows) +
-                        " rows where the others have " + std::to_string(n) +
-                        " (each input has one row or N)");
-}
-
 py::dict distance_batch(py::handle a, py::handle poses_a, py::handle b, py::handle poses_b,
                         const py::kwargs& kwargs) {
   CallArgs args = parse_kwargs(kwargs, true);
-  const ShapeColumn ca = shape_column(a, "a"), cb = shape_column(b, "b");
+  ShapeColumn ca = shape_column(a, "a"), cb = shape_column(b, "b");
   const PoseColumn pa = pose_column(poses_a, "poses_a"), pb = pose_column(poses_b, "poses_b");
   if (ca.sides.empty() || cb.sides.empty())
     throw py::value_error("distance_batch: a shape sequence is empty");
-  // N: the common row count; the inputs with one row are broadcast. Only arrays (and sequences
-  // of shapes) carry rows; a single Pose or Shape is one row.
-  py::ssize_t n = 1;
-  const bool any_rows = pa.data || pb.data || ca.sides.size() > 1 || cb.sides.size() > 1;
-  n = rows_of(n, pa.data ? pa.rows : 1, "poses_a");
-  n = rows_of(n, pb.data ? pb.rows : 1, "poses_b");
-  n = rows_of(n, static_cast<py::ssize_t>(ca.sides.size()), "a");
-  n = rows_of(n, static_cast<py::ssize_t>(cb.sides.size()), "b");
-  if (pa.data && pa.rows == 0) n = 0;
-  if (pb.data && pb.rows == 0) n = 0;
-  if (!any_rows) n = 1;
+  // N: the common row count of the inputs that carry rows (pose arrays, shape sequences); those
+  // with one row are broadcast. A single Pose or Shape is one row.
+  py::ssize_t n = -1;
+  auto take = [&](bool carries, py::ssize_t rows, const char* what) {
+    if (!carries || rows == 1) return;
+    if (n < 0) n = rows;
+    if (rows != n)
+      throw py::value_error(std::string("distance_batch: ") + what + " has " +
+                            std::to_string(rows) + " rows where another input has " +
+                            std::to_string(n) + " (each input has one row or N)");
+  };
+  take(pa.data != nullptr, pa.rows, "poses_a");
+  take(pb.data != nullptr, pb.rows, "poses_b");
+  take(true, static_cast<py::ssize_t>(ca.sides.size()), "a");
+  take(true, static_cast<py::ssize_t>(cb.sides.size()), "b");
+  if (n < 0) n = 1;
   const bool compound = ca.any_compound || cb.any_compound;
+  if (compound) {
+    ca.wrap_singles();
+    cb.wrap_singles();
+  }
   Columns cols = make_columns(n, args.options, compound);
 
   // Caches: one row each; a row holds one entry per piece pair (the largest pair count if the
@@ -663,33 +676,41 @@ py::dict distance_batch(py::handle a, py::handle poses_a, py::handle b, py::hand
 
   int threads = args.threads;
   if (threads == 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = static_cast<int>(std::min<py::ssize_t>(threads, std::max<py::ssize_t>(n, 1)));
+  // A thread costs tens of microseconds to start: each gets at least kRowsPerThread rows.
+  constexpr py::ssize_t kRowsPerThread = 64;
+  threads = static_cast<int>(
+      std::min<py::ssize_t>(threads, std::max<py::ssize_t>(1, n / kRowsPerThread)));
 
   // Each worker records its first invalid row, so the caller hears of the first one overall.
   struct Invalid {
     py::ssize_t row = -1;
     const char* message = nullptr;
+    bool failed = false;  // an exception (out of memory) stopped the worker
   };
   std::vector<Invalid> invalid(static_cast<std::size_t>(threads));
-  auto work = [&](int t, py::ssize_t begin, py::ssize_t end) {
+  auto work = [&](int t, py::ssize_t begin, py::ssize_t end) noexcept {
     const DistanceOptions<double>& options = args.options;
     PyResult q;
-    for (py::ssize_t i = begin; i < end; ++i) {
-      const Side& sa = ca.sides[ca.sides.size() == 1 ? 0 : static_cast<std::size_t>(i)];
-      const Side& sb = cb.sides[cb.sides.size() == 1 ? 0 : static_cast<std::size_t>(i)];
-      Pose<double> posa, posb;
-      const char* why = pa.get(pa.data ? i : 0, posa);
-      if (!why) why = pb.get(pb.data ? i : 0, posb);
-      if (why) {
-        q = PyResult{};
-        q.r.status = Status::invalid_input;
-        q.r.message = why;
-      } else {
-        run_query(sa, posa, sb, posb, options, caches ? caches + i * stride : nullptr, q);
+    try {
+      for (py::ssize_t i = begin; i < end; ++i) {
+        const Side& sa = ca.sides[ca.sides.size() == 1 ? 0 : static_cast<std::size_t>(i)];
+        const Side& sb = cb.sides[cb.sides.size() == 1 ? 0 : static_cast<std::size_t>(i)];
+        Pose<double> posa, posb;
+        const char* why = pa.get(pa.data ? i : 0, posa);
+        if (!why) why = pb.get(pb.data ? i : 0, posb);
+        if (why) {
+          q = PyResult{};
+          q.r.status = Status::invalid_input;
+          q.r.message = why;
+        } else {
+          run_query(sa, posa, sb, posb, options, caches ? caches + i * stride : nullptr, q);
+        }
+        write_row(cols, i, q);
+        if (q.r.status == Status::invalid_input && invalid[t].row < 0)
+          invalid[t] = {i, q.r.message ? q.r.message : "invalid input", false};
       }
-      write_row(cols, i, q);
-      if (q.r.status == Status::invalid_input && invalid[t].row < 0)
-        invalid[t] = {i, q.r.message ? q.r.message : "invalid input"};
+    } catch (...) {
+      invalid[t].failed = true;
     }
   };
   {
@@ -705,6 +726,8 @@ py::dict distance_batch(py::handle a, py::handle poses_a, py::handle b, py::hand
       for (auto& th : pool) th.join();
     }
   }
+  for (const auto& inv : invalid)
+    if (inv.failed) throw std::runtime_error("distance_batch: a worker failed (out of memory?)");
   if (args.raise_invalid) {
     for (const auto& inv : invalid)
       if (inv.row >= 0)
@@ -721,6 +744,9 @@ py::object make_enum(const char* name, std::vector<std::pair<const char*, int>> 
   for (auto& [k, v] : members) items.append(py::make_tuple(k, v));
   py::object e = py::module_::import("enum").attr("IntEnum")(name, items);
   e.attr("__module__") = "nearpoint";
+  // print(result.status) says "separated", not "0" (IntEnum prints its number since 3.11).
+  e.attr("__str__") = py::eval("lambda self: self.name");
+  e.attr("__format__") = py::eval("lambda self, spec: format(self.name, spec)");
   m.attr(name) = e;
   return e;
 }
