@@ -52,6 +52,39 @@ def cpp_ns(tool, path, reps):
     return float(out[0])
 
 
+def measure_python(npt, np, a, b, rows_a, rows_b, mats_a, mats_b, n, m, between):
+    """(method, N, threads, seconds per pair, C++ reference) for every Python measurement."""
+    out = []
+    # One Python call per pair (the C++ loop on the same pairs as reference).
+    poses_a = [npt.Pose.from_quaternion(r[3:], r[:3]) for r in rows_a[:m]]
+    poses_b = [npt.Pose.from_quaternion(r[3:], r[:3]) for r in rows_b[:m]]
+    pairs = list(zip(poses_a, poses_b))
+    row_pairs = list(zip(rows_a[:m], rows_b[:m]))
+    distance = npt.distance
+
+    def single_pose_objects():
+        for pa, pb in pairs:
+            distance(a, pa, b, pb)
+
+    def single_rows():
+        for pa, pb in row_pairs:
+            distance(a, pa, b, pb)
+    out.append(("single call, Pose objects", m, 1, best_of(single_pose_objects, 7, 0.2) / m,
+                "single"))
+    out.append(("single call, (7,) numpy rows", m, 1, best_of(single_rows, 7, 0.2) / m, "single"))
+    between()
+    # The batch call.
+    for count in (10, 1_000, n):
+        for threads in (1, 2):
+            for layout, pa, pb in (("(N, 7) rows", rows_a, rows_b),
+                                   ("(N, 4, 4) matrices", mats_a, mats_b)):
+                xa, xb = pa[:count], pb[:count]
+                seconds = best_of(lambda: npt.distance_batch(a, xa, b, xb, threads=threads),
+                                  7, 0.2 if count < n else 0.0)
+                out.append((f"batch, {layout}", count, threads, seconds / count, "all"))
+    return out
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--build", default=os.path.join(ROOT, "build"))
@@ -83,8 +116,19 @@ def main():
                               [(0, 1, rows_a[i], rows_b[i]) for i in range(count)])
             return path
         all_pairs, single_pairs = write("all.txt", n), write("single.txt", args.single)
-        cpp_all = min(cpp_ns(tool, all_pairs, 3) for _ in range(3))
-        cpp_single = min(cpp_ns(tool, single_pairs, 10) for _ in range(3))
+        load = open("/proc/loadavg").read().split()[0] if os.path.exists("/proc/loadavg") else "?"
+        # The C++ loop is timed before, between and after the Python measurements, and its best
+        # taken, as theirs is: on a shared machine the least time is the least disturbed one.
+        cpp_times = {"all": [], "single": []}
+
+        def time_cpp():
+            cpp_times["all"].append(min(cpp_ns(tool, all_pairs, 3) for _ in range(2)))
+            cpp_times["single"].append(min(cpp_ns(tool, single_pairs, 10) for _ in range(2)))
+        time_cpp()
+        results_python = measure_python(npt, np, a, b, rows_a, rows_b, mats_a, mats_b, n,
+                                        args.single, time_cpp)
+        time_cpp()
+    cpp_all, cpp_single = min(cpp_times["all"]), min(cpp_times["single"])
 
     def record(method, count, threads, seconds_per_pair, reference):
         ns = seconds_per_pair * 1e9
@@ -93,33 +137,8 @@ def main():
                         "ratio_to_cpp": round(ns / reference, 3),
                         "overhead_ns": round(ns - reference, 1)})
 
-    # One Python call per pair (the C++ loop on the same pairs as reference).
-    m = args.single
-    poses_a = [npt.Pose.from_quaternion(r[3:], r[:3]) for r in rows_a[:m]]
-    poses_b = [npt.Pose.from_quaternion(r[3:], r[:3]) for r in rows_b[:m]]
-    pairs = list(zip(poses_a, poses_b))
-    distance = npt.distance
-
-    def single_pose_objects():
-        for pa, pb in pairs:
-            distance(a, pa, b, pb)
-    record("single call, Pose objects", m, 1, best_of(single_pose_objects, 5, 0.2) / m, cpp_single)
-    row_pairs = list(zip(rows_a[:m], rows_b[:m]))
-
-    def single_rows():
-        for pa, pb in row_pairs:
-            distance(a, pa, b, pb)
-    record("single call, (7,) numpy rows", m, 1, best_of(single_rows, 5, 0.2) / m, cpp_single)
-
-    # The batch call.
-    for count in (10, 1_000, n):
-        for threads in (1, 2):
-            for layout, pa, pb in (("(N, 7) rows", rows_a, rows_b),
-                                   ("(N, 4, 4) matrices", mats_a, mats_b)):
-                xa, xb = pa[:count], pb[:count]
-                seconds = best_of(lambda: npt.distance_batch(a, xa, b, xb, threads=threads),
-                                  5, 0.2 if count < n else 0.0)
-                record(f"batch, {layout}", count, threads, seconds / count, cpp_all)
+    for method, count, threads, seconds, which in results_python:
+        record(method, count, threads, seconds, cpp_single if which == "single" else cpp_all)
 
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, "python.csv"), "w", newline="") as f:
@@ -133,9 +152,12 @@ def main():
         f"One run, {time.strftime('%Y-%m-%d')}, {host}, Python {platform.python_version()}, "
         f"numpy {np.__version__}; {n} pairs of a box and an 8-vertex polytope at random poses "
         f"(distance only, default options). C++: the engine in a plain loop on the same pairs, "
-        f"{cpp_all:.1f} ns per pair over all {n} ({cpp_single:.1f} ns over the first {m}, the "
-        "single calls' reference). Each figure is the best of 5 repeats; the machine is shared, "
-        "so the ratios (measured together) mean more than the absolute times.",
+        f"{cpp_all:.1f} ns per pair over all {n} ({cpp_single:.1f} ns over the first {args.single}, the "
+        "single calls' reference), timed before, between and after the Python runs. Each figure "
+        "is the best of 7 repeats (C++: of 6); the machine is shared, "
+        "so the ratios (measured together) mean more than the absolute times. Load average "
+        f"at the start: {load} (other jobs were running). Ratios on 2 threads are against the "
+        "one-thread C++ loop.",
         "",
         "| method | N | threads | ns/pair | C++ ns/pair | ratio | overhead ns |",
         "|---|---:|---:|---:|---:|---:|---:|",
