@@ -51,7 +51,8 @@ class Spec:
             return f"ellipsoid {hexs(a[0])} {hexs([a[1]])}"
         if k == "polytope":
             pts = a[0]
-            return f"polytope {hexs([a[1]])} {float(len(pts)).hex()} " + " ".join(hexs(p) for p in pts)
+            head = f"polytope {hexs([a[1]])} {float(len(pts)).hex()} "
+            return head + " ".join(hexs(p) for p in pts)
         raise ValueError(k)
 
 
@@ -111,7 +112,8 @@ def write_cases(path, options, specs, pairs, cache_rows=0):
     """pairs: (index_a, index_b, pose_a, pose_b) with poses as (4, 4) or (7,) arrays."""
     with open(path, "w") as f:
         words = [k for k, on in options.items() if on]
-        f.write("options " + " ".join(words) + (f" cache {cache_rows}" if cache_rows else "") + "\n")
+        cache = f" cache {cache_rows}" if cache_rows else ""
+        f.write("options " + " ".join(words) + cache + "\n")
         for s in specs:
             f.write("shape " + s.text + "\n")
         for ia, ib, pa, pb in pairs:
