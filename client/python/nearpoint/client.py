@@ -11,21 +11,25 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 import secrets
 from dataclasses import dataclass
 from typing import Iterable, Iterator, Mapping, Optional, Sequence, Tuple, Union
 
 import grpc
 
-import nearpoint_distance_pb2 as distance_pb
-import nearpoint_distance_pb2_grpc as distance_grpc
-import nearpoint_geometry_pb2 as geometry_pb
-import nearpoint_scene_pb2 as scene_pb
-import nearpoint_vocabulary as vocabulary
+from . import _vocabulary as vocabulary
+from .proto import nearpoint_distance_pb2 as distance_pb
+from .proto import nearpoint_distance_pb2_grpc as distance_grpc
+from .proto import nearpoint_geometry_pb2 as geometry_pb
+from .proto import nearpoint_scene_pb2 as scene_pb
 
 Vec3 = Tuple[float, float, float]
 Quat = Tuple[float, float, float, float]
 
+#: The server address `connect` uses when given none and $NEARPOINT_TARGET is unset (nearpointd's
+#: default --listen address).
+DEFAULT_TARGET = "127.0.0.1:50051"
 #: Seconds a unary call may take before it fails with DEADLINE_EXCEEDED.
 DEFAULT_TIMEOUT = 10.0
 # The largest message sent or received, bytes: nearpointd's --max-message-bytes default (16 MiB,
@@ -617,12 +621,13 @@ def _read(path: str) -> bytes:
                              f"cannot read '{path}': {error.strerror}") from None
 
 
-def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT,
+def connect(target: Optional[str] = None, timeout: float = DEFAULT_TIMEOUT,
             max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES, *,
             tls: bool = False, tls_ca: Optional[str] = None, tls_cert: Optional[str] = None,
             tls_key: Optional[str] = None, token: Optional[str] = None,
             token_file: Optional[str] = None, tls_server_name: Optional[str] = None) -> Client:
-    """Connects to nearpointd at `target` ("host:port"), waiting up to `timeout` seconds for the
+    """Connects to nearpointd at `target` ("host:port"; default: $NEARPOINT_TARGET, else
+    DEFAULT_TARGET, as the nearpoint CLI), waiting up to `timeout` seconds for the
     channel to be ready (NearpointError UNAVAILABLE otherwise). `timeout` is also each unary
     call's deadline. `max_message_bytes` bounds the messages sent and received; the default is
     the server's.
@@ -633,6 +638,8 @@ def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT,
     bearer token (`token`, or `token_file`, surrounding whitespace dropped), which gRPC sends as
     `authorization: Bearer <token>` over TLS only. `tls_server_name`: the name the server's
     certificate must carry when it is not the target's host."""
+    if target is None:
+        target = os.environ.get("NEARPOINT_TARGET") or DEFAULT_TARGET
     if (tls_cert is None) != (tls_key is None):
         raise NearpointError(grpc.StatusCode.INVALID_ARGUMENT,
                              "a client certificate and its key go together (tls_cert, tls_key)")
