@@ -1,6 +1,7 @@
 // SPDX-License-Identifier: Apache-2.0
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <type_traits>
 #include <variant>
 
@@ -100,6 +101,96 @@ std::string make_compound(const model::GeometryInput& geometry, Compound<double>
   }
   out = Compound<double>(std::move(pieces));
   if (const char* why = out.invalid_reason()) return "geometry '" + geometry.name + "': " + why;
+  return {};
+}
+
+formats::SceneFile to_robot_scene(const Robot& robot) {
+  KinematicState state;
+  robot.tree.forward(robot.tree.neutral(), state);
+  formats::SceneFile out = robot.to_scene(state);
+  // The scene asks for the robot's name as its id (characters outside printable ASCII become
+  // '-'), so that `nearpointd --scene` and `nearpoint scene create` name it predictably and a
+  // second creation of the same robot is the same scene.
+  std::string id = robot.name.substr(0, 128);
+  for (char& c : id)
+    if (c < 0x21 || c > 0x7E) c = '-';
+  out.scene.requested_id = id;
+  model::RobotInput& input = out.scene.robot;
+  input.name = robot.name;
+  for (const Link& link : robot.tree.links) {
+    model::RobotLinkInput& l = input.links.emplace_back();
+    l.name = link.name;
+    if (link.parent >= 0) l.parent = robot.tree.links[std::size_t(link.parent)].name;
+    l.offset = to_input(link.offset);
+    for (const int j : link.joints) {
+      const Joint& joint = robot.tree.joints[std::size_t(j)];
+      model::RobotJointInput& in = l.joints.emplace_back();
+      in.name = joint.name;
+      switch (joint.type) {
+        case JointType::fixed:
+          in.type = model::JointType::fixed;
+          break;
+        case JointType::revolute:
+          in.type = model::JointType::revolute;
+          break;
+        case JointType::continuous:
+          in.type = model::JointType::continuous;
+          break;
+        case JointType::prismatic:
+          in.type = model::JointType::prismatic;
+          break;
+        case JointType::ball:
+          in.type = model::JointType::ball;
+          break;
+        case JointType::free:
+          in.type = model::JointType::free;
+          break;
+      }
+      in.axis = joint.axis;
+      in.anchor = joint.anchor;
+      in.reference = joint.reference;
+      in.limited = joint.limited;
+      in.lower = joint.lower;
+      in.upper = joint.upper;
+    }
+  }
+  for (const RobotObject& object : robot.objects)
+    if (object.link >= 0)
+      input.attachments.push_back(
+          {object.name, robot.tree.links[std::size_t(object.link)].name, to_input(object.offset)});
+  return out;
+}
+
+bool is_robot_file(const std::filesystem::path& file) {
+  const std::string ext = file.extension().string();
+  if (ext == ".urdf" || ext == ".mjcf") return true;
+  if (ext != ".xml") return false;
+  // MuJoCo's own models open with a long licence comment: look at the first 64 KiB.
+  std::ifstream in(file);
+  std::string head(65536, '\0');
+  in.read(head.data(), std::streamsize(head.size()));
+  head.resize(std::size_t(in.gcount()));
+  return head.find("<mujoco") != std::string::npos;
+}
+
+std::string load_robot_scene(const std::filesystem::path& file, const ImportOptions& options,
+                             const std::filesystem::path& srdf, formats::SceneFile& out) {
+  RobotImport imported;
+  if (file.extension() == ".urdf") {
+    std::filesystem::path beside = file;
+    beside.replace_extension(".srdf");
+    std::error_code ignored;
+    imported =
+        load_urdf(file, options,
+                  !srdf.empty()                                       ? srdf
+                  : std::filesystem::is_regular_file(beside, ignored) ? beside
+                                                                      : std::filesystem::path{});
+  } else {
+    if (!srdf.empty()) return srdf.string() + ": an SRDF applies to a URDF only";
+    imported = load_robot(file, options);
+  }
+  if (!imported.ok()) return imported.error;
+  out = to_robot_scene(imported.robot);
   return {};
 }
 

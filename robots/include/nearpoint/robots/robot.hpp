@@ -101,6 +101,20 @@ RobotImport parse_mjcf(const std::string& xml, const std::string& label,
 /// By extension: .urdf → URDF, .xml/.mjcf → MJCF.
 RobotImport load_robot(const std::filesystem::path& file, const ImportOptions& options = {});
 
+/// The robot as an articulated scene for nearpointd (nearpoint.v1.Robot): to_scene at the
+/// neutral positions plus the kinematic forest (model::RobotInput), every object of a link
+/// attached to it (objects of the world stay static), so that updates carry joint positions.
+formats::SceneFile to_robot_scene(const Robot& robot);
+
+/// Whether `file` names a robot description by its extension (.urdf, .mjcf; .xml when its root
+/// element is <mujoco>).
+bool is_robot_file(const std::filesystem::path& file);
+
+/// load_robot, for a URDF with `srdf` applied (empty: FILE.srdf beside it when that exists),
+/// then to_robot_scene. Returns "" or the error naming the file, element and reason.
+std::string load_robot_scene(const std::filesystem::path& file, const ImportOptions& options,
+                             const std::filesystem::path& srdf, formats::SceneFile& out);
+
 /// The engine's compound for a geometry of the scene model (for evaluating distances in-process,
 /// as the server does); "" or why the geometry is unusable.
 std::string make_compound(const model::GeometryInput& geometry, Compound<double>& out);
