@@ -67,16 +67,23 @@ class PythonRobotTest(unittest.TestCase):
         reports = list(self.client.stream_joints(self.scene, path, options={"gradient": True}))
         self.assertEqual(len(reports), len(path))
         h = 1e-6
+        checked = 0
         for joints, report in zip(path, reports):
             self.assertIsNone(report.error)
             pair = report.pair("hand", "wall")
             a, b = joints["shoulder"], joints["elbow"]
             self.assertAlmostEqual(pair.distance, truth(a, b), delta=1e-12)
+            if truth(a, b) == 0.0:  # the path passes through the box: no gradient in contact
+                self.assertTrue(pair.in_contact, pair.status)
+                self.assertEqual(pair.joint_gradient, {})
+                continue
+            checked += 1
             expected = {"shoulder": (truth(a + h, b) - truth(a - h, b)) / (2 * h),
                         "elbow": (truth(a, b + h) - truth(a, b - h)) / (2 * h)}
             self.assertEqual(set(pair.joint_gradient), {"shoulder", "elbow"})
             for name, value in expected.items():
                 self.assertAlmostEqual(pair.joint_gradient[name], value, delta=1e-6, msg=name)
+        self.assertGreaterEqual(checked, 5)
 
     def test_gradient_equals_differences_of_reported_distances(self):
         a, b, h = 0.4, -0.2, 1e-6
