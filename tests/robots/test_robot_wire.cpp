@@ -266,6 +266,14 @@ TEST(RobotWire, ArmDistancesEqualKdlAndTheEngine) {
   check_against_kdl(arm, report, q, base);
   EXPECT_GT(report.counts.pairs_unmoved, 0u);  // links below joint2 did not move
   EXPECT_TRUE((*session)->close().ok());
+  // A unary query: joints not named are at their reference positions, the base as given.
+  std::vector<double> at = arm.robot.tree.neutral();
+  const Joint& joint4 = arm.robot.tree.joints[arm.robot.tree.find_joint("joint4")];
+  at[joint4.q_index] = -1.2;
+  client::JointPositions joints{{"joint4"}, {-1.2}, to_input(some_base())};
+  auto queried = client->query_joints(scene_id, joints);
+  ASSERT_TRUE(queried.ok()) << queried.status().describe();
+  EXPECT_EQ(check_against_kdl(arm, *queried, at, some_base()), int(arm.robot.pairs.size()));
 }
 
 // ∂d/∂q as the server reports it, against central differences of the distances it reports at

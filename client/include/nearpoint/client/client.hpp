@@ -400,6 +400,12 @@ class Client {
   virtual Expected<Report> query(const std::string& scene_id, const std::vector<ObjectPose>& poses,
                                  const QueryOptions& options = {}) = 0;
 
+  /// query() for a robot scene: the robot at `joints` (joints not named at their reference
+  /// positions; a base pose if given), other objects at `poses` or their initial poses.
+  virtual Expected<Report> query_joints(const std::string& scene_id, const JointPositions& joints,
+                                        const QueryOptions& options = {},
+                                        const std::vector<ObjectPose>& poses = {}) = 0;
+
   /// A pose stream on `scene_id` (a scene created by this client, or any scene on the server —
   /// only this client's scenes can be replayed after a restart).
   virtual Expected<std::unique_ptr<Session>> open_session(const std::string& scene_id,
