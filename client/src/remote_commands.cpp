@@ -75,6 +75,20 @@ int create_scene_from_file(client::Client& client, const std::string& path, std:
     err << "nearpoint: " << error << "\n";
     return kExitBadInput;
   }
+  if (file.robot) {
+#ifdef NEARPOINT_WITH_ROBOTS
+    robots::ImportOptions import;
+    import.meshes = mesh_loader();
+    for (const std::string& dir : robot.package_path) import.search_path.emplace_back(dir);
+    if (std::string error = robots::add_robot_to_scene(file, import); !error.empty()) {
+      err << "nearpoint: " << path << ": robot: " << error << "\n";
+      return kExitBadInput;
+    }
+#else
+    err << "nearpoint: " << path << ": \"robot\": this build reads no robot descriptions\n";
+    return kExitBadInput;
+#endif
+  }
   (void)robot;
   if (existed != nullptr)
     *existed = !file.scene.requested_id.empty() && scene_exists(client, file.scene.requested_id);

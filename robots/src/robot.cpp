@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <type_traits>
 #include <variant>
 
@@ -191,6 +192,51 @@ std::string load_robot_scene(const std::filesystem::path& file, const ImportOpti
   }
   if (!imported.ok()) return imported.error;
   out = to_robot_scene(imported.robot);
+  return {};
+}
+
+std::string add_robot_to_scene(formats::SceneFile& file, ImportOptions options) {
+  if (!file.robot) return {};
+  const formats::RobotReference reference = *file.robot;
+  options.search_path.insert(options.search_path.begin(), reference.package_path.begin(),
+                             reference.package_path.end());
+  formats::SceneFile robot;
+  if (std::string error = load_robot_scene(reference.file, options, reference.srdf, robot);
+      !error.empty())
+    return error;
+  using Mode = model::PairSelectionInput::Mode;
+  model::PairSelectionInput& pairs = file.scene.pair_selection;
+  if (pairs.mode == Mode::listed_pairs)
+    return reference.file.string() +
+           ": with a \"robot\", \"pairs\" must be \"all\" or {\"excluded\": ...} (a listed "
+           "selection would have to name the robot's pairs)";
+  // The robot's left-out pairs, as names.
+  const model::PairSelectionInput& chosen = robot.scene.pair_selection;
+  std::vector<std::pair<std::string, std::string>> left_out;
+  if (chosen.mode == Mode::excluded_pairs) {
+    left_out = chosen.pairs;
+  } else if (chosen.mode == Mode::listed_pairs) {
+    std::set<std::pair<std::string, std::string>> listed;
+    for (const auto& [a, b] : chosen.pairs) listed.emplace(std::min(a, b), std::max(a, b));
+    const std::vector<model::ObjectInput>& objects = robot.scene.objects;
+    for (std::size_t a = 0; a < objects.size(); ++a)
+      for (std::size_t b = a + 1; b < objects.size(); ++b)
+        if (!listed.count(
+                {std::min(objects[a].id, objects[b].id), std::max(objects[a].id, objects[b].id)}))
+          left_out.emplace_back(objects[a].id, objects[b].id);
+  }
+  if (!left_out.empty()) {
+    pairs.mode = Mode::excluded_pairs;
+    pairs.pairs.insert(pairs.pairs.end(), left_out.begin(), left_out.end());
+  }
+  for (auto& geometry : robot.geometries) file.geometries.push_back(std::move(geometry));
+  for (std::size_t i = 0; i < robot.scene.objects.size(); ++i) {
+    file.scene.objects.push_back(std::move(robot.scene.objects[i]));
+    file.geometry_names.push_back(robot.geometry_names[i]);
+  }
+  file.scene.robot = std::move(robot.scene.robot);
+  if (file.scene.requested_id.empty()) file.scene.requested_id = robot.scene.requested_id;
+  file.robot.reset();
   return {};
 }
 

@@ -22,6 +22,14 @@ Expected<model::SceneInfo> preload_scene_file(SceneService& service, const std::
 #endif
       if (std::string error = formats::load_scene_file(path, /*meshes=*/{}, file); !error.empty())
     return invalid_argument("", error);
+  if (file.robot) {
+#ifdef NEARPOINT_HAVE_ROBOTS
+    if (std::string error = robots::add_robot_to_scene(file, {}); !error.empty())
+      return invalid_argument("", path + ": robot: " + error);
+#else
+    return invalid_argument("", path + ": \"robot\": this nearpointd reads no robot descriptions");
+#endif
+  }
   std::map<std::string, std::string> ids;
   for (const auto& [name, geometry] : file.geometries) {
     Expected<model::GeometryInfo> info = service.register_geometry(geometry);

@@ -550,4 +550,50 @@ TEST(RobotWire, CliStreamsAJointTrajectory) {
   fs::remove(trajectory);
 }
 
+// A scene file naming a robot (examples/robots/arm7_cell.json: the arm plus a crate and a post)
+// created by the CLI: the robot's pairs (SRDF and adjacency applied), the file's objects with
+// every link, less the file's exclusion; the robot's pairs answer as in the robot's own scene.
+TEST(RobotWire, SceneFileWithARobotAddsItsObjects) {
+  const Arm arm;
+  Server server;
+  ChildProcess create_cli({NEARPOINT_PATH, "scene", "create",
+                           (kExamples / "arm7_cell.json").string(), "--json", "--target",
+                           server.target()});
+  ASSERT_EQ(create_cli.wait_exit(std::chrono::seconds(60)), 0) << create_cli.stderr_text();
+  const std::vector<std::string> lines = create_cli.stdout_lines();
+  ASSERT_FALSE(lines.empty());
+  const nlohmann::json created = nlohmann::json::parse(lines[0]);
+  EXPECT_EQ(created.at("scene_id"), "arm7-cell");
+  const std::size_t links = arm.robot.objects.size();
+  EXPECT_EQ(created.at("pair_count").get<std::size_t>(), arm.robot.pairs.size() + 2 * links);
+
+  auto client = client::Client::connect(server.target());
+  ASSERT_EQ(create(*client, arm.scene), "arm7");
+  auto cell = client->open_session("arm7-cell");
+  auto alone = client->open_session("arm7");
+  ASSERT_TRUE(cell.ok() && alone.ok());
+  std::mt19937_64 rng(3);
+  int compared = 0;
+  for (int step = 0; step < 10; ++step) {
+    const client::JointPositions joints =
+        joint_positions(arm.robot.tree, random_q(arm.robot.tree, rng));
+    ASSERT_TRUE((*cell)->push_joints(joints).ok());
+    ASSERT_TRUE((*alone)->push_joints(joints).ok());
+    const client::Report in_cell = next(**cell);
+    const client::Report by_itself = next(**alone);
+    ASSERT_TRUE(in_cell.error.ok()) << in_cell.error.describe();
+    std::map<std::pair<std::string, std::string>, double> robot_pairs;
+    for (const client::PairDistance& p : by_itself.pairs)
+      robot_pairs[{p.object_a, p.object_b}] = p.distance;
+    for (const client::PairDistance& p : in_cell.pairs) {
+      const auto it = robot_pairs.find({p.object_a, p.object_b});
+      // The cell's cutoff (1 m) reports farther pairs as beyond it, with a bound only.
+      if (it == robot_pairs.end() || p.status != model::PairStatus::separated) continue;
+      EXPECT_EQ(p.distance, it->second) << p.object_a << "–" << p.object_b;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 5 * int(arm.robot.pairs.size()));
+}
+
 }  // namespace
