@@ -117,6 +117,8 @@ Expected<std::shared_ptr<const SceneRobot>> build_scene_robot(const model::Robot
     robot->object_offset[object] = offset.value();
   }
 
+  for (std::size_t j = 0; j < tree.joints.size(); ++j)
+    robot->joint_by_name.emplace(tree.joints[j].name, std::uint32_t(j));
   robot->coordinates.resize(std::size_t(tree.nv()));
   std::size_t longest = 0;
   for (std::size_t j = 0; j < tree.joints.size(); ++j) {
@@ -167,7 +169,8 @@ Expected<std::shared_ptr<const RobotUpdate>> apply_joint_positions(
   for (std::size_t i = 0; i < joints.names.size(); ++i) {
     const std::string& name = joints.names[i];
     const std::string name_field = text(field, ".names[", i, ']');
-    const int j = tree.find_joint(name);
+    const auto found = robot.joint_by_name.find(name);
+    const int j = found == robot.joint_by_name.end() ? -1 : int(found->second);
     if (j < 0)
       return invalid_argument(
           name_field, text("no joint ", quoted(name), " in robot ", quoted(robot.name), " (",

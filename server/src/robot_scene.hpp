@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -32,6 +33,9 @@ struct SceneRobot {
   /// and the link frame → geometry frame offset.
   std::vector<int> object_link;
   std::vector<robots::Pose3d> object_offset;
+  /// Joint index by name (updates name joints; a linear search per name would cost a
+  /// 600-joint forest 360,000 string comparisons per update).
+  std::unordered_map<std::string, std::uint32_t> joint_by_name;
   /// Per velocity coordinate (gradient entry): its joint's index and the coordinate within it.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> coordinates;
   /// Report size bounds (report_size.hpp's style): the most a pair's joint gradient and a
