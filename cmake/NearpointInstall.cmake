@@ -7,6 +7,8 @@
 #   dev     — headers under include/nearpoint/, the static libraries, the CMake package
 #             (find_package(nearpoint CONFIG) → nearpoint::core, nearpoint::model,
 #             nearpoint::proto, nearpoint::client, and nearpoint::hull when CGAL is found) and nearpoint-core.pc
+#   python  — the Python package `nearpoint` (engine and client) in the interpreter's
+#             site-packages (client/python/CMakeLists.txt), the .deb python3-nearpoint
 # `cmake --install` installs both; cpack makes one .deb per component.
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
@@ -42,9 +44,15 @@ include(${CMAKE_CURRENT_LIST_DIR}/NearpointManPages.cmake)
 # Apache-2.0 (LICENSE, NOTICE), the third-party notices, and a copyright file in Debian's
 # machine-readable format, in each package's documentation directory: share/doc/nearpoint for the
 # programs, share/doc/nearpoint-dev for the libraries (two .deb packages may not share a file).
-foreach(_nearpoint_component runtime dev)
+set(_nearpoint_components runtime dev)
+if(TARGET nearpoint_python)
+  list(APPEND _nearpoint_components python)
+endif()
+foreach(_nearpoint_component IN LISTS _nearpoint_components)
   if(_nearpoint_component STREQUAL "runtime")
     set(_nearpoint_docdir ${CMAKE_INSTALL_DATADIR}/doc/nearpoint)
+  elseif(_nearpoint_component STREQUAL "python")
+    set(_nearpoint_docdir ${CMAKE_INSTALL_DATADIR}/doc/python3-nearpoint)
   else()
     set(_nearpoint_docdir ${CMAKE_INSTALL_DATADIR}/doc/nearpoint-dev)
   endif()
@@ -163,7 +171,7 @@ set(CPACK_DEB_COMPONENT_INSTALL ON)
 # The programs without their debug information (a RelWithDebInfo nearpointd is ~10x larger);
 # static libraries are left as they are.
 set(CPACK_STRIP_FILES ON)
-set(CPACK_COMPONENTS_ALL runtime dev)
+set(CPACK_COMPONENTS_ALL ${_nearpoint_components})
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 # runtime: the shared libraries nearpointd and nearpoint link, found by dpkg-shlibdeps.
@@ -181,4 +189,16 @@ if(NEARPOINT_INSTALLED_HULL)
   set(CPACK_DEBIAN_DEV_PACKAGE_SUGGESTS "libcgal-dev")
 endif()
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "${_nearpoint_dev_depends}")
+# python: the package for Debian's python3 (the extension module is built for its minor version);
+# dpkg-shlibdeps adds what the module links (libstdc++, GMP and MPFR for the hulls).
+if(TARGET nearpoint_python)
+  set(CPACK_DEBIAN_PYTHON_PACKAGE_NAME python3-nearpoint)
+  set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
+  set(CPACK_DEBIAN_PYTHON_PACKAGE_SHLIBDEPS ON)
+  math(EXPR _nearpoint_python_next "${NEARPOINT_PYTHON_MINOR} + 1")
+  set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS
+      "python3 (>= 3.${NEARPOINT_PYTHON_MINOR}), python3 (<< 3.${_nearpoint_python_next}), python3-numpy, python3-grpcio, python3-protobuf")
+  set(CPACK_COMPONENT_PYTHON_DESCRIPTION
+      "nearpoint for Python: the distance engine in-process (numpy) and the nearpointd client")
+endif()
 include(CPack)

@@ -23,6 +23,8 @@ build_packages=(
   # server: gRPC (nearpointd, its protos, reflection and health checking); the Python client's
   # modules are generated at configure time with grpc_python_plugin (protobuf-compiler-grpc)
   libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
+  # the Python package's engine module (client/python: pybind11 2.10 against Debian's python3)
+  pybind11-dev python3-dev
   # server: the Prometheus endpoint (--metrics-listen; optional at build time)
   prometheus-cpp-dev
   # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged);
@@ -50,6 +52,8 @@ test_packages=(
   # Python client (client/python): Debian's /usr/bin/python3 with the runtimes matching the
   # protoc 3.21 / grpc_python_plugin 1.51 above, which generate its modules
   python3-grpcio python3-protobuf
+  # the Python package: numpy at run time; its pip route (install.pip) builds offline in a venv
+  python3-numpy python3-venv python3-pip python3-setuptools python3-wheel
   # TLS tests (a throw-away CA made with openssl) and the deploy/k8s check (yamllint, PyYAML)
   openssl yamllint python3-yaml
   # the CLI's JSON reports are validated against client/schema/report.schema.json

@@ -304,6 +304,21 @@ class ClientImpl final : public Client, public detail::SessionHost {
     request.set_scene_id(current_scene_id(scene_id));
     for (const ObjectPose& pose : poses) detail::to_proto(pose, *request.add_poses());
     detail::to_proto(options, *request.mutable_options());
+    return run_query(scene_id, request);
+  }
+
+  Expected<Report> query_joints(const std::string& scene_id, const JointPositions& joints,
+                                const QueryOptions& options,
+                                const std::vector<ObjectPose>& poses) override {
+    v1::QueryRequest request;
+    request.set_scene_id(current_scene_id(scene_id));
+    for (const ObjectPose& pose : poses) detail::to_proto(pose, *request.add_poses());
+    proto::to_proto(joints, *request.mutable_joints());
+    detail::to_proto(options, *request.mutable_options());
+    return run_query(scene_id, request);
+  }
+
+  Expected<Report> run_query(const std::string& scene_id, v1::QueryRequest& request) {
     v1::DistanceReport response;
     Clock::time_point sent = Clock::now();
     grpc::Status status = stub_->Query(context(request.scene_id()).get(), request, &response);

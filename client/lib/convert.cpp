@@ -28,7 +28,12 @@ Report from_proto(const v1::DistanceReport& report) {
     pair.object_b = p.object_b();
     proto::from_proto(p, pair);
     pair.message = p.message();
+    pair.joint_gradient.reserve(std::size_t(p.joint_gradient_size()));
+    for (const v1::JointDerivative& d : p.joint_gradient())
+      pair.joint_gradient.push_back({d.joint(), d.coordinate(), d.value()});
   }
+  for (const v1::JointLimitViolation& v : report.joint_limit_violations())
+    out.joint_limit_violations.push_back({v.joint(), v.position(), v.lower(), v.upper()});
   out.timing = from_proto(report.timing());
   out.coalesced_updates = report.coalesced_updates();
   out.coalesced_from_sequence = report.coalesced_from_sequence();

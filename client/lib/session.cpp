@@ -278,6 +278,19 @@ void SessionImpl::read_loop() {
 
 Expected<std::uint64_t> SessionImpl::push(const std::vector<ObjectPose>& poses,
                                           Clock::time_point deadline, const QueryOptions* options) {
+  return push_update(poses, nullptr, deadline, options);
+}
+
+Expected<std::uint64_t> SessionImpl::push_joints(const JointPositions& joints,
+                                                 Clock::time_point deadline,
+                                                 const QueryOptions* options) {
+  return push_update({}, &joints, deadline, options);
+}
+
+Expected<std::uint64_t> SessionImpl::push_update(const std::vector<ObjectPose>& poses,
+                                                 const JointPositions* joints,
+                                                 Clock::time_point deadline,
+                                                 const QueryOptions* options) {
   std::lock_guard pushing(push_mutex_);
   std::unique_lock lock(mutex_);
   const bool ready = changed_.wait_until(lock, deadline, [&] {
@@ -316,9 +329,31 @@ Expected<std::uint64_t> SessionImpl::push(const std::vector<ObjectPose>& poses,
                       [&object_id = id](const ObjectPose& p) { return p.object_id == object_id; });
       if (!listed) detail::to_proto(pose, *update.add_poses());
     }
-    resync_ = false;
     resumed_sequence_ = sequence;
   }
+  if (joints != nullptr || (resync_ && (!latest_joints_.empty() || latest_base_))) {
+    // Joint positions as pushed, then (on a new stream, which starts from the reference
+    // positions) every joint pushed before that this update does not name.
+    JointPositions sent = joints != nullptr ? *joints : JointPositions{};
+    if (joints != nullptr) {
+      // Replayed after a reconnect: updates whose joints take one value each (one-dof joints;
+      // the server tells the rest apart, the client does not know the robot).
+      if (joints->positions.size() == joints->names.size())
+        for (std::size_t i = 0; i < joints->names.size(); ++i)
+          latest_joints_[joints->names[i]] = {joints->positions[i]};
+      if (joints->base_pose) latest_base_ = joints->base_pose;
+    }
+    if (resync_) {
+      for (const auto& [name, values] : latest_joints_)
+        if (std::find(sent.names.begin(), sent.names.end(), name) == sent.names.end()) {
+          sent.names.push_back(name);
+          sent.positions.insert(sent.positions.end(), values.begin(), values.end());
+        }
+      if (!sent.base_pose) sent.base_pose = latest_base_;
+    }
+    proto::to_proto(sent, *update.mutable_joints());
+  }
+  resync_ = false;
   std::shared_ptr<Call> call = call_;
   in_flight_.push_back({sequence, Clock::now()});
   ++outstanding_;

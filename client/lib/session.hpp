@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -52,6 +53,8 @@ class SessionImpl final : public Session {
   bool start(Status& error);
   Expected<std::uint64_t> push(const std::vector<ObjectPose>& poses, Clock::time_point deadline,
                                const QueryOptions* options) override;
+  Expected<std::uint64_t> push_joints(const JointPositions& joints, Clock::time_point deadline,
+                                      const QueryOptions* options) override;
   Expected<Report> next(Clock::time_point deadline) override;
   Status close(Clock::time_point deadline) override;
   std::uint64_t reconnects() const override { return reconnects_.load(); }
@@ -78,6 +81,9 @@ class SessionImpl final : public Session {
   enum class State { connected, reconnecting, closing, closed, failed };
 
   std::shared_ptr<Call> open_call(const std::string& server_scene_id);
+  Expected<std::uint64_t> push_update(const std::vector<ObjectPose>& poses,
+                                      const JointPositions* joints, Clock::time_point deadline,
+                                      const QueryOptions* options);
   void read_loop();
   // The server's answer to the update `report.sequence`, which also answers every update before
   // it that is still in flight (coalesced into it).
@@ -105,7 +111,9 @@ class SessionImpl final : public Session {
   std::size_t outstanding_ = 0;     // pushed, not yet consumed
   std::deque<Report> ready_;
   std::uint64_t next_sequence_ = 1;
-  std::map<std::string, ObjectPose> latest_poses_;  // for the resync after a reconnect
+  std::map<std::string, ObjectPose> latest_poses_;            // for the resync after a reconnect
+  std::map<std::string, std::vector<double>> latest_joints_;  // one-dof joints, likewise
+  std::optional<model::PoseInput> latest_base_;
   bool resync_ = false;
   bool send_thresholds_ = true;         // on the first update of each stream
   std::uint64_t resumed_sequence_ = 0;  // the first update on a replacing stream (0: none)

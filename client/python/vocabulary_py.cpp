@@ -1,5 +1,5 @@
 // SPDX-License-Identifier: Apache-2.0
-// Build tool: writes nearpoint_vocabulary.py, model/vocabulary.hpp's spellings keyed by the
+// Build tool: writes nearpoint/_vocabulary.py, model/vocabulary.hpp's spellings keyed by the
 // nearpoint.v1 enumerators' names. The Python client takes each enum's numbers from the generated
 // protobuf module (EnumTypeWrapper.Value) and its spellings from here, so that it spells the API
 // enums as the CLI and the scene files do without a table of its own.

@@ -331,13 +331,26 @@ Examples:
   });
 }
 
+void add_robot_file_options(CLI::App& command, nearpoint::cli::RobotFileOptions& robot) {
+  command.add_option("--package-path", robot.package_path,
+                     "Robot descriptions: where package://NAME/... and relative mesh paths are "
+                     "looked up (repeatable)");
+  command.add_option("--srdf", robot.srdf,
+                     "URDF: the SRDF whose <disable_collisions> leave pairs out (default: "
+                     "FILE.srdf beside it when it exists)");
+}
+
 void add_scene_subcommand(CLI::App& app, int& exit_code) {
   CLI::App* scene = app.add_subcommand("scene", "Scenes on the server");
   scene->require_subcommand(1);
   auto options = std::make_shared<nearpoint::cli::SceneCreateOptions>();
   CLI::App* create =
       scene->add_subcommand("create", "Register a scene file's geometries and create its scene");
-  create->add_option("FILE", options->file, "Scene file, JSON or YAML")->required();
+  create
+      ->add_option("FILE", options->file,
+                   "Scene file (JSON, YAML) or robot description (URDF .urdf, MJCF .xml/.mjcf)")
+      ->required();
+  add_robot_file_options(*create, options->robot);
   add_remote_options(*create, options->remote);
   create->footer(std::string(R"(
 Scene file (JSON; YAML with the same structure):
@@ -351,8 +364,14 @@ GEOMETRY: a SHAPE, [SHAPE, ...], {"pieces": [SHAPE, ...]}, or {"mesh": "part.obj
 "scale": 1.0, "merge": false} with paths relative to the scene file. An object may name a
 geometry already on the server with "geometry_id" instead of "geometry".
 
-Example:
+A robot description becomes an articulated scene: one object per link (URDF; per geom for MJCF)
+moved by joint positions (`nearpoint stream --joints`); parent-child links and an SRDF's
+<disable_collisions> (FILE.srdf beside the URDF, or --srdf), MJCF contype/conaffinity/exclude
+leave pairs out.
+
+Examples:
   nearpoint scene create examples/scene.json
+  nearpoint scene create examples/robots/arm7.urdf --package-path /opt/ros/share
 )") + kRemoteExitCodes);
   create->callback([options, &exit_code] {
     exit_code = nearpoint::cli::run_scene_create(*options, std::cout, std::cerr);
@@ -422,10 +441,16 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
       "stream", "Replay a trajectory as a pose stream; print reports or a summary");
   command
       ->add_option("SCENE", options->scene,
-                   "A scene id on the server, or a scene file (created first)")
+                   "A scene id on the server, or a scene file or robot description (created "
+                   "first)")
       ->required();
-  command->add_option("TRAJECTORY", options->trajectory, "Poses over time: CSV or JSON Lines")
-      ->required();
+  command->add_option("TRAJECTORY", options->trajectory, "Poses over time: CSV or JSON Lines");
+  command->add_option("--joints", options->joints,
+                      "Robot scenes: joint positions over time (JSON Lines, see below) instead "
+                      "of TRAJECTORY");
+  command->add_flag("--gradient", options->gradient,
+                    "Ask for gradients (robot scenes: each pair's dd/dq by joint, in --json)");
+  add_robot_file_options(*command, options->robot);
   command
       ->add_option("--window", options->window,
                    "Updates in flight before pushing waits (back-pressure; with --dds default 1)")
@@ -453,6 +478,9 @@ TRAJECTORY, one of:
   CSV with the header t,object,tx,ty,tz,qw,qx,qy,qz; rows with equal t form one update
   JSON Lines: {"t": 0.0, "poses": {"OBJ": {"rotation": [w,x,y,z], "translation": [x,y,z]}}}
 Objects not listed at a step keep their previous pose.
+--joints FILE (robot scenes), JSON Lines: {"t": 0.0, "joints": {"joint1": 0.3, "joint2": -1.2}}
+with optionally "base": {"rotation": [w,x,y,z], "translation": [x,y,z]} (the robot's base pose);
+a ball joint's value is [w,x,y,z], a free joint's [x,y,z,w,x,y,z]. Joints not named keep theirs.
 
 A scene file is created on the server for this stream and deleted when it ends, also on Ctrl-C
 (SIGINT/SIGTERM: exit 130/143 once the updates in flight are answered); --keep-scene keeps it.
@@ -467,6 +495,7 @@ drop are reported as errors, never dropped silently.
 Examples:
   nearpoint stream examples/scene.json examples/trajectory.csv
   nearpoint stream cell-1 examples/trajectory.csv --threshold 0.05,hysteresis=0.01,object=gripper,name=near
+  nearpoint stream arm --joints examples/robots/arm7_wave.jsonl --gradient --json
 )") + kRemoteExitCodes
 #if NEARPOINT_HAVE_DDS
                   + kDdsStreamHelp
@@ -474,6 +503,11 @@ Examples:
   );
 #if NEARPOINT_HAVE_DDS
   command->callback([command, options, dds, use_dds, &exit_code] {
+    if (*use_dds && !options->joints.empty()) {
+      std::cerr << "nearpoint stream: --joints streams over gRPC only (no --dds)\n";
+      exit_code = 2;
+      return;
+    }
     if (*use_dds) {
       // The same --mode, --cutoff, --change-tolerance and --threshold as over gRPC.
       const std::string& mode = options->report.mode;

@@ -18,6 +18,9 @@
 #include "nearpoint/model/vocabulary.hpp"
 #include "scene_lease.hpp"
 #include "trajectory.hpp"
+#ifdef NEARPOINT_WITH_ROBOTS
+#include "nearpoint/robots/robot.hpp"
+#endif
 
 namespace nearpoint::cli {
 namespace {
@@ -49,13 +52,44 @@ bool scene_exists(client::Client& client, const std::string& scene_id) {
 // Registers a scene file's geometries and creates its scene. Returns the exit code (0 on success).
 // `existed`: the file names a scene id the server held already (CreateScene then answers the
 // same request again idempotently): the caller must not delete it as its own.
+// A robot description (URDF, MJCF) becomes an articulated scene (robots/): its links' objects
+// move by joint positions; `robot` gives the search path of package:// and relative meshes, and
+// the SRDF (else FILE.srdf beside a URDF).
 int create_scene_from_file(client::Client& client, const std::string& path, std::ostream& err,
-                           client::SceneInfo& created, bool* existed = nullptr) {
+                           client::SceneInfo& created, bool* existed = nullptr,
+                           const RobotFileOptions& robot = {}) {
   formats::SceneFile file;
-  if (std::string error = formats::load_scene_file(path, mesh_loader(), file); !error.empty()) {
+#ifdef NEARPOINT_WITH_ROBOTS
+  if (robots::is_robot_file(path)) {
+    robots::ImportOptions import;
+    import.meshes = mesh_loader();
+    for (const std::string& dir : robot.package_path) import.search_path.emplace_back(dir);
+    if (std::string error = robots::load_robot_scene(path, import, robot.srdf, file);
+        !error.empty()) {
+      err << "nearpoint: " << error << "\n";
+      return kExitBadInput;
+    }
+  } else
+#endif
+      if (std::string error = formats::load_scene_file(path, mesh_loader(), file); !error.empty()) {
     err << "nearpoint: " << error << "\n";
     return kExitBadInput;
   }
+  if (file.robot) {
+#ifdef NEARPOINT_WITH_ROBOTS
+    robots::ImportOptions import;
+    import.meshes = mesh_loader();
+    for (const std::string& dir : robot.package_path) import.search_path.emplace_back(dir);
+    if (std::string error = robots::add_robot_to_scene(file, import); !error.empty()) {
+      err << "nearpoint: " << path << ": robot: " << error << "\n";
+      return kExitBadInput;
+    }
+#else
+    err << "nearpoint: " << path << ": \"robot\": this build reads no robot descriptions\n";
+    return kExitBadInput;
+#endif
+  }
+  (void)robot;
   if (existed != nullptr)
     *existed = !file.scene.requested_id.empty() && scene_exists(client, file.scene.requested_id);
   std::map<std::string, std::string> ids;
@@ -83,13 +117,13 @@ int create_scene_from_file(client::Client& client, const std::string& path, std:
 // A scene argument: an existing file is created first (`created` set: the caller owns it);
 // anything else is a scene id.
 int resolve_scene(client::Client& client, const std::string& scene, std::ostream& err,
-                  std::string& scene_id, bool& created) {
+                  std::string& scene_id, bool& created, const RobotFileOptions& robot = {}) {
   created = false;
   std::error_code ignored;
   if (std::filesystem::is_regular_file(scene, ignored)) {
     client::SceneInfo info;
     bool existed = false;
-    if (int code = create_scene_from_file(client, scene, err, info, &existed); code != 0)
+    if (int code = create_scene_from_file(client, scene, err, info, &existed, robot); code != 0)
       return code;
     scene_id = info.scene_id;
     created = !existed;
@@ -336,7 +370,9 @@ int run_scene_create(const SceneCreateOptions& options, std::ostream& out, std::
   auto client = connect(options.remote, err);
   if (!client) return kExitBadInput;
   client::SceneInfo created;
-  if (int code = create_scene_from_file(*client, options.file, err, created); code != 0)
+  if (int code =
+          create_scene_from_file(*client, options.file, err, created, nullptr, options.robot);
+      code != 0)
     return code;
   if (options.remote.json)
     out << Json{{"scene_id", created.scene_id}, {"pair_count", created.pair_count}}.dump() << "\n";
@@ -450,13 +486,19 @@ double step_time(const Trajectory& trajectory, std::uint64_t sequence) {
 /// Parse: the trajectory and the session's options from the flags; false once `err` says why.
 bool parse_stream(const StreamCommandOptions& options, Trajectory& trajectory,
                   client::SessionOptions& session_options, std::ostream& err) {
-  if (std::string error; !load_trajectory(options.trajectory, trajectory, error)) {
+  if (options.trajectory.empty() == options.joints.empty()) {
+    err << "nearpoint stream: give a TRAJECTORY or --joints FILE (one of the two)\n";
+    return false;
+  }
+  const std::string& path = options.joints.empty() ? options.trajectory : options.joints;
+  if (std::string error; !load_trajectory(path, trajectory, error)) {
     err << "nearpoint stream: " << error << "\n";
     return false;
   }
   if (!options_from_flags(options.near_points, options.penetration, session_options.options, err) ||
       !options_from_mode_flags(options.report, session_options.options, err))
     return false;
+  if (options.gradient) session_options.options.gradient = true;
   for (const std::string& spec : options.thresholds) {
     std::string error;
     if (!parse_threshold_argument(spec, session_options.thresholds.emplace_back(), error)) {
@@ -512,7 +554,8 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
   install_interrupt_handlers();
   std::string scene_id;
   bool created = false;
-  if (int code = resolve_scene(*client, options.scene, err, scene_id, created); code != 0)
+  if (int code = resolve_scene(*client, options.scene, err, scene_id, created, options.robot);
+      code != 0)
     return code;
   // Declared before the session: the stream is closed before the scene is deleted.
   SceneLease lease(*client, scene_id, created, options.keep_scene, "nearpoint stream", err);
@@ -549,7 +592,23 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
     if (interrupt_signal() != 0) break;
     std::vector<client::ObjectPose> poses;
     for (const ObjectPose& pose : step.poses) poses.push_back(to_object_pose(pose));
-    auto pushed = (*session)->push(poses, Clock::now() + options.remote.timeout);
+    client::Expected<std::uint64_t> pushed = std::uint64_t(0);
+    if (!step.joints.empty() || step.has_base) {
+      // A robot step: its joint positions (and base pose) in one update. Poses of other objects
+      // in the same step are not sent: a step is one or the other.
+      client::JointPositions joints;
+      for (const auto& [name, values] : step.joints) {
+        joints.names.push_back(name);
+        joints.positions.insert(joints.positions.end(), values.begin(), values.end());
+      }
+      if (step.has_base) {
+        const client::ObjectPose base = to_object_pose(step.base);
+        joints.base_pose = client::to_pose_input(base.rotation, base.translation);
+      }
+      pushed = (*session)->push_joints(joints, Clock::now() + options.remote.timeout);
+    } else {
+      pushed = (*session)->push(poses, Clock::now() + options.remote.timeout);
+    }
     if (!pushed) {
       err << "nearpoint stream: " << pushed.status().describe() << "\n";
       return exit_code_for(pushed.status());

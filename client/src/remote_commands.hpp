@@ -36,9 +36,18 @@ int run_health(const HealthOptions& options, std::ostream& out, std::ostream& er
 /// as text or, with --json, one JSON object.
 int run_info(const RemoteOptions& remote, std::ostream& out, std::ostream& err);
 
+/// Robot descriptions given as scene files (URDF, MJCF): where package:// and relative mesh
+/// paths resolve (--package-path), and a URDF's SRDF (--srdf; default FILE.srdf beside it).
+struct RobotFileOptions {
+  std::vector<std::string> package_path;
+  std::string srdf;
+};
+
 struct SceneCreateOptions {
   RemoteOptions remote;
+  /// A scene file (JSON, YAML) or a robot description (.urdf, MJCF .xml/.mjcf).
   std::string file;
+  RobotFileOptions robot;
 };
 int run_scene_create(const SceneCreateOptions& options, std::ostream& out, std::ostream& err);
 
@@ -64,8 +73,14 @@ int run_query(const QueryCommandOptions& options, std::ostream& out, std::ostrea
 
 struct StreamCommandOptions {
   RemoteOptions remote;
-  std::string scene;  // id or scene file
+  std::string scene;  // id, scene file or robot description
   std::string trajectory;
+  /// --joints FILE: a JSON Lines trajectory of joint positions (trajectory.hpp), instead of
+  /// TRAJECTORY, for a robot scene.
+  std::string joints;
+  RobotFileOptions robot;
+  /// --gradient: ask for gradients (a robot scene's pairs then carry ∂d/∂q, in --json output).
+  bool gradient = false;
   std::size_t window = 32;
   bool near_points = false;
   std::string penetration;

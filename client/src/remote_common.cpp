@@ -138,6 +138,20 @@ Json to_json(const client::Report& report) {
       pair["depth_iterations"] = p.depth_iterations;
     }
     if (!p.message.empty()) pair["message"] = p.message;
+    if (!p.joint_gradient.empty()) {
+      // By joint name: a number for one-dof joints, an array for ball and free joints.
+      Json gradient = Json::object();
+      for (const client::JointDerivative& d : p.joint_gradient) {
+        Json& entry = gradient[d.joint];
+        if (d.coordinate == 0 && entry.is_null()) {
+          entry = d.value;
+        } else {
+          if (!entry.is_array()) entry = Json::array({entry});
+          entry.push_back(d.value);
+        }
+      }
+      pair["joint_gradient"] = std::move(gradient);
+    }
     pairs.push_back(std::move(pair));
   }
   out["pairs"] = std::move(pairs);
@@ -151,6 +165,13 @@ Json to_json(const client::Report& report) {
                       {"distance", e.distance},
                       {"sequence", e.sequence}});
   out["events"] = std::move(events);
+  if (!report.joint_limit_violations.empty()) {
+    Json violations = Json::array();
+    for (const client::JointLimitViolation& v : report.joint_limit_violations)
+      violations.push_back(
+          {{"joint", v.joint}, {"position", v.position}, {"lower", v.lower}, {"upper", v.upper}});
+    out["joint_limit_violations"] = std::move(violations);
+  }
   out["coalesced_updates"] = report.coalesced_updates;
   out["coalesced_from_sequence"] =
       report.coalesced_updates > 0 ? report.coalesced_from_sequence : 0;

@@ -70,14 +70,57 @@ bool parse_json_lines(const std::string& text, const std::string& name, Trajecto
       if (key == "t") {
         if (!member.is_number()) return error = where + "\"t\" must be a number", false;
         step.time = member.get<double>();
+      } else if (key == "joints") {
+        if (!member.is_object())
+          return error = where + "\"joints\" must be an object {\"JOINT\": position, ...}", false;
+        for (const auto& [joint, position] : member.items()) {
+          std::vector<double> values;
+          if (position.is_number()) {
+            values.push_back(position.get<double>());
+          } else if (position.is_array() && !position.empty()) {
+            for (const Json& v : position) {
+              if (!v.is_number()) break;
+              values.push_back(v.get<double>());
+            }
+            if (values.size() != position.size()) values.clear();
+          }
+          if (values.empty())
+            return error = where + "\"joints." + joint +
+                           "\" must be a number or an array of numbers (ball: [w,x,y,z])",
+                   false;
+          step.joints.emplace_back(joint, std::move(values));
+        }
+      } else if (key == "base") {
+        std::string why;
+        if (!member.is_object())
+          return error =
+                     where + "\"base\" must be {\"rotation\": [w,x,y,z], \"translation\": [x,y,z]}",
+                 false;
+        for (const auto& [part_key, part] : member.items()) {
+          bool ok = true;
+          if (part_key == "rotation")
+            ok = read_array(part, "base.rotation", step.base.rotation_wxyz, why) &&
+                 check_rotation(step.base.rotation_wxyz, why);
+          else if (part_key == "translation")
+            ok = read_array(part, "base.translation", step.base.translation, why);
+          else
+            return error = where + "\"base\" has the unknown key \"" + part_key + "\"", false;
+          if (!ok) return error = where + why, false;
+        }
+        step.has_base = true;
       } else if (key != "poses") {
-        return error = where + "unknown key \"" + key + "\" (a step has \"t\" and \"poses\")",
+        return error = where + "unknown key \"" + key +
+                       "\" (a step has \"t\", \"poses\", \"joints\" and \"base\")",
                false;
       }
     }
-    if (!value.contains("poses") || !value["poses"].is_object())
+    const bool robot_step = value.contains("joints") || value.contains("base");
+    if ((!robot_step || value.contains("poses")) &&
+        (!value.contains("poses") || !value["poses"].is_object()))
       return error = where + "\"poses\" must be an object {\"OBJECT\": POSE, ...}", false;
-    for (const auto& [object, pose] : value["poses"].items()) {
+    static const Json kNoPoses = Json::object();
+    const Json& poses = value.contains("poses") ? value["poses"] : kNoPoses;
+    for (const auto& [object, pose] : poses.items()) {
       ObjectPose entry;
       entry.object_id = object;
       const std::string field = "poses." + object;
@@ -175,7 +218,9 @@ bool parse_csv(const std::string& text, const std::string& name, Trajectory& out
     if (!result.steps.empty() && t < result.steps.back().time)
       return error = where + "t decreases (times must not decrease)", false;
     if (result.steps.empty() || t != result.steps.back().time) {
-      result.steps.push_back(TrajectoryStep{t, {}});
+      TrajectoryStep step;
+      step.time = t;
+      result.steps.push_back(std::move(step));
     } else {
       for (const ObjectPose& earlier : result.steps.back().poses)
         if (earlier.object_id == pose.object_id)

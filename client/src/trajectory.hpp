@@ -7,6 +7,12 @@
 //     {"t": 0.0, "poses": {"OBJ": {"rotation": [w,x,y,z], "translation": [x,y,z]}, ...}}
 //     "rotation" and "translation" are each optional (identity / zero); "t" is optional and then
 //     the line's index. Blank lines are skipped.
+//   Robot scenes (`nearpoint stream --joints`): joint positions by name instead of (or beside)
+//   poses, and optionally the robot's base pose:
+//     {"t": 0.0, "joints": {"joint1": 0.3, "joint2": -1.2, "ball": [w,x,y,z]},
+//      "base": {"rotation": [w,x,y,z], "translation": [x,y,z]}}
+//     A joint's value is a number (revolute, prismatic: radians, metres) or an array (ball: 4
+//     values, free: 7). Joints not named keep their previous positions.
 //   CSV with the header  t,object,tx,ty,tz,qw,qx,qy,qz  (columns in that order); consecutive rows
 //     with equal t form one step. Blank lines and lines starting with '#' are skipped.
 // Units: seconds for t (any monotone parameter works), metres; quaternions (w, x, y, z), checked
@@ -15,6 +21,7 @@
 
 #include <array>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace nearpoint::cli {
@@ -30,6 +37,10 @@ struct ObjectPose {
 struct TrajectoryStep {
   double time = 0;
   std::vector<ObjectPose> poses;
+  /// Robot scenes: joint positions by name, in the order given, and the base pose (has_base).
+  std::vector<std::pair<std::string, std::vector<double>>> joints;
+  bool has_base = false;
+  ObjectPose base;
 };
 
 struct Trajectory {

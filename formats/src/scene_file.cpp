@@ -151,8 +151,9 @@ std::string read_scene_keys(const Json& value, model::SceneInput& scene) {
     } else if (key == "name") {
       if (std::string error = read_string(part, "name", scene.name); !error.empty()) return error;
     } else if (key != "geometries" && key != "objects" && key != "pairs" && key != "options" &&
-               key != "thresholds") {
-      return unknown_key("", key, "id, name, geometries, objects, pairs, options, thresholds");
+               key != "thresholds" && key != "robot") {
+      return unknown_key("", key,
+                         "id, name, robot, geometries, objects, pairs, options, thresholds");
     }
   }
   return {};
@@ -299,9 +300,51 @@ std::string parse_scene_or_throw(const Json& value, const std::filesystem::path&
         !error.empty())
       return error;
   }
-  if (!value.contains("objects") || !value["objects"].is_array() || value["objects"].empty())
+  if (value.contains("robot")) {
+    // A path, or {"file", "srdf", "package_path"}; the robot's objects come on top of "objects".
+    const Json& robot = value["robot"];
+    RobotReference reference;
+    std::string file_name;
+    if (robot.is_string()) {
+      file_name = robot.get<std::string>();
+    } else if (robot.is_object()) {
+      for (const auto& [key, part] : robot.items()) {
+        std::string text;
+        if (key == "file" || key == "srdf") {
+          if (std::string error = read_string(part, member("robot", key), text); !error.empty())
+            return error;
+          if (key == "file")
+            file_name = text;
+          else
+            reference.srdf = text;
+        } else if (key == "package_path") {
+          if (!part.is_array()) return "\"robot.package_path\" must be an array of directories";
+          for (std::size_t i = 0; i < part.size(); ++i) {
+            if (std::string error = read_string(part[i], element("robot.package_path", i), text);
+                !error.empty())
+              return error;
+            reference.package_path.push_back(base_dir / text);
+          }
+        } else {
+          return unknown_key("robot", key, "file, srdf, package_path");
+        }
+      }
+    } else {
+      return "\"robot\" must be a path or {\"file\": PATH, \"srdf\": PATH, \"package_path\": "
+             "[DIR, ...]}";
+    }
+    if (file_name.empty()) return "\"robot.file\" is missing (a robot description's path)";
+    reference.file = base_dir / file_name;
+    if (!reference.srdf.empty()) reference.srdf = base_dir / reference.srdf;
+    file.robot = std::move(reference);
+  }
+  const bool robot = file.robot.has_value();
+  if (!(robot && !value.contains("objects")) &&
+      (!value.contains("objects") || !value["objects"].is_array() ||
+       (value["objects"].empty() && !robot)))
     return "\"objects\" must be a non-empty array of objects";
-  const Json& objects = value["objects"];
+  static const Json kNoObjects = Json::array();
+  const Json& objects = value.contains("objects") ? value["objects"] : kNoObjects;
   for (std::size_t i = 0; i < objects.size(); ++i) {
     if (std::string error = read_object(objects[i], element("objects", i), file); !error.empty())
       return error;

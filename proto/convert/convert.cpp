@@ -419,6 +419,76 @@ model::ThresholdInput from_proto(const v1::Threshold& threshold) {
                                threshold.object_a(), threshold.object_b(), threshold.groups()};
 }
 
+void to_proto(const model::RobotInput& robot, v1::Robot& out) {
+  out.set_name(robot.name);
+  for (const model::RobotLinkInput& link : robot.links) {
+    v1::RobotLink& l = *out.add_links();
+    l.set_name(link.name);
+    l.set_parent(link.parent);
+    to_proto(link.offset, *l.mutable_offset());
+    for (const model::RobotJointInput& joint : link.joints) {
+      v1::RobotJoint& j = *l.add_joints();
+      j.set_name(joint.name);
+      j.set_type(v1::JointType(static_cast<int>(joint.type)));
+      to_proto(joint.axis, *j.mutable_axis());
+      to_proto(joint.anchor, *j.mutable_anchor());
+      j.set_reference(joint.reference);
+      j.set_limited(joint.limited);
+      j.set_lower(joint.lower);
+      j.set_upper(joint.upper);
+    }
+  }
+  for (const model::RobotAttachmentInput& attachment : robot.attachments) {
+    v1::RobotAttachment& a = *out.add_attachments();
+    a.set_object_id(attachment.object_id);
+    a.set_link(attachment.link);
+    to_proto(attachment.offset, *a.mutable_offset());
+  }
+}
+
+model::RobotInput from_proto(const v1::Robot& robot) {
+  model::RobotInput out;
+  out.name = robot.name();
+  for (const v1::RobotLink& l : robot.links()) {
+    model::RobotLinkInput& link = out.links.emplace_back();
+    link.name = l.name();
+    link.parent = l.parent();
+    link.offset = from_proto(l.offset());
+    for (const v1::RobotJoint& j : l.joints()) {
+      model::RobotJointInput& joint = link.joints.emplace_back();
+      joint.name = j.name();
+      // Same numbers as nearpoint.v1.JointType; a newer value reads as unknown (refused).
+      const int type = j.type();
+      joint.type = type >= 0 && type <= static_cast<int>(model::JointType::free)
+                       ? model::JointType(type)
+                       : model::JointType::unknown;
+      if (j.has_axis()) joint.axis = from_proto(j.axis());
+      if (j.has_anchor()) joint.anchor = from_proto(j.anchor());
+      joint.reference = j.reference();
+      joint.limited = j.limited();
+      joint.lower = j.lower();
+      joint.upper = j.upper();
+    }
+  }
+  for (const v1::RobotAttachment& a : robot.attachments())
+    out.attachments.push_back({a.object_id(), a.link(), from_proto(a.offset())});
+  return out;
+}
+
+void to_proto(const model::JointPositionsInput& joints, v1::JointPositions& out) {
+  for (const std::string& name : joints.names) out.add_names(name);
+  for (const double position : joints.positions) out.add_positions(position);
+  if (joints.base_pose) to_proto(*joints.base_pose, *out.mutable_base_pose());
+}
+
+model::JointPositionsInput from_proto(const v1::JointPositions& joints) {
+  model::JointPositionsInput out;
+  out.names.assign(joints.names().begin(), joints.names().end());
+  out.positions.assign(joints.positions().begin(), joints.positions().end());
+  if (joints.has_base_pose()) out.base_pose = from_proto(joints.base_pose());
+  return out;
+}
+
 void to_proto(const model::SceneInput& scene, v1::CreateSceneRequest& out) {
   out.set_name(scene.name);
   out.set_scene_id(scene.requested_id);
@@ -427,6 +497,7 @@ void to_proto(const model::SceneInput& scene, v1::CreateSceneRequest& out) {
   to_proto(scene.default_options, *out.mutable_default_options());
   for (const model::ThresholdInput& threshold : scene.thresholds)
     to_proto(threshold, *out.add_thresholds());
+  if (!scene.robot.empty()) to_proto(scene.robot, *out.mutable_robot());
 }
 
 model::SceneInput from_proto(const v1::CreateSceneRequest& request) {
@@ -441,6 +512,7 @@ model::SceneInput from_proto(const v1::CreateSceneRequest& request) {
   out.thresholds = read_thresholds(request.thresholds());
   for (const auto& [key, geometry] : request.geometries())
     out.geometries.emplace(key, from_proto(geometry));
+  if (request.has_robot()) out.robot = from_proto(request.robot());
   return out;
 }
 
@@ -452,6 +524,7 @@ model::PoseUpdateInput from_proto(const v1::PoseUpdate& update) {
   out.options = from_proto(update.options());
   out.flow_control = model::from_wire<FlowControl>(update.flow_control());
   out.thresholds = read_thresholds(update.thresholds());
+  if (update.has_joints()) out.joints = from_proto(update.joints());
   return out;
 }
 
@@ -461,6 +534,7 @@ model::QueryInput from_proto(const v1::QueryRequest& request) {
   out.poses = from_proto(request.poses());
   out.options = from_proto(request.options());
   out.sequence = request.sequence();
+  if (request.has_joints()) out.joints = from_proto(request.joints());
   return out;
 }
 

@@ -9,6 +9,7 @@
 #include "evaluation.hpp"
 #include "metrics.hpp"
 #include "report_bytes.hpp"
+#include "robot_scene.hpp"
 #include "thresholds.hpp"
 #include "validation.hpp"
 
@@ -117,6 +118,10 @@ void SceneService::run(std::shared_ptr<Job> job) {
       job.report.threshold_names = state.watches->names;
     }
     collect_report(*job.scene, state, job.options, !job.keep_state, job.report.pairs);
+    if (job.robot) {
+      if (job.options.engine.gradient) add_joint_gradients(*job.scene, *job.robot, job.report);
+      job.report.joint_limit_violations = job.robot->violations;
+    }
     const Clock::time_point end = Clock::now();
     model::ReportTiming& timing = job.report.timing;
     timing.server_us = microseconds(end - job.received);
@@ -163,6 +168,16 @@ Outcome SceneService::query(const model::QueryInput& query, Clock::time_point re
   Expected<std::vector<Pose<double>>> poses =
       apply_poses(*definition, std::move(initial), query.poses, "poses");
   if (!poses) return poses.error();
+  std::shared_ptr<const RobotUpdate> robot;
+  if (definition->robot) {
+    Expected<std::shared_ptr<const RobotUpdate>> applied = apply_joint_positions(
+        *definition, initial_position(*definition->robot), query.joints, poses.value(), "joints");
+    if (!applied) return applied.error();
+    robot = std::move(applied.value());
+  } else if (!query.joints.empty()) {
+    return Error{ErrorCode::failed_precondition, "joints",
+                 text("scene ", quoted(definition->id), " has no robot")};
+  }
 
   if (running_queries_.fetch_add(1) >= limits_.max_concurrent_queries) {
     running_queries_.fetch_sub(1);
@@ -173,6 +188,7 @@ Outcome SceneService::query(const model::QueryInput& query, Clock::time_point re
   auto job = std::make_shared<Job>();
   job->scene = definition;
   job->poses = std::move(poses.value());
+  job->robot = std::move(robot);
   job->options = options.value();
   job->received = received;
   job->state = std::make_shared<IncrementalState>();  // a query starts from nothing

@@ -18,6 +18,8 @@ namespace nearpoint::server {
 struct SceneService::Job {
   std::shared_ptr<const SceneDefinition> scene;
   std::vector<Pose<double>> poses;
+  /// Robot scenes: the robot's state at `poses` (null otherwise).
+  std::shared_ptr<const RobotUpdate> robot;
   ResolvedOptions options;
   /// The warm-start caches read and written (a stream's, or `own_caches`); empty: cold.
   std::span<SimplexCache> caches;

@@ -6,6 +6,7 @@
 #include "evaluation_job.hpp"
 #include "incremental.hpp"
 #include "report_bytes.hpp"
+#include "robot_scene.hpp"
 #include "thresholds.hpp"
 #include "validation.hpp"
 
@@ -84,6 +85,24 @@ Expected<PreparedUpdate> PoseStream::prepare(const model::PoseUpdateInput& updat
   Expected<std::vector<Pose<double>>> poses =
       service_.apply_poses(definition, std::move(start), update.poses, "poses");
   if (!poses) return poses.error();
+  std::shared_ptr<const RobotUpdate> robot;
+  if (definition.robot) {
+    // Every update carries the robot's state, joints given or not (its report names violations).
+    if (current_robot_ && scene_ && update.joints.empty()) {
+      robot = current_robot_;
+    } else {
+      Expected<std::shared_ptr<const RobotUpdate>> applied = apply_joint_positions(
+          definition,
+          current_robot_ && scene_ ? current_robot_->position : initial_position(*definition.robot),
+          update.joints, poses.value(), "joints");
+      if (!applied) return applied.error();
+      robot = std::move(applied.value());
+    }
+  } else if (!update.joints.empty()) {
+    return Error{
+        ErrorCode::failed_precondition, "joints",
+        text("scene ", quoted(definition.id), " has no robot: move its objects by their poses")};
+  }
 
   // Accepted: only now does the stream's state change.
   if (!scene_) {
@@ -93,6 +112,7 @@ Expected<PreparedUpdate> PoseStream::prepare(const model::PoseUpdateInput& updat
     watches_ = watches;
   }
   current_poses_ = poses.value();
+  current_robot_ = robot;
   has_sequence_ = true;
   last_sequence_ = update.sequence;
   PreparedUpdate prepared;
@@ -100,6 +120,7 @@ Expected<PreparedUpdate> PoseStream::prepare(const model::PoseUpdateInput& updat
   prepared.poses = std::move(poses.value());
   prepared.options = options.value();
   prepared.received = received;
+  prepared.robot = std::move(robot);
   if (watches) {
     prepared.step.sequence = update.sequence;
     for (const model::ObjectPoseInput& pose : update.poses) {
@@ -107,6 +128,11 @@ Expected<PreparedUpdate> PoseStream::prepare(const model::PoseUpdateInput& updat
       if (watches->watched_object[object])
         prepared.step.moves.emplace_back(object, prepared.poses[object]);
     }
+    // The objects the robot carries moved with its joints.
+    if (definition.robot && !update.joints.empty())
+      for (std::size_t object = 0; object < definition.objects.size(); ++object)
+        if (definition.robot->object_link[object] >= 0 && watches->watched_object[object])
+          prepared.step.moves.emplace_back(std::uint32_t(object), prepared.poses[object]);
     // A merged report carries the crossings of every update it replays: as many as fit in one
     // message beside the pairs (checked above for one update's worth).
     const std::size_t room =
@@ -142,6 +168,7 @@ void PoseStream::evaluate(PreparedUpdate update, ReportCallback done) {
   auto job = std::make_shared<SceneService::Job>();
   job->scene = scene_->definition();
   job->poses = std::move(update.poses);
+  job->robot = std::move(update.robot);
   job->options = update.options;
   if (update.options.warm_start) job->caches = caches_;
   if (!incremental_) {

@@ -7,6 +7,7 @@
 #include "content_hash.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/scene_service.hpp"
+#include "robot_scene.hpp"
 
 namespace nearpoint::server {
 namespace {
@@ -74,12 +75,29 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
   out.Clear();
   out.set_sequence(report.sequence);
   out.mutable_pairs()->Reserve(int(report.pairs.size()));
-  for (const model::PairReport& pair : report.pairs) {
+  const SceneRobot* robot = report.scene->robot.get();
+  for (std::size_t i = 0; i < report.pairs.size(); ++i) {
+    const model::PairReport& pair = report.pairs[i];
     v1::PairDistance& p = *out.add_pairs();
     p.set_object_a(report.scene->objects[pair.object_a].id);
     p.set_object_b(report.scene->objects[pair.object_b].id);
     proto::to_proto(pair, p);
     if (pair.engine_message) p.set_message(pair.engine_message);
+    if (robot && i < report.joint_gradients.size())
+      for (const auto& [coordinate, value] : report.joint_gradients[i]) {
+        v1::JointDerivative& d = *p.add_joint_gradient();
+        const auto& [joint, within] = robot->coordinates[coordinate];
+        d.set_joint(robot->tree.joints[joint].name);
+        d.set_coordinate(within);
+        d.set_value(value);
+      }
+  }
+  for (const model::JointLimitViolation& violation : report.joint_limit_violations) {
+    v1::JointLimitViolation& v = *out.add_joint_limit_violations();
+    v.set_joint(violation.joint);
+    v.set_position(violation.position);
+    v.set_lower(violation.lower);
+    v.set_upper(violation.upper);
   }
   proto::to_proto(report.timing, *out.mutable_timing());
   out.set_coalesced_updates(report.coalesced_updates);

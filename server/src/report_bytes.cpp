@@ -6,6 +6,7 @@
 
 #include "nearpoint/model/vocabulary.hpp"
 #include "report_size.hpp"
+#include "robot_scene.hpp"
 
 namespace nearpoint::server {
 namespace {
@@ -17,23 +18,27 @@ namespace {
 /// it holds what is near (counted as the envelope here; the transport checks it when sending).
 std::size_t report_bytes_bound(const SceneDefinition& scene, const DistanceOptions<double>& options,
                                model::ReportMode mode) {
-  const std::size_t extra = report_size::pair_options(
-      options.near_points, options.penetration_bound, options.gradient, options.penetration_depth);
+  // A robot scene's reports add joint gradients per pair and limit violations once.
+  const std::size_t extra =
+      report_size::pair_options(options.near_points, options.penetration_bound, options.gradient,
+                                options.penetration_depth) +
+      (scene.robot && options.gradient ? scene.robot->gradient_bytes_per_pair : 0);
+  const std::size_t envelope =
+      report_size::kReportEnvelope + (scene.robot ? scene.robot->violation_bytes : 0);
   const std::size_t longest_entry =
       report_size::kPairEntryOverhead + report_size::kPairFixed +
       report_size::pair_ids(scene.longest_object_id, scene.longest_object_id) + extra;
   switch (mode) {
     case model::ReportMode::nearest_per_object:
-      return report_size::kReportEnvelope +
-             std::min(scene.pairs.size(), scene.objects.size()) * longest_entry;
+      return envelope + std::min(scene.pairs.size(), scene.objects.size()) * longest_entry;
     case model::ReportMode::global_minimum:
-      return report_size::kReportEnvelope +
-             std::min<std::size_t>(scene.pairs.size(), 1) * longest_entry;
+      return envelope + std::min<std::size_t>(scene.pairs.size(), 1) * longest_entry;
     case model::ReportMode::within_cutoff:
-      if (std::isfinite(options.distance_cutoff)) return report_size::kReportEnvelope;
+      if (std::isfinite(options.distance_cutoff)) return envelope;
       [[fallthrough]];
     default:
-      return scene.report_bytes_base + scene.pairs.size() * extra;
+      return scene.report_bytes_base + (envelope - report_size::kReportEnvelope) +
+             scene.pairs.size() * extra;
   }
 }
 /// The mode's name in messages: the proto's and the CLI's (unspecified reads as all pairs).

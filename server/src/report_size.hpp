@@ -108,6 +108,19 @@ constexpr std::size_t event_entry(std::size_t name_bytes, std::size_t id_a_bytes
   return delimited_field(9, content);
 }
 
+/// Robot scenes. One PairDistance.joint_gradient entry (field 35): a JointDerivative with
+/// joint = 1 (the name), coordinate = 2, value = 3. A pair's gradient entries can take its
+/// content past 16 KiB: kJointGradientLength is the third byte its length may then take.
+constexpr std::size_t joint_derivative_entry(std::size_t name_bytes) {
+  return delimited_field(35, delimited_field(1, name_bytes) + uint32_field(2) + fixed64_field(3));
+}
+constexpr std::size_t kJointGradientLength = 1;
+/// One DistanceReport.joint_limit_violations entry (field 10): joint = 1, position = 2,
+/// lower = 3, upper = 4.
+constexpr std::size_t joint_limit_entry(std::size_t name_bytes) {
+  return delimited_field(10, delimited_field(1, name_bytes) + 3 * fixed64_field(2));
+}
+
 // PairDistance.message (21), the engine's text for PAIR_STATUS_ENGINE_ERROR, is not counted: the
 // engine refuses only what the server's validation already refuses, so it marks a server bug.
 // Should it ever make a report too large, the transport answers with an error report instead

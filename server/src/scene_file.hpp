@@ -3,7 +3,8 @@
 // requests) into the scene API before the server announces its port, so that clients — a pure DDS
 // client among them — find the scene ready. The file format is the client's
 // (formats/scene_file.hpp); mesh geometries are not read here (the server links no mesh importer):
-// they get an error.
+// they get an error. A robot description (URDF, MJCF; robots/) becomes an articulated scene whose
+// id is the robot's name.
 #pragma once
 
 #include <string>

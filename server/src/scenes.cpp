@@ -11,6 +11,7 @@
 #include "nearpoint/server/scene_service.hpp"
 #include "report_bytes.hpp"
 #include "report_size.hpp"
+#include "robot_scene.hpp"
 #include "thresholds.hpp"
 #include "validation.hpp"
 
@@ -269,6 +270,18 @@ Expected<model::SceneInfo> SceneService::create_scene(const model::SceneInput& i
                                   [this](const std::string& id) { return find_geometry(id); });
       !added)
     return added.error();
+  if (!input.robot.empty()) {
+    Expected<std::shared_ptr<const SceneRobot>> robot = build_scene_robot(input.robot, *scene);
+    if (!robot) return robot.error();
+    scene->robot = std::move(robot.value());
+    // Streams and queries start with every joint at its reference, the base at the identity.
+    std::vector<Pose<double>> poses;
+    for (const SceneObject& object : scene->objects) poses.push_back(object.initial_pose);
+    Expected<std::shared_ptr<const RobotUpdate>> start = apply_joint_positions(
+        *scene, initial_position(*scene->robot), model::JointPositionsInput{}, poses, "robot");
+    if (!start) return start.error();
+    for (std::size_t o = 0; o < poses.size(); ++o) scene->objects[o].initial_pose = poses[o];
+  }
   Expected<ResolvedOptions> defaults =
       resolve_options(ResolvedOptions{}, input.default_options, "default_options");
   if (!defaults) return defaults.error();
@@ -371,6 +384,14 @@ Expected<std::vector<Pose<double>>> SceneService::apply_poses(
     if (seen[std::size_t(index)]++)
       return invalid_argument(entry + ".object_id",
                               text("object ", quoted(updates[j].object_id), " is listed twice"));
+    if (scene.robot && scene.robot->object_link[std::size_t(index)] >= 0)
+      return invalid_argument(
+          entry + ".object_id",
+          text("object ", quoted(updates[j].object_id), " rides on link ",
+               quoted(scene.robot->tree
+                          .links[std::size_t(scene.robot->object_link[std::size_t(index)])]
+                          .name),
+               " of the robot: send joint positions (joints) instead of its pose"));
     Expected<Pose<double>> pose = check_pose(updates[j].pose, entry + ".pose");
     if (!pose) return pose.error();
     poses[std::size_t(index)] = pose.value();

@@ -76,4 +76,44 @@ TEST(Trajectory, LoadReportsAMissingFile) {
 }
 
 }  // namespace
+// Robot steps (`nearpoint stream --joints`): joint positions by name, a number or an array, and
+// an optional base pose; malformed joints are refused naming the line and the joint.
+TEST(Trajectory, JointStepsCarryPositionsByNameAndABasePose) {
+  const std::string jsonl =
+      R"({"t": 0.0, "joints": {"joint1": 0.5, "ball": [1, 0, 0, 0]}})"
+      "\n"
+      R"({"t": 0.1, "joints": {"joint1": -0.5}, "base": {"translation": [1, 2, 3]}})"
+      "\n";
+  Trajectory trajectory;
+  std::string error;
+  ASSERT_TRUE(parse_trajectory(jsonl, "j.jsonl", trajectory, error)) << error;
+  ASSERT_EQ(trajectory.steps.size(), 2u);
+  const TrajectoryStep& first = trajectory.steps[0];
+  EXPECT_TRUE(first.poses.empty());
+  ASSERT_EQ(first.joints.size(), 2u);
+  EXPECT_FALSE(first.has_base);
+  const std::vector<double> one{0.5}, quaternion{1, 0, 0, 0};
+  for (const auto& [name, values] : first.joints)
+    EXPECT_EQ(values, name == "joint1" ? one : quaternion);
+  const TrajectoryStep& second = trajectory.steps[1];
+  EXPECT_EQ(second.time, 0.1);
+  ASSERT_EQ(second.joints.size(), 1u);
+  EXPECT_EQ(second.joints[0].second, (std::vector<double>{-0.5}));
+  EXPECT_TRUE(second.has_base);
+  EXPECT_EQ(second.base.translation, (std::array<double, 3>{1, 2, 3}));
+
+  for (const auto& [text, says] :
+       {std::pair{R"({"joints": {"joint1": "up"}})", "joints.joint1"},
+        std::pair{R"({"joints": {"joint1": [0.1, "x"]}})", "joints.joint1"},
+        std::pair{R"({"joints": [0.1]})", "\"joints\" must be an object"},
+        std::pair{R"({"joints": {}, "base": {"rotation": [2, 0, 0, 0]}})", "unit length"},
+        std::pair{R"({"joints": {}, "base": {"scale": 2}})", "unknown key \"scale\""},
+        std::pair{R"({"t": 0})", "\"poses\" must be an object"}}) {
+    Trajectory refused;
+    EXPECT_FALSE(parse_trajectory(text, "bad.jsonl", refused, error)) << text;
+    EXPECT_NE(error.find("bad.jsonl"), std::string::npos) << error;
+    EXPECT_NE(error.find(says), std::string::npos) << error;
+  }
+}
+
 }  // namespace nearpoint::cli

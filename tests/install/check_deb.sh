@@ -50,4 +50,32 @@ done
 dev_depends=$(dpkg-deb -f "$dev" Depends)
 echo "nearpoint-dev Depends: $dev_depends"
 grep -q 'libeigen3-dev' <<<"$dev_depends" || fail "$dev does not depend on libeigen3-dev"
-echo "OK: $(basename "$runtime") $(du -h "$runtime" | cut -f1), $(basename "$dev") $(du -h "$dev" | cut -f1)"
+# python3-nearpoint (when the build has the Python package): the package in Debian's python3
+# directories, depending on the interpreter, numpy, the gRPC runtime and what its module links;
+# unpacked (not installed: no root) and imported from there in a clean environment.
+python_deb=$(ls "$work"/python3-nearpoint_*.deb 2>/dev/null || true)
+if [[ -d "$build/client/python/nearpoint" ]]; then
+  [[ -n "$python_deb" ]] || fail "the build has the Python package but cpack made no python3-nearpoint"
+  contents "$python_deb" | grep -q '^./usr/lib/python3[.0-9]*/dist-packages/nearpoint/__init__.py$' ||
+    fail "nearpoint/__init__.py not in $python_deb"
+  contents "$python_deb" | grep -q '/dist-packages/nearpoint/_engine\..*\.so$' ||
+    fail "the extension module not in $python_deb"
+  for file in copyright LICENSE NOTICE THIRD_PARTY_NOTICES.md; do
+    contents "$python_deb" | grep -qx "./usr/share/doc/python3-nearpoint/$file" ||
+      fail "/usr/share/doc/python3-nearpoint/$file not in $python_deb"
+  done
+  [[ "$(dpkg-deb -f "$python_deb" Version)" == "$version" ]] || fail "$python_deb: Version"
+  python_depends=$(dpkg-deb -f "$python_deb" Depends)
+  echo "python3-nearpoint Depends: $python_depends"
+  for dep in 'python3 (>=' python3-numpy python3-grpcio python3-protobuf libstdc++6 libgmp; do
+    grep -qF "$dep" <<<"$python_depends" || fail "$python_deb does not depend on $dep"
+  done
+  dpkg-deb -x "$python_deb" "$work/python-root"
+  site=$(cd "$work/python-root" && ls -d usr/lib/python3*/dist-packages)
+  printed=$(cd / && env -i PATH=/usr/bin:/bin PYTHONPATH="$work/python-root/$site" /usr/bin/python3 \
+    -c "import nearpoint, nearpoint.client; print(nearpoint.__version__); assert nearpoint.__file__.startswith('$work/python-root')")
+  [[ "$printed" == "$version" ]] || fail "the packaged nearpoint says version '$printed'"
+  /usr/bin/python3 -c "import sys; assert '/$site' in sys.path, sys.path" ||
+    fail "/$site is not on Debian's python3 path"
+fi
+echo "OK: $(basename "$runtime") $(du -h "$runtime" | cut -f1), $(basename "$dev") $(du -h "$dev" | cut -f1)${python_deb:+, $(basename "$python_deb") $(du -h "$python_deb" | cut -f1)}"

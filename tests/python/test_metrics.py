@@ -62,7 +62,7 @@ def main():
     parser.add_argument("--pythonpath", required=True)
     args = parser.parse_args()
     sys.path.insert(0, args.pythonpath)
-    import nearpoint_client as npc
+    from nearpoint import client as npc
 
     # Bad configuration stops the server at start (exit 2) with a message naming the flag.
     for bad, why, expect in (("nonsense", "not HOST:PORT", "not HOST:PORT"),

@@ -25,7 +25,8 @@ import time
 import unittest
 
 ARGS = None  # set in __main__
-npc = None  # nearpoint_client, imported once the path is known
+npc = None  # nearpoint.client, imported once the path is known
+nearpoint = None
 
 
 def box_distance(centre_a, half_a, centre_b, half_b):
@@ -106,10 +107,10 @@ class PythonClientTest(unittest.TestCase):
         # `nearpointd --version` and the server's GetServerInfo agree.
         printed = subprocess.run([ARGS.nearpointd, "--version"], capture_output=True, text=True,
                                  check=True).stdout.split()
-        self.assertEqual(printed, ["nearpointd", npc.__version__])
-        self.assertRegex(npc.__version__, r"^\d+\.\d+\.\d+$")
+        self.assertEqual(printed, ["nearpointd", nearpoint.__version__])
+        self.assertRegex(nearpoint.__version__, r"^\d+\.\d+\.\d+$")
         info = self.client.server_info()
-        self.assertEqual(info.version, npc.__version__)
+        self.assertEqual(info.version, nearpoint.__version__)
         self.assertEqual(info.limits.workers, 2)
         self.assertTrue(info.build.grpc)
 
@@ -396,5 +397,6 @@ if __name__ == "__main__":
     parser.add_argument("--example", required=True, help="client/python/examples/two_boxes.py")
     ARGS, rest = parser.parse_known_args()
     sys.path.insert(0, ARGS.pythonpath)
-    import nearpoint_client as npc  # noqa: E402  (the path is only known now)
+    import nearpoint  # noqa: E402  (the path is only known now)
+    from nearpoint import client as npc  # noqa: E402
     unittest.main(argv=[sys.argv[0]] + rest, verbosity=2)

@@ -353,7 +353,7 @@ if __name__ == "__main__":
     # with gRPC, so the support is not needed.
     os.environ["GRPC_ENABLE_FORK_SUPPORT"] = "false"
     import grpc  # noqa: E402
-    import nearpoint_client as npc  # noqa: E402
+    from nearpoint import client as npc  # noqa: E402
 
     with tempfile.TemporaryDirectory(prefix="nearpoint_tls_") as work:
         ARGS.work = work

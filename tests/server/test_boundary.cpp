@@ -260,8 +260,10 @@ TEST(ReportLimits, AReportTooLargeToSendIsReplacedByAnErrorReport) {
 // DistanceReport the field counts fail first: the bound must learn the new field.
 TEST(ReportLimits, TheReportSizeBoundHoldsForWorstCaseReports) {
   namespace size = report_size;
-  EXPECT_EQ(v1::PairDistance::descriptor()->field_count(), 34);
-  EXPECT_EQ(v1::DistanceReport::descriptor()->field_count(), 9);
+  EXPECT_EQ(v1::PairDistance::descriptor()->field_count(), 35);
+  EXPECT_EQ(v1::DistanceReport::descriptor()->field_count(), 10);
+  EXPECT_EQ(v1::JointDerivative::descriptor()->field_count(), 3);
+  EXPECT_EQ(v1::JointLimitViolation::descriptor()->field_count(), 4);
   EXPECT_EQ(v1::ThresholdEvent::descriptor()->field_count(), 7);
   EXPECT_EQ(v1::ReportTiming::descriptor()->field_count(), 4);
   EXPECT_EQ(v1::ReportCounts::descriptor()->field_count(), 3);
@@ -354,6 +356,20 @@ TEST(ReportLimits, TheReportSizeBoundHoldsForWorstCaseReports) {
       EXPECT_LE(actual, bound);
       EXPECT_LE(bound - actual, std::size_t(kPairCount) * 1 + 4);
     }
+  }
+  // Robot scenes: a joint gradient entry and a limit violation, names of 1 and 128 bytes.
+  for (const std::size_t name_length : {std::size_t(1), std::size_t(128)}) {
+    v1::PairDistance pair;
+    v1::JointDerivative& d = *pair.add_joint_gradient();
+    d.set_joint(std::string(name_length, 'j'));
+    d.set_coordinate(~0u);
+    d.set_value(1.5);
+    EXPECT_LE(pair.ByteSizeLong(), size::joint_derivative_entry(name_length));
+    v1::DistanceReport report;
+    v1::JointLimitViolation& v = *report.add_joint_limit_violations();
+    v.set_joint(std::string(name_length, 'j'));
+    v.set_position(1.5), v.set_lower(1.5), v.set_upper(1.5);
+    EXPECT_LE(report.ByteSizeLong(), size::joint_limit_entry(name_length));
   }
 }
 

@@ -6,7 +6,7 @@
 """
 import sys
 
-import nearpoint_client as npc
+from nearpoint import client as npc
 
 target = sys.argv[1] if len(sys.argv) > 1 else "127.0.0.1:50051"
 with npc.connect(target) as client:

@@ -111,6 +111,12 @@ using ReportCounts = model::ReportCounts;
 /// or every pair; `groups` filters by SceneObject.group.
 using Threshold = model::ThresholdInput;
 using SceneInfo = model::SceneInfo;
+/// A scene's robot (nearpoint.v1.Robot; robots::Robot::to_scene or `nearpoint scene create
+/// robot.urdf` build one), and joint positions by name for Session::push_joints.
+using Robot = model::RobotInput;
+using JointPositions = model::JointPositionsInput;
+using JointDerivative = model::JointDerivative;
+using JointLimitViolation = model::JointLimitViolation;
 
 /// One live scene on the server (nearpoint.v1.SceneSummary): its objects as created (body names
 /// are not kept by the server and come back empty).
@@ -162,6 +168,9 @@ struct PairDistance : model::PairAnswer {
   std::string object_a, object_b;
   /// For engine_error: the server's reason.
   std::string message;
+  /// Robot scenes with gradients: ∂distance/∂q of each joint coordinate that moves one of the
+  /// two objects (others: 0).
+  std::vector<JointDerivative> joint_gradient;
 };
 
 using Crossing = model::Crossing;
@@ -202,6 +211,8 @@ struct Report {
   ReportMode mode = ReportMode::all_pairs;
   /// Threshold crossings (sessions with SessionOptions::thresholds), oldest update first.
   std::vector<ThresholdEvent> events;
+  /// Robot scenes: the joints outside their limits at this update's positions.
+  std::vector<JointLimitViolation> joint_limit_violations;
   /// Client side: when the update was handed to the transport and when the report arrived.
   Clock::time_point sent, received;
   /// The first report of a stream that replaced a lost one (see ResumeEvent): the scene was
@@ -271,6 +282,12 @@ class Session {
   virtual Expected<std::uint64_t> push(const std::vector<ObjectPose>& poses,
                                        Clock::time_point deadline = Clock::time_point::max(),
                                        const QueryOptions* options = nullptr) = 0;
+
+  /// Robot scenes: sends joint positions by name (joints not named keep theirs) instead of the
+  /// poses of the objects the robot carries; otherwise as push().
+  virtual Expected<std::uint64_t> push_joints(const JointPositions& joints,
+                                              Clock::time_point deadline = Clock::time_point::max(),
+                                              const QueryOptions* options = nullptr) = 0;
 
   /// The next report, in sequence order. DEADLINE_EXCEEDED when none arrives by `deadline`;
   /// OUT_OF_RANGE once the session is closed and every report has been taken; the session's
@@ -382,6 +399,12 @@ class Client {
   /// that now routes it to another replica) re-creates the scene and asks once more.
   virtual Expected<Report> query(const std::string& scene_id, const std::vector<ObjectPose>& poses,
                                  const QueryOptions& options = {}) = 0;
+
+  /// query() for a robot scene: the robot at `joints` (joints not named at their reference
+  /// positions; a base pose if given), other objects at `poses` or their initial poses.
+  virtual Expected<Report> query_joints(const std::string& scene_id, const JointPositions& joints,
+                                        const QueryOptions& options = {},
+                                        const std::vector<ObjectPose>& poses = {}) = 0;
 
   /// A pose stream on `scene_id` (a scene created by this client, or any scene on the server —
   /// only this client's scenes can be replayed after a restart).

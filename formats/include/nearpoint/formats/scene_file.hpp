@@ -33,6 +33,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -54,10 +55,22 @@ using MeshLoader =
 /// A scene file's content. Objects name their geometry by `geometry_names[i]` (a key of
 /// `geometries`), or, when that is empty, by `scene.objects[i].geometry_id` (already registered).
 /// The requested scene id ("id") is `scene.requested_id`.
+/// A scene file's "robot": a robot description whose links become objects of the scene beside
+/// the file's own (read by robots/, which formats/ does not link: robots::add_robot_to_scene).
+/// Either a path, or {"file": PATH, "srdf": PATH, "package_path": [DIR, ...]}; paths relative to
+/// the scene file.
+struct RobotReference {
+  std::filesystem::path file;
+  std::filesystem::path srdf;
+  std::vector<std::filesystem::path> package_path;
+};
+
 struct SceneFile {
   std::vector<std::pair<std::string, model::GeometryInput>> geometries;
   std::vector<std::string> geometry_names;
   model::SceneInput scene;
+  /// Set when the file names a robot; its objects are not in `scene.objects` yet.
+  std::optional<RobotReference> robot;
 };
 
 /// The file's text as JSON: JSON directly, or YAML (by extension .yaml/.yml) converted when the

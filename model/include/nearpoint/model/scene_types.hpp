@@ -140,6 +140,55 @@ struct ThresholdInput {
   std::uint32_t groups = 0;
 };
 
+/// The kind of a robot joint (see nearpoint.v1.JointType, same numbers). `unspecified` and
+/// `unknown` (a number this side does not know) are refused naming the field.
+enum class JointType : unsigned char {
+  unspecified,
+  fixed,
+  revolute,
+  continuous,
+  prismatic,
+  ball,
+  free,
+  unknown
+};
+
+/// One robot joint as sent (see nearpoint.v1.RobotJoint): axis and anchor in the link's frame.
+struct RobotJointInput {
+  std::string name;
+  JointType type = JointType::unspecified;
+  Vec3d axis = Vec3d::UnitZ();
+  Vec3d anchor = Vec3d::Zero();
+  double reference = 0;
+  bool limited = false;
+  double lower = 0;
+  double upper = 0;
+};
+
+/// One link (see nearpoint.v1.RobotLink): its parent by name ("" = the world), its placement on
+/// the parent, the joints that move it.
+struct RobotLinkInput {
+  std::string name;
+  std::string parent;
+  PoseInput offset;
+  std::vector<RobotJointInput> joints;
+};
+
+/// A scene object carried by a link: link frame → the object's geometry frame.
+struct RobotAttachmentInput {
+  std::string object_id;
+  std::string link;
+  PoseInput offset;
+};
+
+/// A scene's kinematic forest (see nearpoint.v1.Robot); no links: the scene has no robot.
+struct RobotInput {
+  std::string name;
+  std::vector<RobotLinkInput> links;
+  std::vector<RobotAttachmentInput> attachments;
+  bool empty() const { return links.empty() && attachments.empty(); }
+};
+
 struct SceneInput {
   std::string name;
   /// The id the client asks for ("" = the server assigns "scene-N"). Taken: ALREADY_EXISTS.
@@ -153,6 +202,8 @@ struct SceneInput {
   /// objects may name as their geometry_id; stored as by RegisterGeometry before the objects are
   /// resolved.
   std::map<std::string, GeometryInput> geometries;
+  /// The scene's robot (empty: none); its attachments name objects of `objects`.
+  RobotInput robot;
   /// Opaque digest of the whole request as received (the gRPC adapter: SHA-256 of its
   /// deterministic serialization); empty when there is none. A creation under a taken
   /// requested_id whose fingerprint equals the existing scene's is the same request again: it is
@@ -173,6 +224,16 @@ struct ObjectPoseInput {
   PoseInput pose;
 };
 
+/// Joint positions by name (see nearpoint.v1.JointPositions): each name takes its joint's
+/// number of position values (1; ball 4; free 7) from `positions`, in order. Joints not named
+/// keep their previous positions; `base_pose` unset keeps the previous base pose.
+struct JointPositionsInput {
+  std::vector<std::string> names;
+  std::vector<double> positions;
+  std::optional<PoseInput> base_pose;
+  bool empty() const { return names.empty() && positions.empty() && !base_pose; }
+};
+
 /// See nearpoint.v1.FlowControl. `unknown`: a value this server does not know; rejected.
 enum class FlowControl : unsigned char { block, coalesce, unknown };
 
@@ -185,6 +246,8 @@ struct PoseUpdateInput {
   FlowControl flow_control = FlowControl::block;
   /// The stream's watched thresholds; set by its first update only (later updates: empty).
   std::vector<ThresholdInput> thresholds;
+  /// Robot scenes: joint positions instead of the poses of the objects the robot carries.
+  JointPositionsInput joints;
 };
 
 struct QueryInput {
@@ -192,6 +255,8 @@ struct QueryInput {
   std::vector<ObjectPoseInput> poses;
   QueryOptionsInput options;
   std::uint64_t sequence = 0;
+  /// Robot scenes: joint positions (joints not named at their reference positions).
+  JointPositionsInput joints;
 };
 
 // ---- outputs ----
@@ -277,6 +342,22 @@ struct PairReport : PairAnswer {
   std::uint32_t object_b = 0;
   /// Static text for engine_error, else nullptr.
   const char* engine_message = nullptr;
+};
+
+/// One entry of a pair's joint-space gradient (see nearpoint.v1.JointDerivative).
+struct JointDerivative {
+  std::string joint;
+  /// 0 for one-dof joints; 0–2 ball, 0–5 free.
+  std::uint32_t coordinate = 0;
+  double value = 0;
+};
+
+/// A joint outside its limits at an update's positions (reported, not enforced).
+struct JointLimitViolation {
+  std::string joint;
+  double position = 0;
+  double lower = 0;
+  double upper = 0;
 };
 
 enum class Crossing : unsigned char { enter, exit };

@@ -101,6 +101,27 @@ RobotImport parse_mjcf(const std::string& xml, const std::string& label,
 /// By extension: .urdf → URDF, .xml/.mjcf → MJCF.
 RobotImport load_robot(const std::filesystem::path& file, const ImportOptions& options = {});
 
+/// The robot as an articulated scene for nearpointd (nearpoint.v1.Robot): to_scene at the
+/// neutral positions plus the kinematic forest (model::RobotInput), every object of a link
+/// attached to it (objects of the world stay static), so that updates carry joint positions.
+formats::SceneFile to_robot_scene(const Robot& robot);
+
+/// Whether `file` names a robot description by its extension (.urdf, .mjcf; .xml when its root
+/// element is <mujoco>).
+bool is_robot_file(const std::filesystem::path& file);
+
+/// load_robot, for a URDF with `srdf` applied (empty: FILE.srdf beside it when that exists),
+/// then to_robot_scene. Returns "" or the error naming the file, element and reason.
+std::string load_robot_scene(const std::filesystem::path& file, const ImportOptions& options,
+                             const std::filesystem::path& srdf, formats::SceneFile& out);
+
+/// A scene file's "robot" (SceneFile::robot, set) loaded with load_robot_scene and merged in: its
+/// geometries and objects after the file's, its kinematic forest, its left-out pairs added to the
+/// file's "pairs" ("all" or "excluded" only: a listed selection is refused, it would have to name
+/// the robot's pairs), its name as the scene id when the file asks for none. `options`'s search
+/// path gets the reference's package_path first. Returns "" or the error.
+std::string add_robot_to_scene(formats::SceneFile& file, ImportOptions options);
+
 /// The engine's compound for a geometry of the scene model (for evaluating distances in-process,
 /// as the server does); "" or why the geometry is unusable.
 std::string make_compound(const model::GeometryInput& geometry, Compound<double>& out);

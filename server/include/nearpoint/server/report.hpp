@@ -6,6 +6,7 @@
 #include <chrono>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "nearpoint/model/scene_types.hpp"
@@ -31,6 +32,11 @@ struct Report {
   /// the stream's thresholds (`ThresholdEvent::threshold` indexes them; null without thresholds).
   std::vector<model::ThresholdEvent> events;
   std::shared_ptr<const std::vector<std::string>> threshold_names;
+  /// Robot scenes with gradients: per entry of `pairs`, its ∂d/∂q as (velocity coordinate of the
+  /// scene's robot, value) for the coordinates that move one of its objects; empty for others.
+  std::vector<std::vector<std::pair<std::uint32_t, double>>> joint_gradients;
+  /// Robot scenes: the joints outside their limits at this update's positions.
+  std::vector<model::JointLimitViolation> joint_limit_violations;
 };
 
 }  // namespace nearpoint::server

@@ -27,6 +27,9 @@
 namespace nearpoint::server {
 
 struct WatchSet;
+struct SceneRobot;
+struct RobotUpdate;
+struct RobotPosition;
 
 /// A validated, immutable geometry: the engine's compound plus what the broad phase needs.
 /// Shared (shared_ptr<const>) by the store and every scene object that uses it.
@@ -100,6 +103,9 @@ class SceneDefinition {
   /// How many pool tasks one evaluation is split into (1 … workers), from the scene's estimated
   /// GJK cost: splitting only pays when each task outweighs the cost of waking a worker.
   std::size_t tasks_per_evaluation = 1;
+  /// The scene's robot (CreateSceneRequest.robot; null: none): the objects its links carry move
+  /// by joint positions (robot_scene.hpp).
+  std::shared_ptr<const SceneRobot> robot;
 
   /// Index of an object by id, or -1.
   std::int64_t find_object(const std::string& object_id) const;
@@ -156,6 +162,9 @@ struct PreparedUpdate {
   WatchStep step;
   std::vector<WatchStep> absorbed;
   std::size_t replay_limit = 0;
+  /// Robot scenes: the robot's positions and kinematics after this update (joint gradients and
+  /// limit violations of its report).
+  std::shared_ptr<const RobotUpdate> robot;
 };
 
 using ReportCallback = std::function<void(Report)>;
@@ -204,6 +213,8 @@ class PoseStream {
   SceneService& service_;
   std::shared_ptr<Scene> scene_;
   std::vector<Pose<double>> current_poses_;
+  /// Robot scenes: the robot's state after the latest accepted update (null before the first).
+  std::shared_ptr<const RobotUpdate> current_robot_;
   std::vector<SimplexCache> caches_;
   /// The previous evaluation's poses, options and results, and the broad phase's boxes: pairs of
   /// unmoved objects are not evaluated again.

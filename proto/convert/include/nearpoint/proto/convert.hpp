@@ -55,6 +55,12 @@ model::QueryOptionsInput from_proto(const v1::QueryOptions& options);
 void to_proto(const model::ThresholdInput& threshold, v1::Threshold& out);
 model::ThresholdInput from_proto(const v1::Threshold& threshold);
 
+/// A scene's robot ↔ nearpoint.v1.Robot (joint types by number; an unknown one reads as unknown).
+void to_proto(const model::RobotInput& robot, v1::Robot& out);
+model::RobotInput from_proto(const v1::Robot& robot);
+/// Joint positions ↔ nearpoint.v1.JointPositions (an absent base pose stays unset).
+void to_proto(const model::JointPositionsInput& joints, v1::JointPositions& out);
+model::JointPositionsInput from_proto(const v1::JointPositions& joints);
 /// Every field but the inline geometries and the fingerprint: which geometries travel inline is
 /// the sender's choice (the client sends its own, by the ids the objects name), and the
 /// fingerprint is the receiver's digest of the request as received.

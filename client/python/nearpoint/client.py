@@ -11,21 +11,25 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 import secrets
 from dataclasses import dataclass
 from typing import Iterable, Iterator, Mapping, Optional, Sequence, Tuple, Union
 
 import grpc
 
-import nearpoint_distance_pb2 as distance_pb
-import nearpoint_distance_pb2_grpc as distance_grpc
-import nearpoint_geometry_pb2 as geometry_pb
-import nearpoint_scene_pb2 as scene_pb
-import nearpoint_vocabulary as vocabulary
+from . import _vocabulary as vocabulary
+from .proto import nearpoint_distance_pb2 as distance_pb
+from .proto import nearpoint_distance_pb2_grpc as distance_grpc
+from .proto import nearpoint_geometry_pb2 as geometry_pb
+from .proto import nearpoint_scene_pb2 as scene_pb
 
 Vec3 = Tuple[float, float, float]
 Quat = Tuple[float, float, float, float]
 
+#: The server address `connect` uses when given none and $NEARPOINT_TARGET is unset (nearpointd's
+#: default --listen address).
+DEFAULT_TARGET = "127.0.0.1:50051"
 #: Seconds a unary call may take before it fails with DEADLINE_EXCEEDED.
 DEFAULT_TIMEOUT = 10.0
 # The largest message sent or received, bytes: nearpointd's --max-message-bytes default (16 MiB,
@@ -202,6 +206,9 @@ class PairDistance:
     depth_direction: Optional[Vec3] = None
     depth_termination: Optional[str] = None
     depth_iterations: Optional[int] = None
+    # Robot scenes with gradients: d distance / d q by joint name (a float; a tuple for ball
+    # and free joints) for the joints that move one of the two objects.
+    joint_gradient: Mapping[str, Union[float, Tuple[float, ...]]] = None
 
     @property
     def in_contact(self) -> bool:
@@ -236,7 +243,20 @@ class PairDistance:
             depth_direction=_tuple(p.depth_direction) if witnessed else None,
             depth_termination=(_DEPTH_TERMINATION_NAMES.get(p.depth_termination, "unknown")
                                if depth else None),
-            depth_iterations=p.depth_iterations if depth else None)
+            depth_iterations=p.depth_iterations if depth else None,
+            joint_gradient=_joint_gradient(p.joint_gradient))
+
+
+def _joint_gradient(entries) -> dict:
+    """JointDerivative messages → {joint: value} (a tuple for multi-coordinate joints)."""
+    out = {}
+    for d in entries:
+        if d.joint in out:
+            previous = out[d.joint]
+            out[d.joint] = (previous if isinstance(previous, tuple) else (previous,)) + (d.value,)
+        else:
+            out[d.joint] = d.value
+    return out
 
 
 @dataclass(frozen=True)
@@ -310,6 +330,8 @@ class Report:
     report_mode: str = "all"
     # Threshold crossings (streams with thresholds), oldest update first.
     events: Tuple[ThresholdEvent, ...] = ()
+    # Robot scenes: (joint, position, lower, upper) of each joint outside its limits.
+    joint_limit_violations: Tuple[Tuple[str, float, float, float], ...] = ()
 
     @staticmethod
     def from_proto(r: distance_pb.DistanceReport) -> "Report":
@@ -323,7 +345,9 @@ class Report:
                       error=error, server_us=r.timing.server_us,
                       coalesced_updates=r.coalesced_updates, raw=r,
                       report_mode=_REPORT_MODE_NAMES.get(r.report_mode, "all"),
-                      events=tuple(ThresholdEvent.from_proto(e) for e in r.events))
+                      events=tuple(ThresholdEvent.from_proto(e) for e in r.events),
+                      joint_limit_violations=tuple((v.joint, v.position, v.lower, v.upper)
+                                                   for v in r.joint_limit_violations))
 
     def pair(self, object_a: str, object_b: str) -> PairDistance:
         """The entry for the pair (object_a, object_b), in either order; KeyError if absent."""
@@ -422,6 +446,24 @@ class Update:
     sequence: int
     poses: Mapping[str, PoseArg]
     options: OptionsArg = None
+    # Robot scenes: joint positions by name (a float, or a sequence for ball and free joints)
+    # and the robot's base pose; joints not named keep their positions.
+    joints: Optional[Mapping[str, Union[float, Sequence[float]]]] = None
+    base_pose: Optional[PoseArg] = None
+
+
+def _joint_positions(joints: Optional[Mapping[str, Union[float, Sequence[float]]]],
+                     base_pose: Optional[PoseArg] = None) -> distance_pb.JointPositions:
+    message = distance_pb.JointPositions()
+    for name, value in (joints or {}).items():
+        message.names.append(name)
+        if isinstance(value, (int, float)):
+            message.positions.append(float(value))
+        else:
+            message.positions.extend(float(v) for v in value)
+    if base_pose is not None:
+        message.base_pose.CopyFrom(_pose(base_pose))
+    return message
 
 
 _FLOW_CONTROL = _numbers_by_spelling(distance_pb.FlowControl)
@@ -494,7 +536,8 @@ class Client:
                      scene_id: Optional[str] = None, *,
                      padding: Optional[Mapping[str, float]] = None,
                      self_padding: Optional[Mapping[str, float]] = None,
-                     bodies: Optional[Mapping[str, str]] = None) -> str:
+                     bodies: Optional[Mapping[str, str]] = None,
+                     robot: Optional[scene_pb.Robot] = None) -> str:
         """Creates a scene and returns its id: `scene_id`, or when it is None one chosen here
         ("s-" and 16 random hex digits), so that the call carries the routing header
         x-nearpoint-scene like every later call about the scene. Geometries registered through
@@ -510,6 +553,11 @@ class Client:
         Padding as MoveIt's link padding: `padding` maps object ids to metres by which they are
         inflated against objects of other bodies, `self_padding` within their own body, and
         `bodies` maps object ids to a body (robot) id; reports then hold the padded distances.
+
+        `robot` (a `Robot` message: links, joints, and the objects the links carry) makes an
+        articulated scene: updates then give joint positions (`Update.joints`,
+        `stream_joints`, `query(joints=...)`). `nearpoint scene create robot.urdf` builds one
+        from URDF or MJCF.
         """
         if scene_id is None:
             scene_id = "s-" + secrets.token_hex(8)
@@ -524,6 +572,8 @@ class Client:
             entry.padding = (padding or {}).get(object_id, 0.0)
             entry.self_padding = (self_padding or {}).get(object_id, 0.0)
             entry.body = (bodies or {}).get(object_id, "")
+        if robot is not None:
+            request.robot.CopyFrom(robot)
         if pairs is not None:
             for a, b in pairs:
                 request.pair_selection.listed_pairs.pairs.add(object_a=a, object_b=b)
@@ -544,13 +594,18 @@ class Client:
 
     def query(self, scene_id: str, poses: Mapping[str, PoseArg] = None,
               options: OptionsArg = None, sequence: int = 0,
-              report_mode: Optional[str] = None) -> Report:
+              report_mode: Optional[str] = None,
+              joints: Optional[Mapping[str, Union[float, Sequence[float]]]] = None,
+              base_pose: Optional[PoseArg] = None) -> Report:
         """Distances for the scene with the given object poses (others at their initial pose).
         An unknown scene raises NOT_FOUND, a bad pose INVALID_ARGUMENT naming the field.
         `report_mode` ("all", "within-cutoff", "nearest", "global", "changed") overrides the
-        options' and the scene's."""
+        options' and the scene's. Robot scenes: `joints` by name (others at their reference
+        positions) and `base_pose` place the robot's links."""
         request = distance_pb.QueryRequest(scene_id=scene_id, sequence=sequence,
                                            poses=_object_poses(poses or {}))
+        if joints is not None or base_pose is not None:
+            request.joints.CopyFrom(_joint_positions(joints, base_pose))
         query_opts = _options(options, report_mode)
         if query_opts is not None:
             request.options.CopyFrom(query_opts)
@@ -582,12 +637,17 @@ class Client:
         def requests():
             counter = itertools.count(1)
             for index, item in enumerate(updates):
+                joints = None
                 if isinstance(item, Update):
                     sequence, poses, update_options = item.sequence, item.poses, item.options
+                    if item.joints is not None or item.base_pose is not None:
+                        joints = _joint_positions(item.joints, item.base_pose)
                 else:
                     sequence, poses, update_options = next(counter), item, None
                 message = distance_pb.PoseUpdate(scene_id=scene_id, sequence=sequence,
                                                  poses=_object_poses(poses))
+                if joints is not None:
+                    message.joints.CopyFrom(joints)
                 if index == 0:
                     message.flow_control = _FLOW_CONTROL[flow_control]
                     message.thresholds.extend(thresholds)
@@ -607,6 +667,17 @@ class Client:
         finally:
             responses.cancel()  # the caller stopped early: end the call, not leave it open
 
+    def stream_joints(self, scene_id: str,
+                      positions: Iterable[Mapping[str, Union[float, Sequence[float]]]],
+                      options: OptionsArg = None, **kwargs) -> Iterator[Report]:
+        """`stream` for a robot scene: each item of `positions` maps joint names to positions
+        (radians, metres; ball and free joints a sequence), numbered 1, 2, 3, ...; joints not
+        named keep theirs. With gradients on (options={"gradient": True}), each pair's
+        `joint_gradient` holds d distance / d q by joint. Other arguments as for `stream`."""
+        updates = (Update(sequence=i, poses={}, options=options, joints=item)
+                   for i, item in enumerate(positions, start=1))
+        return self.stream(scene_id, updates, options=options, **kwargs)
+
 
 def _read(path: str) -> bytes:
     try:
@@ -617,12 +688,13 @@ def _read(path: str) -> bytes:
                              f"cannot read '{path}': {error.strerror}") from None
 
 
-def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT,
+def connect(target: Optional[str] = None, timeout: float = DEFAULT_TIMEOUT,
             max_message_bytes: int = DEFAULT_MAX_MESSAGE_BYTES, *,
             tls: bool = False, tls_ca: Optional[str] = None, tls_cert: Optional[str] = None,
             tls_key: Optional[str] = None, token: Optional[str] = None,
             token_file: Optional[str] = None, tls_server_name: Optional[str] = None) -> Client:
-    """Connects to nearpointd at `target` ("host:port"), waiting up to `timeout` seconds for the
+    """Connects to nearpointd at `target` ("host:port"; default: $NEARPOINT_TARGET, else
+    DEFAULT_TARGET, as the nearpoint CLI), waiting up to `timeout` seconds for the
     channel to be ready (NearpointError UNAVAILABLE otherwise). `timeout` is also each unary
     call's deadline. `max_message_bytes` bounds the messages sent and received; the default is
     the server's.
@@ -633,6 +705,8 @@ def connect(target: str = "127.0.0.1:50051", timeout: float = DEFAULT_TIMEOUT,
     bearer token (`token`, or `token_file`, surrounding whitespace dropped), which gRPC sends as
     `authorization: Bearer <token>` over TLS only. `tls_server_name`: the name the server's
     certificate must carry when it is not the target's host."""
+    if target is None:
+        target = os.environ.get("NEARPOINT_TARGET") or DEFAULT_TARGET
     if (tls_cert is None) != (tls_key is None):
         raise NearpointError(grpc.StatusCode.INVALID_ARGUMENT,
                              "a client certificate and its key go together (tls_cert, tls_key)")
