@@ -434,10 +434,11 @@ struct DdsBridge::Impl {
     }
   }
 
-  /// Answers the JointState samples of one binding. Each is decoded and checked
-  /// (decode_joint_state); the joint positions apply to robot scenes only, which this server does
-  /// not have yet, so every sample is answered with an error report (FAILED_PRECONDITION naming
-  /// "joint_states", or the decoding's INVALID_ARGUMENT), logged once per writer.
+  /// Takes the JointState samples of one binding. Each is decoded and checked
+  /// (decode_joint_state) and becomes an update of the bound scene with joint positions by name,
+  /// on the stream of its writer (sequence numbers counted per writer); one that cannot be
+  /// decoded is answered at once with INVALID_ARGUMENT naming the field (logged once per
+  /// writer).
   void take_joint_states(JointReader& joints) {
     for (;;) {
       std::array<void*, kTakeBatch> samples{};
@@ -462,15 +463,23 @@ struct DdsBridge::Impl {
         dds_builtintopic_free_endpoint(endpoint);
         const std::uint64_t sequence = ++joints.sequences[info.publication_handle];
         Expected<JointPositions> positions = decode_joint_state(sample);
-        // The hookup to robot scenes: with them, `positions` become the update's joint positions
-        // (model::PoseUpdateInput::joints, with scene_id and sequence as here) and go through
-        // accept(input, kJointStatesClientId, header, joints.reader, info.publication_handle).
-        const Error error =
-            positions ? Error{ErrorCode::failed_precondition, "joint_states",
-                              text("scene '", joints.scene_id,
-                                   "' has no robot: joint positions apply to robot scenes, which "
-                                   "this server does not support yet")}
-                      : positions.error();
+        if (positions) {
+          // The joint positions by name are the update (the scene API applies them to the
+          // scene's robot, or refuses a scene without one); the JointState's writer is a stream
+          // like a PoseUpdate writer.
+          model::PoseUpdateInput input;
+          input.scene_id = joints.scene_id;
+          input.sequence = sequence;
+          input.joints.names = std::move(positions->names);
+          input.joints.positions = std::move(positions->positions);
+          if (std::optional<PendingError> error =
+                  accept(std::move(input), kJointStatesClientId, std::move(to.header),
+                         joints.reader, info.publication_handle))
+            errors.push_back(std::move(*error));
+          continue;
+        }
+        // Not decodable (fewer positions than names, a repeated name, …): answered at once.
+        const Error& error = positions.error();
         std::lock_guard lock(mutex);
         ++stats.updates_taken;
         ++stats.updates_rejected;

@@ -6,8 +6,9 @@
 // The bridge subscribes each binding's topic and answers every JointState with a DistanceReport
 // on <prefix>distance_reports (scene_id = the bound scene, client_id "joint_states", the
 // JointState's header echoed, writer_guid = its writer, sequence numbers counted per writer from
-// 1). The positions are applied through the scene API's joint-position entry point for robot
-// scenes; a scene without a robot is answered FAILED_PRECONDITION naming "joint_states".
+// 1), through the same stream path as a PoseUpdate: the scene API applies the positions to the
+// scene's robot (model::PoseUpdateInput::joints); a scene without a robot is answered
+// FAILED_PRECONDITION naming "joints".
 #pragma once
 
 #include <string>

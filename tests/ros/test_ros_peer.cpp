@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <set>
 #include <string>
 #include <thread>
@@ -22,7 +24,7 @@ namespace {
 using nearpoint::testkit::ChildProcess;
 using Json = nlohmann::json;
 
-// 131-140: tests/ros (101-130: tests/dds); this file uses 132-134.
+// 131-140: tests/ros (101-130: tests/dds); this file uses 132-135.
 constexpr int kDomain = 132;
 
 /// Distance from the vertical axis through (ax, ay) to the unit cube at (cx, cy) turned by theta
@@ -138,7 +140,7 @@ TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
 // sensor_msgs/JointState in: nearpointd --dds-joint-states binds the scene to rt/joint_states,
 // a JointState from the ROS-typed peer is decoded and answered on the reports topic, addressed
 // to the JointState's writer with its header. The shipped scene has no robot, so well-formed
-// samples are refused FAILED_PRECONDITION (9) naming "joint_states"; fewer positions than names
+// samples are refused FAILED_PRECONDITION (9) naming "joints"; fewer positions than names
 // are INVALID_ARGUMENT (3) naming "joint_states.position".
 TEST(RosPeer, JointStatesAreDecodedAndAnswered) {
   ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "2", "--dds",
@@ -165,8 +167,88 @@ TEST(RosPeer, JointStatesAreDecodedAndAnswered) {
     EXPECT_EQ(report.at("client_id"), "joint_states");
     EXPECT_EQ(report.at("stamp_sec"), 2000 + int(k));
     EXPECT_EQ(report.at("status"), k < 2 ? 9 : 3);
-    EXPECT_EQ(report.at("error_field"), k < 2 ? "joint_states" : "joint_states.position");
+    EXPECT_EQ(report.at("error_field"), k < 2 ? "joints" : "joint_states.position");
   }
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
+}
+
+// A robot scene driven by sensor_msgs/JointState: nearpointd binds scene "arm7" to
+// rt/joint_states, `nearpoint scene create examples/robots/arm7.urdf` creates it over gRPC; the
+// ROS-typed peer publishes the first steps of the shipped wave as JointStates, and every report's
+// distances equal those of the same steps streamed over gRPC by `nearpoint stream --joints` (the
+// robot path of issue 32).
+TEST(RosPeer, JointStatesDriveARobotScene) {
+  const std::string port_file = ::testing::TempDir() + "ros_peer_robot.port";
+  std::remove(port_file.c_str());
+  ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--port-file", port_file,
+                       "--workers", "2", "--dds", "--dds-domain", std::to_string(kDomain + 3),
+                       "--dds-joint-states", "arm7"});
+  ASSERT_TRUE(server.started());
+  ASSERT_NE(server.wait_for_stderr("event=listening", std::chrono::seconds(30)), "")
+      << server.stderr_text();
+  int port = 0;
+  std::ifstream(port_file) >> port;
+  ASSERT_GT(port, 0);
+  ChildProcess create({NEARPOINT_CLI_PATH, "scene", "create",
+                       NEARPOINT_SOURCE_DIR "/examples/robots/arm7.urdf", "--target",
+                       "127.0.0.1:" + std::to_string(port)});
+  ASSERT_EQ(create.wait_exit(std::chrono::seconds(60)), 0) << create.stderr_text();
+
+  // The wave's first 6 steps, as a trajectory file and as the peer's JointState steps.
+  const std::string trajectory = ::testing::TempDir() + "ros_peer_wave.jsonl";
+  std::vector<std::string> argv = {ROS_PEER_PATH, std::to_string(kDomain + 3), "arm7",
+                                   "--joint-steps"};
+  {
+    std::ifstream in(NEARPOINT_SOURCE_DIR "/examples/robots/arm7_wave.jsonl");
+    std::ofstream out(trajectory);
+    std::string line;
+    for (int k = 0; k < 6 && std::getline(in, line); ++k) {
+      out << line << "\n";
+      std::string step;
+      const Json parsed = Json::parse(line);  // outlives the loop over its items
+      for (const auto& [name, value] : parsed.at("joints").items()) {
+        char number[40];
+        std::snprintf(number, sizeof number, "%.17g", value.get<double>());
+        step += (step.empty() ? "" : ",") + name + "=" + number;
+      }
+      argv.push_back(step);
+    }
+  }
+  ChildProcess peer(argv);
+  ASSERT_TRUE(peer.started());
+  ASSERT_EQ(peer.wait_exit(std::chrono::seconds(90)), 0) << peer.stderr_text() << "\nserver:\n"
+                                                         << server.stderr_text();
+  ChildProcess grpc({NEARPOINT_CLI_PATH, "stream", "arm7", "--joints", trajectory, "--json",
+                     "--target", "127.0.0.1:" + std::to_string(port)});
+  ASSERT_EQ(grpc.wait_exit(std::chrono::seconds(60)), 0) << grpc.stderr_text();
+
+  const std::vector<std::string> dds_lines = peer.stdout_lines();
+  std::vector<Json> grpc_reports;
+  for (const std::string& line : grpc.stdout_lines())
+    if (!line.empty()) grpc_reports.push_back(Json::parse(line));
+  ASSERT_GE(dds_lines.size(), 6u);
+  ASSERT_EQ(grpc_reports.size(), 6u);
+  int compared = 0;
+  for (std::size_t k = 0; k < 6; ++k) {
+    SCOPED_TRACE(dds_lines[k]);
+    const Json dds = Json::parse(dds_lines[k]);
+    ASSERT_EQ(dds.at("sequence"), k + 1);
+    ASSERT_EQ(dds.at("status"), 0) << dds.at("message");
+    EXPECT_EQ(dds.at("stamp_sec"), 1000 + int(k));
+    const Json& pairs = dds.at("pairs");
+    ASSERT_EQ(pairs.size(), grpc_reports[k].at("pairs").size());
+    for (const Json& pair : grpc_reports[k].at("pairs")) {
+      const std::string key =
+          pair.at("object_a").get<std::string>() + "/" + pair.at("object_b").get<std::string>();
+      ASSERT_TRUE(pairs.contains(key)) << key;
+      EXPECT_NEAR(pairs.at(key)[0].get<double>(), pair.at("distance").get<double>(),
+                  pair.at("error_bound").get<double>() + pairs.at(key)[1].get<double>() + 1e-12)
+          << key;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 6);
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
 }

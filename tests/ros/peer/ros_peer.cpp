@@ -19,6 +19,10 @@
 //   {"sequence": N, "status": S, "scene_id": "...", "client_id": "...", "error_field": "...",
 //    "stamp_sec": N}
 //
+//   ros_peer DOMAIN SCENE --joint-steps NAME=V,NAME=V... ...
+// publishes one JointState per step on rt/joint_states, waits for each report and prints it as
+// the pose mode does ({"sequence", "status", "stamp_sec", "message", "pairs"}).
+//
 //   ros_peer DOMAIN SCENE --wrong-type
 // publishes a sensor_msgs/JointState on rt/nearpoint/pose_updates (a peer built from other
 // message definitions), waits 3 s and prints {"reports": N}: the reports addressed to it.
@@ -72,8 +76,24 @@ int main(int argc, char** argv) {
   std::string scene = argv[2];
   const bool joint_states = std::string(argv[3]) == "--joint-states";
   const bool wrong_type = std::string(argv[3]) == "--wrong-type";
+  const bool joint_steps = std::string(argv[3]) == "--joint-steps";
+  std::vector<std::pair<std::vector<std::string>, std::vector<double>>> steps;
+  for (int i = 4; joint_steps && i < argc; ++i) {
+    auto& [names, values] = steps.emplace_back();
+    std::string step = argv[i];
+    for (std::size_t at = 0; at < step.size();) {
+      std::size_t end = step.find(',', at);
+      if (end == std::string::npos) end = step.size();
+      const std::string item = step.substr(at, end - at);
+      const std::size_t eq = item.find('=');
+      if (eq == std::string::npos) return fail("not NAME=VALUE: " + item);
+      names.push_back(item.substr(0, eq));
+      values.push_back(std::atof(item.c_str() + eq + 1));
+      at = end + 1;
+    }
+  }
   std::vector<std::tuple<double, double, double>> poses;
-  for (int i = 3; i < argc && !joint_states && !wrong_type; ++i) {
+  for (int i = 3; i < argc && !joint_states && !wrong_type && !joint_steps; ++i) {
     double x, y, theta;
     if (std::sscanf(argv[i], "%lf,%lf,%lf", &x, &y, &theta) != 3)
       return fail(std::string("not X,Y,THETA: ") + argv[i]);
@@ -95,8 +115,8 @@ int main(int argc, char** argv) {
       participant, &sensor_msgs_msg_dds__JointState__desc, "rt/joint_states", qos, nullptr);
   if (update_topic < 0 || report_topic < 0 || joint_topic < 0)
     return fail("dds_create_topic failed");
-  const dds_entity_t writer =
-      dds_create_writer(participant, joint_states ? joint_topic : update_topic, qos, nullptr);
+  const dds_entity_t writer = dds_create_writer(
+      participant, joint_states || joint_steps ? joint_topic : update_topic, qos, nullptr);
   const dds_entity_t reader = dds_create_reader(participant, report_topic, qos, nullptr);
   dds_delete_qos(qos);
   if (writer < 0 || reader < 0) return fail("dds_create_writer/reader failed");
@@ -179,22 +199,36 @@ int main(int argc, char** argv) {
     return answered == 3 ? 0 : fail("reports missing for the joint states");
   }
 
-  for (std::size_t k = 0; k < poses.size(); ++k) {
-    const auto [x, y, theta] = poses[k];
-    nearpoint_msgs_msg_dds__ObjectPose_ pose{};
-    pose.object_id = const_cast<char*>("mover");
-    pose.pose.position = {x, y, 0};
-    pose.pose.orientation = {0, 0, std::sin(theta / 2), std::cos(theta / 2)};
-    nearpoint_msgs_msg_dds__PoseUpdate_ update{};
-    update.header.stamp = {int32_t(1000 + k), 0};
-    update.header.frame_id = const_cast<char*>("world");
-    update.scene_id = scene.data();
-    update.client_id = const_cast<char*>("ros_peer");
-    update.sequence_number = k + 1;
-    update.poses = {1, 1, &pose, false};
-    update.thresholds = {0, 0, nullptr, false};
-    if (const dds_return_t rc = dds_write(writer, &update); rc < 0)
-      return fail(std::string("dds_write: ") + dds_strretcode(rc));
+  const std::size_t count = joint_steps ? steps.size() : poses.size();
+  for (std::size_t k = 0; k < count; ++k) {
+    dds_return_t written = 0;
+    if (joint_steps) {
+      std::vector<char*> names;
+      for (std::string& name : steps[k].first) names.push_back(name.data());
+      sensor_msgs_msg_dds__JointState_ state{};
+      state.header.stamp = {int32_t(1000 + k), 0};
+      state.header.frame_id = const_cast<char*>("");
+      state.name = {uint32_t(names.size()), uint32_t(names.size()), names.data(), false};
+      state.position = {uint32_t(names.size()), uint32_t(names.size()), steps[k].second.data(),
+                        false};
+      written = dds_write(writer, &state);
+    } else {
+      const auto [x, y, theta] = poses[k];
+      nearpoint_msgs_msg_dds__ObjectPose_ pose{};
+      pose.object_id = const_cast<char*>("mover");
+      pose.pose.position = {x, y, 0};
+      pose.pose.orientation = {0, 0, std::sin(theta / 2), std::cos(theta / 2)};
+      nearpoint_msgs_msg_dds__PoseUpdate_ update{};
+      update.header.stamp = {int32_t(1000 + k), 0};
+      update.header.frame_id = const_cast<char*>("world");
+      update.scene_id = scene.data();
+      update.client_id = const_cast<char*>("ros_peer");
+      update.sequence_number = k + 1;
+      update.poses = {1, 1, &pose, false};
+      update.thresholds = {0, 0, nullptr, false};
+      written = dds_write(writer, &update);
+    }
+    if (written < 0) return fail(std::string("dds_write: ") + dds_strretcode(written));
     bool answered = false;
     const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
     while (!answered && std::chrono::steady_clock::now() < wait_until) {
