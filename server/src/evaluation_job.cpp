@@ -82,73 +82,85 @@ double microseconds(Clock::duration d) {
 
 }  // namespace
 
-void SceneService::run(std::shared_ptr<Job> job) {
+void SceneService::run_task(Job& job) {
   // One task of the evaluation: takes pairs one at a time from a shared counter, so uneven pairs
   // (a 100-vertex hull next to a sphere) balance across the workers without any partitioning.
-  auto work = [](Job& job) {
-    IncrementalState& state = *job.state;
-    const std::size_t count = job.evaluate.size();
-    std::int64_t nanoseconds = 0;
-    metrics::PairTally tally;  // recorded once per task, not per pair
-    const bool tallying = metrics::enabled();
-    for (;;) {
-      const std::size_t i = job.next_pair.fetch_add(1, std::memory_order_relaxed);
-      if (i >= count) break;
-      const std::uint32_t p = job.evaluate[i];
-      const ScenePair& pair = job.scene->pairs[p];
-      const std::span<SimplexCache> caches =
-          job.caches.empty() ? std::span<SimplexCache>{}
-                             : job.caches.subspan(pair.cache_offset, pair.cache_count);
-      const Clock::time_point begin = Clock::now();
-      evaluate_pair(*job.scene, pair, job.poses, job.options, caches, state.pairs[p]);
-      nanoseconds += std::chrono::nanoseconds(Clock::now() - begin).count();
-      if (tallying) tally.add(state.pairs[p].iterations, state.pairs[p].warm_started);
-    }
-    job.geometry_ns.fetch_add(nanoseconds, std::memory_order_relaxed);
-    if (tallying) metrics::record_pairs(tally);
-    // acq_rel: the last task sees every other task's pair results.
-    if (job.tasks_left.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
-    job.report.scene = job.scene;
-    job.report.mode = job.options.report_mode;
-    finish_evaluation(std::move(job.poses), job.options, job.evaluate, state);
-    if (state.watches) {
-      check_evaluation(*job.scene, state, job.evaluate, job.replayed_pairs, job.report.sequence,
-                       job.report.events);
-      sort_events(job.report.events);
-      job.report.threshold_names = state.watches->names;
-    }
-    collect_report(*job.scene, state, job.options, !job.keep_state, job.report.pairs);
-    if (job.robot) {
-      if (job.options.engine.gradient) add_joint_gradients(*job.scene, *job.robot, job.report);
-      job.report.joint_limit_violations = job.robot->violations;
-    }
-    const Clock::time_point end = Clock::now();
-    model::ReportTiming& timing = job.report.timing;
-    timing.server_us = microseconds(end - job.received);
-    timing.queue_us = microseconds(job.started - job.received);
-    timing.evaluation_us = microseconds(end - job.started);
-    timing.geometry_us = double(job.geometry_ns.load(std::memory_order_relaxed)) / 1000.0;
-    // A query's state is its own (keep_state false); a stream's outlives the job.
-    metrics::record_report(!job.keep_state, timing, job.report.counts,
-                           job.report.coalesced_updates);
-    job.complete(job);
-  };
+  IncrementalState& state = *job.state;
+  const std::size_t count = job.evaluate.size();
+  std::int64_t nanoseconds = 0;
+  metrics::PairTally tally;  // recorded once per task, not per pair
+  const bool tallying = metrics::enabled();
+  for (;;) {
+    const std::size_t i = job.next_pair.fetch_add(1, std::memory_order_relaxed);
+    if (i >= count) break;
+    const std::uint32_t p = job.evaluate[i];
+    const ScenePair& pair = job.scene->pairs[p];
+    const std::span<SimplexCache> caches =
+        job.caches.empty() ? std::span<SimplexCache>{}
+                           : job.caches.subspan(pair.cache_offset, pair.cache_count);
+    const Clock::time_point begin = Clock::now();
+    evaluate_pair(*job.scene, pair, job.poses, job.options, caches, state.pairs[p]);
+    nanoseconds += std::chrono::nanoseconds(Clock::now() - begin).count();
+    if (tallying) tally.add(state.pairs[p].iterations, state.pairs[p].warm_started);
+  }
+  job.geometry_ns.fetch_add(nanoseconds, std::memory_order_relaxed);
+  if (tallying) metrics::record_pairs(tally);
+  // acq_rel: the last task sees every other task's pair results.
+  if (job.tasks_left.fetch_sub(1, std::memory_order_acq_rel) != 1) return;
+  job.report.scene = job.scene;
+  job.report.mode = job.options.report_mode;
+  finish_evaluation(std::move(job.poses), job.options, job.evaluate, state);
+  if (state.watches) {
+    check_evaluation(*job.scene, state, job.evaluate, job.replayed_pairs, job.report.sequence,
+                     job.report.events);
+    sort_events(job.report.events);
+    job.report.threshold_names = state.watches->names;
+  }
+  collect_report(*job.scene, state, job.options, !job.keep_state, job.report.pairs);
+  if (job.robot) {
+    if (job.options.engine.gradient) add_joint_gradients(*job.scene, *job.robot, job.report);
+    job.report.joint_limit_violations = job.robot->violations;
+  }
+  const Clock::time_point end = Clock::now();
+  model::ReportTiming& timing = job.report.timing;
+  timing.server_us = microseconds(end - job.received);
+  timing.queue_us = microseconds(job.started - job.received);
+  timing.evaluation_us = microseconds(end - job.started);
+  timing.geometry_us = double(job.geometry_ns.load(std::memory_order_relaxed)) / 1000.0;
+  // A query's state is its own (keep_state false); a stream's outlives the job.
+  metrics::record_report(!job.keep_state, timing, job.report.counts, job.report.coalesced_updates);
+  job.complete(job);
+}
+
+std::size_t SceneService::plan(Job& job) {
+  job.started = Clock::now();  // time before this is queueing
+  if (job.state->watches && !job.replay.empty())
+    replay_steps(*job.scene, *job.state, job.replay, job.options, job.caches, job.replayed_pairs,
+                 job.report.events);
+  plan_evaluation(*job.scene, job.poses, job.options, *job.state, job.evaluate, job.report.counts);
+  const std::size_t tasks =
+      std::max<std::size_t>(1, std::min(job.evaluate.size(), job.scene->tasks_per_evaluation));
+  job.tasks_left.store(tasks, std::memory_order_relaxed);
+  return tasks;
+}
+
+void SceneService::run(std::shared_ptr<Job> job) {
   // Planning (which objects moved, the broad phase) touches every pair of a moved object, and the
   // last task copies results into the report, so both run on the pool, never on a transport
   // thread; planning then splits the pairs that reach the engine into tasks, this one included.
-  pool_.post([this, job, work] {
-    job->started = Clock::now();  // time before this is queueing
-    if (job->state->watches && !job->replay.empty())
-      replay_steps(*job->scene, *job->state, job->replay, job->options, job->caches,
-                   job->replayed_pairs, job->report.events);
-    plan_evaluation(*job->scene, job->poses, job->options, *job->state, job->evaluate,
-                    job->report.counts);
-    const std::size_t tasks =
-        std::max<std::size_t>(1, std::min(job->evaluate.size(), job->scene->tasks_per_evaluation));
-    job->tasks_left.store(tasks, std::memory_order_relaxed);
-    for (std::size_t t = 1; t < tasks; ++t) pool_.post([job, work] { work(*job); });
-    work(*job);
+  pool_.post([this, job] {
+    const std::size_t tasks = plan(*job);
+    for (std::size_t t = 1; t < tasks; ++t) pool_.post([job] { run_task(*job); });
+    run_task(*job);
   });
+}
+
+void SceneService::run_here(Job& job) {
+  // One task whatever the scene's split: the caller chose this thread because the scene's
+  // evaluation is too small to pay for waking a worker (SceneDefinition::tasks_per_evaluation).
+  plan(job);
+  job.tasks_left.store(1, std::memory_order_relaxed);
+  run_task(job);
 }
 
 Outcome SceneService::query(const model::QueryInput& query, Clock::time_point received,

@@ -15,7 +15,7 @@
 
 namespace nearpoint::server {
 
-struct SceneService::Job {
+struct EvaluationJob {
   std::shared_ptr<const SceneDefinition> scene;
   std::vector<Pose<double>> poses;
   /// Robot scenes: the robot's state at `poses` (null otherwise).
@@ -41,7 +41,7 @@ struct SceneService::Job {
   std::atomic<std::size_t> tasks_left{0};
   std::atomic<std::int64_t> geometry_ns{0};
   /// Runs once, on the pool thread that finishes the last pair.
-  std::function<void(Job&)> complete;
+  std::function<void(EvaluationJob&)> complete;
 };
 
 }  // namespace nearpoint::server

@@ -167,20 +167,20 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
         .kv("stream", number_)
         .kv("peer", peer_)
         .kv("routing_key", routing_key(context));
-    std::lock_guard lock(mutex_);
-    Pump();
+    std::unique_lock lock(mutex_);
+    Pump(lock);
   }
 
   void OnReadDone(bool ok) override {
     const auto reaction = handoff_.reaction();
-    std::lock_guard lock(mutex_);
+    std::unique_lock lock(mutex_);
     reading_ = false;
     // A read that completes after the call was finished (drained while it was outstanding) is
     // not accepted: it could no longer be answered.
     if (finished_) return;
     if (!ok) {
       reads_done_ = true;  // the client half-closed (or the call ended)
-      Pump();
+      Pump(lock);
       return;
     }
     if (std::string why = parse_message(incoming_, parsed_); !why.empty()) {
@@ -195,7 +195,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
           .kv("peer", peer_)
           .kv("message", unparsable_);
       reads_done_ = true;
-      Pump();
+      Pump(lock);
       return;
     }
     ++updates_read_;
@@ -226,26 +226,26 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     } else {
       pending_.push_back(std::move(prepared.value()));
     }
-    Pump();
+    Pump(lock);
   }
 
   void OnWriteDone(bool ok) override {
     const auto reaction = handoff_.reaction();
-    std::lock_guard lock(mutex_);
+    std::unique_lock lock(mutex_);
     writing_ = false;
     if (ok) {
       ++reports_written_;
     } else {
       broken_ = true;  // the call is over (client gone, deadline, cancel): stop writing
     }
-    Pump();
+    Pump(lock);
   }
 
   void OnCancel() override {
     const auto reaction = handoff_.reaction();
-    std::lock_guard lock(mutex_);
+    std::unique_lock lock(mutex_);
     broken_ = true;
-    Pump();
+    Pump(lock);
   }
 
   void OnDone() override {
@@ -270,9 +270,9 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   }
 
   void Drain() override {
-    std::lock_guard lock(mutex_);
+    std::unique_lock lock(mutex_);
     draining_ = true;
-    Pump();
+    Pump(lock);
   }
 
  private:
@@ -280,8 +280,26 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     return pending_.size() + (evaluating_ ? 1 : 0) + outgoing_.size() + (writing_ ? 1 : 0);
   }
 
+  /// Pump(), then the evaluations it handed to this thread (PoseStream::evaluates_inline):
+  /// each runs with `lock` released, its report queued under it, and Pump() again, until no
+  /// inline evaluation is due.
+  void Pump(std::unique_lock<std::mutex>& lock) {
+    Pump();
+    while (inline_evaluation_) {
+      std::shared_ptr<EvaluationJob> job = std::move(inline_evaluation_);
+      lock.unlock();
+      grpc::ByteBuffer message = ToBuffer(stream_->run_evaluation(*job));
+      job.reset();
+      lock.lock();
+      evaluating_ = false;
+      if (!broken_) outgoing_.push_back(std::move(message));
+      Pump();
+    }
+  }
+
   /// Starts whatever can start now: an evaluation, a write, a read, or the end of the call.
-  /// Requires `mutex_`.
+  /// Requires `mutex_`. An evaluation small enough to run on this thread is left in
+  /// `inline_evaluation_` for Pump(lock) to run once the lock is released.
   void Pump() {
     if (finished_) return;
     const bool coalescing = stream_->flow_control() == model::FlowControl::coalesce;
@@ -290,30 +308,24 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     // answered (no evaluation in progress).
     while (!broken_ && !evaluating_ && !pending_.empty() &&
            std::holds_alternative<v1::DistanceReport>(pending_.front())) {
-      outgoing_.push_back(std::move(std::get<v1::DistanceReport>(pending_.front())));
+      const v1::DistanceReport& refusal = std::get<v1::DistanceReport>(pending_.front());
+      outgoing_.push_back(Serialise(refusal, refusal.ByteSizeLong()));
       pending_.pop_front();
     }
     if (!broken_ && !evaluating_ && !pending_.empty() && (!coalescing || outgoing_.empty())) {
       PreparedUpdate next = std::move(std::get<PreparedUpdate>(pending_.front()));
       pending_.pop_front();
       evaluating_ = true;
-      stream_->evaluate(std::move(next), [this](Report report) { OnReport(std::move(report)); });
+      if (stream_->evaluates_inline())
+        inline_evaluation_ = stream_->take_evaluation(std::move(next));
+      else
+        stream_->evaluate(std::move(next), [this](Report report) { OnReport(std::move(report)); });
     }
     if (!broken_ && !writing_ && !outgoing_.empty()) {
-      bool own_buffer = false;
-      current_write_.Clear();  // the serialiser writes into an empty buffer only
-      const grpc::Status serialised = grpc::SerializationTraits<v1::DistanceReport>::Serialize(
-          outgoing_.front(), &current_write_, &own_buffer);
+      current_write_.Swap(&outgoing_.front());
       outgoing_.pop_front();
-      if (serialised.ok()) {
-        writing_ = true;
-        StartWrite(&current_write_);
-      } else {
-        broken_ = true;  // cannot happen below protobuf's 2 GB; end rather than skip a report
-        log_error("report_unserialisable")
-            .kv("stream", number_)
-            .kv("message", serialised.error_message());
-      }
+      writing_ = true;
+      StartWrite(&current_write_);
     }
 
     if (broken_) {
@@ -361,18 +373,36 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     Finish(status);
   }
 
+  /// The report's message, built and serialised outside the lock (it may be large) in a message
+  /// kept for the next report: protobuf's Clear() keeps the pairs' objects and strings, so a
+  /// stream's reports stop allocating once the first has been built. Evaluations of one stream
+  /// never overlap, so neither do calls of this.
+  grpc::ByteBuffer ToBuffer(const Report& report) {
+    to_proto(report, report_scratch_);
+    if (auto error = check_report_fits(report_scratch_, service_.max_message_bytes())) {
+      log_error("report_too_large").kv("stream", number_).kv("message", error->message);
+      to_proto(*error, report.sequence, report_scratch_);  // the update is answered all the same
+      return Serialise(report_scratch_, report_scratch_.ByteSizeLong());
+    }
+    return Serialise(report_scratch_,
+                     report_scratch_.GetCachedSize());  // as check_report_fits left it
+  }
+
+  /// `message`, whose ByteSizeLong() is `size` and was just computed (the serialiser relies on
+  /// the sizes it cached), on the wire. Below --max-message-bytes, so well below 2 GB.
+  static grpc::ByteBuffer Serialise(const v1::DistanceReport& message, std::size_t size) {
+    grpc::Slice slice(size);
+    message.SerializeWithCachedSizesToArray(const_cast<std::uint8_t*>(slice.begin()));
+    return grpc::ByteBuffer(&slice, 1);
+  }
+
   /// The evaluation's report, on a pool thread.
   void OnReport(Report report) {
-    v1::DistanceReport message;
-    to_proto(report, message);  // outside the lock: it may be large
-    if (auto error = check_report_fits(message, service_.max_message_bytes())) {
-      log_error("report_too_large").kv("stream", number_).kv("message", error->message);
-      to_proto(*error, report.sequence, message);  // the update is answered all the same
-    }
-    std::lock_guard lock(mutex_);
+    grpc::ByteBuffer message = ToBuffer(report);
+    std::unique_lock lock(mutex_);
     evaluating_ = false;
     if (!broken_) outgoing_.push_back(std::move(message));
-    Pump();
+    Pump(lock);
   }
 
   ReactorHandoff handoff_;
@@ -391,10 +421,15 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   /// Read and not yet answered, in read order: updates to evaluate, and the error reports of
   /// rejected updates waiting for their turn.
   std::deque<std::variant<PreparedUpdate, v1::DistanceReport>> pending_;
-  std::deque<v1::DistanceReport> outgoing_;
+  /// Serialised reports waiting for the write in progress, oldest first.
+  std::deque<grpc::ByteBuffer> outgoing_;
+  /// Reused by ToBuffer (see there).
+  v1::DistanceReport report_scratch_;
   bool reading_ = false;
   bool writing_ = false;
   bool evaluating_ = false;
+  /// Taken by Pump() for Pump(lock) to run on this thread (see PoseStream::evaluates_inline).
+  std::shared_ptr<EvaluationJob> inline_evaluation_;
   bool reads_done_ = false;
   bool broken_ = false;
   bool draining_ = false;

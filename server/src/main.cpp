@@ -209,6 +209,9 @@ void add_service_flags(CLI::App& app, Flags& flags) {
                  "Updates a stream may have read but not yet answered")
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
+  app.add_flag("--no-inline-evaluation{false}", flags.config.limits.inline_evaluation,
+               "Evaluate every stream update on the worker pool, even a small one that would "
+               "cost less on the thread that read it (then --workers bounds the geometry threads)");
   app.add_option("--max-concurrent-queries", flags.config.limits.max_concurrent_queries,
                  "Unary queries evaluated at once")
       ->capture_default_str();

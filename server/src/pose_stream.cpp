@@ -164,8 +164,8 @@ void PoseStream::coalesce(PreparedUpdate& newer, const PreparedUpdate& older) {
   newer.absorbed = std::move(steps);
 }
 
-void PoseStream::evaluate(PreparedUpdate update, ReportCallback done) {
-  auto job = std::make_shared<SceneService::Job>();
+std::shared_ptr<EvaluationJob> PoseStream::make_job(PreparedUpdate&& update) {
+  auto job = std::make_shared<EvaluationJob>();
   job->scene = scene_->definition();
   job->poses = std::move(update.poses);
   job->robot = std::move(update.robot);
@@ -184,10 +184,31 @@ void PoseStream::evaluate(PreparedUpdate update, ReportCallback done) {
   job->report.sequence = update.sequence;
   job->report.coalesced_updates = update.coalesced_updates;
   job->report.coalesced_from_sequence = update.coalesced_from_sequence;
-  job->complete = [done = std::move(done)](SceneService::Job& finished) {
+  return job;
+}
+
+void PoseStream::evaluate(PreparedUpdate update, ReportCallback done) {
+  std::shared_ptr<EvaluationJob> job = make_job(std::move(update));
+  job->complete = [done = std::move(done)](EvaluationJob& finished) {
     done(std::move(finished.report));
   };
   service_.run(std::move(job));
+}
+
+bool PoseStream::evaluates_inline() const {
+  return service_.limits().inline_evaluation && scene_ &&
+         scene_->definition()->tasks_per_evaluation <= 1;
+}
+
+std::shared_ptr<EvaluationJob> PoseStream::take_evaluation(PreparedUpdate update) {
+  return make_job(std::move(update));
+}
+
+Report PoseStream::run_evaluation(EvaluationJob& job) {
+  Report report;
+  job.complete = [&report](EvaluationJob& finished) { report = std::move(finished.report); };
+  service_.run_here(job);
+  return report;
 }
 
 }  // namespace nearpoint::server

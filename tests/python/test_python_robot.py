@@ -44,7 +44,7 @@ class PythonRobotTest(unittest.TestCase):
     def setUpClass(cls):
         cls.server = NearpointdProcess(ARGS.nearpointd, ["--workers", "2"]).__enter__()
         cls.client = npc.connect(f"127.0.0.1:{cls.server.port}")
-        import nearpoint_scene_pb2 as scene_pb
+        from nearpoint.proto import nearpoint_scene_pb2 as scene_pb
         robot = scene_pb.Robot(name="planar")
         upper = robot.links.add(name="upper")
         upper.joints.add(name="shoulder", type=scene_pb.JOINT_TYPE_REVOLUTE,
@@ -133,5 +133,5 @@ if __name__ == "__main__":
     parser.add_argument("--pythonpath", required=True)
     ARGS, rest = parser.parse_known_args()
     sys.path.insert(0, ARGS.pythonpath)
-    import nearpoint_client as npc  # noqa: E402
+    from nearpoint import client as npc  # noqa: E402
     unittest.main(argv=[sys.argv[0]] + rest)

@@ -34,6 +34,19 @@ class GrpcServerTest : public ::testing::Test {
   RunningServer running_;
 };
 
+// For the tests that hold the worker pool to make updates wait: every evaluation on the pool.
+class GrpcServerPoolTest : public GrpcServerTest {
+ protected:
+  void SetUp() override {
+    ServerConfig config = test_config();
+    config.limits.max_vertices_per_geometry = 2000;
+    config.max_message_bytes = 1u << 20;
+    config.limits.inline_evaluation = false;
+    running_ = start_server(config);
+    ASSERT_TRUE(running_.server);
+  }
+};
+
 // ---- streams ----
 
 // The main path: a pipelined stream of 300 poses along a smooth trajectory (a writer thread
@@ -356,7 +369,7 @@ TEST_F(GrpcServerTest, BlockPolicyAnswersEveryUpdateOfAFastWriter) {
 // keeps reading and merges what arrives while it is busy into the newest update. Every update is
 // accounted for (each report counts the updates it absorbed), the newest poses are answered, and
 // the merged reports are correct for their own sequence's poses.
-TEST_F(GrpcServerTest, CoalescePolicyMergesUpdatesForASlowReader) {
+TEST_F(GrpcServerPoolTest, CoalescePolicyMergesUpdatesForASlowReader) {
   v1::QueryOptions defaults;
   defaults.set_near_points(true);
   defaults.set_gradient(true);  // larger reports fill the transport's window sooner
@@ -415,7 +428,7 @@ TEST_F(GrpcServerTest, CoalescePolicyMergesUpdatesForASlowReader) {
 // sequence number of the update that caused it, the threshold's name and the pair's ids. Guards
 // the replay of absorbed updates (a merged update alone would see only its last poses) and the
 // proto conversion of events.
-TEST_F(GrpcServerTest, ThresholdEventsSurviveCoalescedUpdates) {
+TEST_F(GrpcServerPoolTest, ThresholdEventsSurviveCoalescedUpdates) {
   const LocalScene scene = make_scene(stub());
   StreamClient stream(stub());
   constexpr int kUpdates = 20;

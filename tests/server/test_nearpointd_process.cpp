@@ -120,13 +120,17 @@ TEST(NearpointdProcess, SigtermUnderLoadAnswersEveryUpdateReadOnEveryStream) {
         ASSERT_TRUE(streams.back()->write(
             make_update(scene, std::uint64_t(step) + 1, trajectory(scene.size(), step, s))));
     }
-    // The first report of the last stream: the server is busy with every stream now.
-    v1::DistanceReport first;
-    ASSERT_TRUE(streams.back()->read(first));
+    // The first report of every stream: the server is busy with every stream now. (One stream's
+    // report is not enough: a stream the server has not yet accepted when SIGTERM arrives is
+    // refused "shutting down" with nothing read, and the streams are accepted in no set order.)
+    std::vector<std::vector<v1::DistanceReport>> reports(kStreams);
+    for (int s = 0; s < kStreams; ++s) {
+      v1::DistanceReport first;
+      ASSERT_TRUE(streams[std::size_t(s)]->read(first)) << "stream " << s;
+      reports[std::size_t(s)].push_back(first);
+    }
     daemon.signal(SIGTERM);
 
-    std::vector<std::vector<v1::DistanceReport>> reports(kStreams);
-    reports.back().push_back(first);
     std::vector<grpc::Status> statuses(kStreams);
     std::vector<std::thread> readers;
     for (int s = 0; s < kStreams; ++s)

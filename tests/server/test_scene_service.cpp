@@ -82,7 +82,7 @@ TEST(SceneService, PairSelectionFollowsGroupsMasksAndLists) {
                       object("d", box, 2u)};
   const SceneInfo filtered_scene = service.create_scene(filtered).value();
   // b (group 2) only checks group 2: a and c (group 1) are out, d (group 2) is in.
-  EXPECT_EQ(pair_ids(run_query(service, {filtered_scene.scene_id, {}, {}, 0})),
+  EXPECT_EQ(pair_ids(run_query(service, {filtered_scene.scene_id, {}, {}, 0, {}})),
             (Pairs{{"a", "c"}, {"a", "d"}, {"b", "d"}, {"c", "d"}}));
 
   SceneInput listed;
@@ -90,14 +90,14 @@ TEST(SceneService, PairSelectionFollowsGroupsMasksAndLists) {
   listed.pair_selection.mode = PairSelectionInput::Mode::listed_pairs;
   listed.pair_selection.pairs = {{"c", "a"}, {"b", "c"}};
   const SceneInfo listed_scene = service.create_scene(listed).value();
-  EXPECT_EQ(pair_ids(run_query(service, {listed_scene.scene_id, {}, {}, 0})),
+  EXPECT_EQ(pair_ids(run_query(service, {listed_scene.scene_id, {}, {}, 0, {}})),
             (Pairs{{"c", "a"}, {"b", "c"}}));
 
   SceneInput excluded = listed;
   excluded.pair_selection.mode = PairSelectionInput::Mode::excluded_pairs;
   excluded.pair_selection.pairs = {{"c", "a"}};  // order within an excluded pair is ignored
   const SceneInfo excluded_scene = service.create_scene(excluded).value();
-  EXPECT_EQ(pair_ids(run_query(service, {excluded_scene.scene_id, {}, {}, 0})),
+  EXPECT_EQ(pair_ids(run_query(service, {excluded_scene.scene_id, {}, {}, 0, {}})),
             (Pairs{{"a", "b"}, {"b", "c"}}));
 }
 
@@ -211,7 +211,7 @@ TEST(SceneService, AScenesGeometriesMayComeWithItAndErrorsNameTheEntry) {
   const std::string crate_id = service.register_geometry(box_input()).value().geometry_id;
   EXPECT_EQ(info.geometry_ids.at("crate"), crate_id);  // stored, under its content id
   EXPECT_EQ(service.geometry_count(), 2u);
-  const Report report = run_query(service, {"cell", {}, {}, 0});
+  const Report report = run_query(service, {"cell", {}, {}, 0, {}});
   ASSERT_EQ(report.pairs.size(), 1u);
   EXPECT_NEAR(report.pairs[0].distance, 3 - 0.5 - 0.25, 1e-12);
 
@@ -373,7 +373,7 @@ TEST(SceneService, LargeScenesAreSplitAcrossWorkersAndStillExact) {
   }
   const SceneInfo info = service.create_scene(scene).value();
   EXPECT_EQ(service.find_scene(info.scene_id)->definition()->tasks_per_evaluation, 2u);
-  const Report report = run_query(service, {info.scene_id, {}, {}, 0});
+  const Report report = run_query(service, {info.scene_id, {}, {}, 0, {}});
   ASSERT_EQ(report.pairs.size(), 15u);
   for (const PairReport& pair : report.pairs) {
     Pose<double> pose_a, pose_b;

@@ -55,6 +55,13 @@ struct ServiceLimits {
   std::size_t max_in_flight_per_stream = 8;
   /// Unary queries evaluated or queued at once, all clients together.
   std::size_t max_concurrent_queries = 256;
+  /// A gRPC stream's update whose evaluation is one task's worth of pairs
+  /// (SceneDefinition::tasks_per_evaluation) is evaluated on the thread that read it rather than
+  /// handed to a worker: the hand-off cost more than such an update's geometry
+  /// (bench/service/RESULTS.md, "Where an update's CPU goes"). false: every evaluation on the
+  /// workers, so that --workers bounds the threads doing geometry (nearpointd
+  /// --no-inline-evaluation).
+  bool inline_evaluation = true;
 };
 
 }  // namespace nearpoint::server

@@ -171,6 +171,8 @@ using ReportCallback = std::function<void(Report)>;
 
 class SceneService;
 struct IncrementalState;
+/// One evaluation on its way through the service (evaluation_job.hpp).
+struct EvaluationJob;
 
 /// One client's pose stream: it owns the per-pair, per-piece-pair warm-start caches, so streams
 /// never share mutable state. Not thread-safe: its owner serialises calls (the gRPC reactor does
@@ -202,6 +204,17 @@ class PoseStream {
   /// state).
   void evaluate(PreparedUpdate update, ReportCallback done);
 
+  /// Whether an evaluation of this stream's scene is small enough (one task's worth of pairs,
+  /// SceneDefinition::tasks_per_evaluation) that handing it to a worker costs more than it
+  /// saves: a transport then calls evaluate_here on its own thread. Profiles of cell45 (45
+  /// polytope pairs) spent a third of nearpointd's CPU on the thread hand-offs.
+  bool evaluates_inline() const;
+  /// As `evaluate`, on the calling thread, in two steps: `take` (under the owner's lock, like
+  /// every other call) and `run` (without it: it touches only the job and the stream's caches
+  /// and results, which no other call does while an evaluation is under way).
+  std::shared_ptr<EvaluationJob> take_evaluation(PreparedUpdate update);
+  Report run_evaluation(EvaluationJob& job);
+
   /// The flow-control policy chosen by the first update (block until then).
   model::FlowControl flow_control() const { return flow_control_; }
   bool bound() const { return scene_ != nullptr; }
@@ -209,6 +222,8 @@ class PoseStream {
  private:
   friend class SceneService;
   explicit PoseStream(SceneService& service);
+  /// The job that evaluates `update` against this stream's caches and incremental state.
+  std::shared_ptr<EvaluationJob> make_job(PreparedUpdate&& update);
 
   SceneService& service_;
   std::shared_ptr<Scene> scene_;
@@ -267,9 +282,16 @@ class SceneService {
 
  private:
   friend class PoseStream;
-  struct Job;
+  using Job = EvaluationJob;
   /// Runs `job`'s pairs on the pool, in parallel, and calls its completion on the last one.
   void run(std::shared_ptr<Job> job);
+  /// Runs `job` on the calling thread, as one task; its completion runs before this returns.
+  void run_here(Job& job);
+  /// Replays absorbed updates, plans the evaluation (what moved, the broad phase) and sets the
+  /// job's task count, which it returns.
+  std::size_t plan(Job& job);
+  /// One task: takes pairs until none are left; the last task to finish completes the job.
+  static void run_task(Job& job);
   Expected<std::vector<Pose<double>>> apply_poses(
       const SceneDefinition& scene, std::vector<Pose<double>> poses,
       const std::vector<model::ObjectPoseInput>& updates, const char* field) const;
