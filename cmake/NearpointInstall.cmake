@@ -2,7 +2,8 @@
 # Installing nearpoint: `cmake --install BUILD [--prefix DIR]` and `cpack -G DEB` (issue 23, item 5).
 #
 # Two components, so that an operator's machine does not pull the -dev packages:
-#   runtime — nearpointd, the nearpoint CLI, the DDS loopback configuration, the example files
+#   runtime — nearpointd, the nearpoint CLI, the DDS loopback configuration, the example files,
+#             the ROS 2 package nearpoint_msgs (share/nearpoint/ros)
 #   dev     — headers under include/nearpoint/, the static libraries, the CMake package
 #             (find_package(nearpoint CONFIG) → nearpoint::core, nearpoint::model,
 #             nearpoint::proto, nearpoint::client, and nearpoint::hull when CGAL is found) and nearpoint-core.pc
@@ -28,6 +29,11 @@ install(FILES ${PROJECT_SOURCE_DIR}/deploy/cyclonedds-loopback.xml
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/examples COMPONENT runtime
         PATTERN robots EXCLUDE)
+# The DDS messages as a ROS 2 interface package, to copy into a ROS 2 workspace (nearpointd --dds).
+if(NEARPOINT_WITH_DDS)
+  install(DIRECTORY ${PROJECT_SOURCE_DIR}/ros/nearpoint_msgs
+          DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/ros COMPONENT runtime)
+endif()
 # The JSON Schema of the reports `nearpoint query|stream --json` print (gRPC and DDS alike).
 install(FILES ${PROJECT_SOURCE_DIR}/client/schema/report.schema.json
         DESTINATION ${CMAKE_INSTALL_DATADIR}/nearpoint/schema COMPONENT runtime)

@@ -27,8 +27,10 @@ build_packages=(
   pybind11-dev python3-dev
   # server: the Prometheus endpoint (--metrics-listen; optional at build time)
   prometheus-cpp-dev
-  # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged)
-  cyclonedds-dev cyclonedds-tools
+  # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged);
+  # the DDS types are generated from the ROS 2 .msg files under ros/ by rosidl translate and
+  # rosidl_parser (ros/generate_dds_idl.py)
+  cyclonedds-dev cyclonedds-tools rosidl-tools python3-rosidl
   # server: SHA-256 of content ids (libcrypto; gRPC's TLS links it too)
   libssl-dev
   # the man pages of nearpoint and nearpointd, made from their --help at build time (optional:
@@ -60,6 +62,10 @@ test_packages=(
   # (buildah's engine inside; runc as the runtime, no daemon), debootstrap makes its local base
   # image, uidmap/slirp4netns/fuse-overlayfs are what podman needs beside them on Debian 12
   podman buildah runc debootstrap uidmap slirp4netns fuse-overlayfs
+  # ROS 2 interfaces (ros/, the ros.interfaces_build test): colcon builds nearpoint_msgs with
+  # Debian's ament and rosidl generators and introspection type supports
+  colcon python3-colcon-cmake ament-cmake rosidl-cmake rosidl-generator-c-cpp
+  librosidl-typesupport-introspection-c-cpp-dev librosidl-runtime-c-cpp-dev
   # scenes spread over replicas behind a proxy (deploy/haproxy/, deploy/sharded.sh, the
   # server.sharded test)
   haproxy

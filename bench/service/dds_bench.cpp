@@ -230,14 +230,14 @@ Row measure_dds_stream(std::uint32_t domain, const std::string& prefix, const st
   }
   std::vector<std::string> ids;
   for (int i = 0; i < 10; ++i) ids.push_back("object-" + std::to_string(i));
-  std::vector<nearpoint_msg_dds__ObjectPose_> poses(10);
+  std::vector<nearpoint_msgs_msg_dds__ObjectPose_> poses(10);
   std::string client_id = "dds-bench";
   for (int k = 0; k < updates + 50 && Clock::now() < stop_at; ++k) {
     for (int i = 0; i < 10; ++i) {
       const auto [q, t] = bench_scene::object_pose(i, k, 0);
       poses[std::size_t(i)].object_id = ids[std::size_t(i)].data();
-      poses[std::size_t(i)].pose.rotation = {q.w(), q.x(), q.y(), q.z()};
-      poses[std::size_t(i)].pose.translation = {t.x(), t.y(), t.z()};
+      poses[std::size_t(i)].pose.position = {t.x(), t.y(), t.z()};
+      poses[std::size_t(i)].pose.orientation = {q.x(), q.y(), q.z(), q.w()};
     }
     nearpoint::cli::PoseUpdateSample update{};
     update.scene_id = const_cast<char*>(scene.c_str());

@@ -28,14 +28,17 @@ dds_duration_t to_dds(Clock::duration d) {
                                   std::chrono::duration_cast<std::chrono::nanoseconds>(d).count());
 }
 
-Json vec(const nearpoint_msg_dds__Vector3_& v) {
+template <typename Xyz>  // geometry_msgs Point_ or Vector3_
+Json vec(const Xyz& v) {
   return Json::array({v.x, v.y, v.z});
 }
+
+}  // namespace
 
 // One schema for every report the CLI prints (client/schema/report.schema.json), the same keys as
 // remote_common.cpp's to_json over gRPC: a change here needs the same change there and in the
 // schema.
-Json report_json(const DistanceReportSample& report) {
+nlohmann::ordered_json report_json(const DistanceReportSample& report) {
   Json out;
   out["sequence"] = report.sequence_number;
   if (report.status != 0) {
@@ -52,7 +55,7 @@ Json report_json(const DistanceReportSample& report) {
   out["report_mode"] = mode.empty() ? model::spelling_of(model::ReportMode::all_pairs) : mode;
   Json pairs = Json::array();
   for (std::uint32_t i = 0; i < report.pairs._length; ++i) {
-    const nearpoint_msg_dds__PairDistance_& p = report.pairs._buffer[i];
+    const nearpoint_msgs_msg_dds__PairDistance_& p = report.pairs._buffer[i];
     Json pair;
     pair["object_a"] = p.object_a ? p.object_a : "";
     pair["object_b"] = p.object_b ? p.object_b : "";
@@ -93,7 +96,7 @@ Json report_json(const DistanceReportSample& report) {
   out["pairs"] = std::move(pairs);
   Json events = Json::array();
   for (std::uint32_t i = 0; i < report.events._length; ++i) {
-    const nearpoint_msg_dds__ThresholdEvent_& e = report.events._buffer[i];
+    const nearpoint_msgs_msg_dds__ThresholdEvent_& e = report.events._buffer[i];
     events.push_back(
         {{"threshold", e.threshold ? e.threshold : ""},
          {"threshold_index", e.threshold_index},
@@ -117,8 +120,6 @@ Json report_json(const DistanceReportSample& report) {
   return out;
 }
 
-}  // namespace
-
 // ---- DdsPoseClient ----
 
 std::unique_ptr<DdsPoseClient> DdsPoseClient::create(const Config& config, std::string& error) {
@@ -139,18 +140,19 @@ std::unique_ptr<DdsPoseClient> DdsPoseClient::create(const Config& config, std::
     self->participant_ = 0;
     return fail("dds_create_participant", code);
   }
-  const dds::QosPtr qos = dds::stream_qos();
+  const dds::QosPtr qos = dds::stream_qos(config.history_depth, config.best_effort);
+  const dds::QosPtr read_qos = dds::reader_qos(config.history_depth, config.best_effort);
   const dds_entity_t update_topic =
-      dds_create_topic(self->participant_, &nearpoint_msg_dds__PoseUpdate__desc,
+      dds_create_topic(self->participant_, &nearpoint_msgs_msg_dds__PoseUpdate__desc,
                        dds::pose_updates_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
   if (update_topic < 0) return fail("dds_create_topic(pose_updates)", update_topic);
   const dds_entity_t report_topic = dds_create_topic(
-      self->participant_, &nearpoint_msg_dds__DistanceReport__desc,
+      self->participant_, &nearpoint_msgs_msg_dds__DistanceReport__desc,
       dds::distance_reports_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
   if (report_topic < 0) return fail("dds_create_topic(distance_reports)", report_topic);
   self->writer_ = dds_create_writer(self->participant_, update_topic, qos.get(), nullptr);
   if (self->writer_ < 0) return fail("dds_create_writer", self->writer_);
-  self->reader_ = dds_create_reader(self->participant_, report_topic, qos.get(), nullptr);
+  self->reader_ = dds_create_reader(self->participant_, report_topic, read_qos.get(), nullptr);
   if (self->reader_ < 0) return fail("dds_create_reader", self->reader_);
   dds_guid_t guid;
   if (const dds_return_t rc = dds_get_guid(self->writer_, &guid); rc < 0)
@@ -204,6 +206,18 @@ bool DdsPoseClient::publish(const PoseUpdateSample& update, std::string& error) 
 int DdsPoseClient::take_reports(std::chrono::milliseconds timeout,
                                 const std::function<void(const DistanceReportSample&)>& on_report,
                                 std::string& error) {
+  return take(timeout, /*own_only=*/true, on_report, error);
+}
+
+int DdsPoseClient::take_any_reports(
+    std::chrono::milliseconds timeout,
+    const std::function<void(const DistanceReportSample&)>& on_report, std::string& error) {
+  return take(timeout, /*own_only=*/false, on_report, error);
+}
+
+int DdsPoseClient::take(std::chrono::milliseconds timeout, bool own_only,
+                        const std::function<void(const DistanceReportSample&)>& on_report,
+                        std::string& error) {
   const Clock::time_point deadline = Clock::now() + timeout;
   int delivered = 0;
   for (;;) {
@@ -219,7 +233,9 @@ int DdsPoseClient::take_reports(std::chrono::milliseconds timeout,
       if (!infos[std::size_t(i)].valid_data) continue;
       const auto& report = *static_cast<const DistanceReportSample*>(samples[std::size_t(i)]);
       // Reports for other clients of the same scene share the topic.
-      if (std::memcmp(report.writer_guid, writer_guid_.data(), writer_guid_.size()) != 0) continue;
+      if (own_only &&
+          std::memcmp(report.writer_guid, writer_guid_.data(), writer_guid_.size()) != 0)
+        continue;
       on_report(report);
       ++delivered;
     }
@@ -263,11 +279,11 @@ class StepPublisher {
     poses_.assign(step.poses.size(), {});
     for (std::size_t i = 0; i < step.poses.size(); ++i) {
       const ObjectPose& in = step.poses[i];
-      nearpoint_msg_dds__ObjectPose_& pose = poses_[i];
+      nearpoint_msgs_msg_dds__ObjectPose_& pose = poses_[i];
       pose.object_id = const_cast<char*>(in.object_id.c_str());
-      pose.pose.rotation = {in.rotation_wxyz[0], in.rotation_wxyz[1], in.rotation_wxyz[2],
-                            in.rotation_wxyz[3]};
-      pose.pose.translation = {in.translation[0], in.translation[1], in.translation[2]};
+      pose.pose.position = {in.translation[0], in.translation[1], in.translation[2]};
+      pose.pose.orientation = {in.rotation_wxyz[1], in.rotation_wxyz[2], in.rotation_wxyz[3],
+                               in.rotation_wxyz[0]};
     }
     PoseUpdateSample update{};
     update.scene_id = const_cast<char*>(options_.scene_id.c_str());
@@ -305,8 +321,8 @@ class StepPublisher {
   const Trajectory& trajectory_;
   const DdsStreamOptions& options_;
   const std::string client_id_;
-  std::vector<nearpoint_msg_dds__ObjectPose_> poses_;
-  std::vector<nearpoint_msg_dds__Threshold_> thresholds_;
+  std::vector<nearpoint_msgs_msg_dds__ObjectPose_> poses_;
+  std::vector<nearpoint_msgs_msg_dds__Threshold_> thresholds_;
 };
 
 /// The updates in flight and what their reports showed: every report is checked against them

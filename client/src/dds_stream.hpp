@@ -2,9 +2,9 @@
 // `nearpoint stream --dds`: replays a trajectory to nearpointd's DDS bridge and checks every
 // report. Also the DDS client the tests and the benchmark use (DdsPoseClient).
 //
-// The client publishes nearpoint::msg::dds_::PoseUpdate_ on <prefix>pose_updates and takes
-// nearpoint::msg::dds_::DistanceReport_ from <prefix>distance_reports, keeping only the reports
-// addressed to its own writer (DistanceReport_.writer_guid), with the QoS of
+// The client publishes nearpoint_msgs::msg::dds_::PoseUpdate_ on <prefix>pose_updates and takes
+// nearpoint_msgs::msg::dds_::DistanceReport_ from <prefix>distance_reports, keeping only the
+// reports addressed to its own writer (DistanceReport_.writer_guid), with the QoS of
 // proto/dds/nearpoint_dds.hpp. Like the server it refuses to start without CYCLONEDDS_URI.
 #pragma once
 
@@ -18,6 +18,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "nearpoint/model/exit_codes.hpp"
 #include "nearpoint/model/scene_types.hpp"
 #include "nearpoint_dds.hpp"
@@ -25,8 +27,8 @@
 
 namespace nearpoint::cli {
 
-using PoseUpdateSample = nearpoint_msg_dds__PoseUpdate_;
-using DistanceReportSample = nearpoint_msg_dds__DistanceReport_;
+using PoseUpdateSample = nearpoint_msgs_msg_dds__PoseUpdate_;
+using DistanceReportSample = nearpoint_msgs_msg_dds__DistanceReport_;
 
 /// A PoseUpdate_ writer and a DistanceReport_ reader on one participant.
 class DdsPoseClient {
@@ -34,6 +36,10 @@ class DdsPoseClient {
   struct Config {
     std::uint32_t domain_id = 0;
     std::string topic_prefix = dds::kDefaultTopicPrefix;
+    /// Keep-last depth of the writer (the reader keeps at least dds::kMinReaderHistoryDepth), and
+    /// best-effort instead of reliable: as nearpointd's --dds-history-depth, --dds-best-effort.
+    std::int32_t history_depth = dds::kDefaultHistoryDepth;
+    bool best_effort = false;
     /// Start without CYCLONEDDS_URI (Cyclone's defaults: external interface, multicast).
     bool allow_default_config = false;
   };
@@ -57,11 +63,18 @@ class DdsPoseClient {
                    const std::function<void(const DistanceReportSample&)>& on_report,
                    std::string& error);
 
+  /// As take_reports, for every report on the topic (any client's): `nearpoint dds echo`.
+  int take_any_reports(std::chrono::milliseconds timeout,
+                       const std::function<void(const DistanceReportSample&)>& on_report,
+                       std::string& error);
+
   /// This client's writer GUID, as the server echoes it in DistanceReport_.writer_guid.
   const std::array<std::uint8_t, 16>& writer_guid() const { return writer_guid_; }
 
  private:
   DdsPoseClient() = default;
+  int take(std::chrono::milliseconds timeout, bool own_only,
+           const std::function<void(const DistanceReportSample&)>& on_report, std::string& error);
   dds_entity_t participant_ = 0;
   dds_entity_t writer_ = 0;
   dds_entity_t reader_ = 0;
@@ -101,6 +114,9 @@ inline constexpr int kStreamIncomplete = model::kExitFailure;      ///< rejected
                                                                    ///< missing or out of order
 inline constexpr int kStreamBadConfiguration = model::kExitUsage;  ///< no scene id, no DDS config
 inline constexpr int kStreamCannotRun = model::kExitUnavailable;  ///< no server matched, DDS failed
+
+/// A report as one JSON object in the CLI's report schema (client/schema/report.schema.json).
+nlohmann::ordered_json report_json(const DistanceReportSample& report);
 
 /// Publishes one PoseUpdate_ per trajectory step (sequence numbers 1, 2, …) and writes one JSON
 /// line per report to `out`, in the schema of every report the CLI prints, over gRPC as well

@@ -29,6 +29,7 @@
 #include "nearpoint/version.hpp"
 #if NEARPOINT_HAVE_DDS
 #include "dds_stream.hpp"
+#include "dds_topics.hpp"
 #endif
 
 namespace {
@@ -657,6 +658,51 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
 }
 #endif
 
+#if NEARPOINT_HAVE_DDS
+// `nearpoint dds topics|echo`: the ROS 2 view of the DDS domain.
+void add_dds_subcommand(CLI::App& app, int& exit_code) {
+  CLI::App* dds = app.add_subcommand(
+      "dds", "The DDS domain as ROS 2 tools see it: topics and types, reports as they pass");
+  dds->require_subcommand(1);
+  auto topics = std::make_shared<nearpoint::cli::DdsTopicsOptions>();
+  auto wait_ms = std::make_shared<int>(2000);
+  CLI::App* list = dds->add_subcommand(
+      "topics", "List the topics on the domain with their ROS 2 and DDS names and types");
+  list->add_option("--dds-domain", topics->dds.domain_id, "DDS domain id")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 230));
+  list->add_option("--wait-ms", *wait_ms, "How long to listen for discovery")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 600000));
+  list->add_option("--filter", topics->filter, "Only DDS topic names starting with this");
+  list->add_flag("--dds-allow-default-config", topics->dds.allow_default_config,
+                 "Run without CYCLONEDDS_URI (Cyclone's defaults: external interface, multicast)");
+  list->callback([topics, wait_ms, &exit_code] {
+    topics->wait = std::chrono::milliseconds(*wait_ms);
+    exit_code = nearpoint::cli::run_dds_topics(*topics, std::cout, std::cerr);
+  });
+  auto echo = std::make_shared<nearpoint::cli::DdsEchoOptions>();
+  auto timeout_ms = std::make_shared<int>(10000);
+  CLI::App* show = dds->add_subcommand(
+      "echo", "Print the reports on <prefix>distance_reports as JSON lines (ros2 topic echo)");
+  show->add_option("--dds-domain", echo->dds.domain_id, "DDS domain id")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 230));
+  show->add_option("--dds-prefix", echo->dds.topic_prefix, "Topic prefix, as nearpointd's")
+      ->capture_default_str();
+  show->add_option("--scene", echo->scene_id, "Only this scene's reports");
+  show->add_option("--count", echo->count, "Stop after this many reports");
+  show->add_option("--timeout-ms", *timeout_ms, "Stop when no report came for this long")
+      ->capture_default_str();
+  show->add_flag("--dds-allow-default-config", echo->dds.allow_default_config,
+                 "Run without CYCLONEDDS_URI (Cyclone's defaults: external interface, multicast)");
+  show->callback([echo, timeout_ms, &exit_code] {
+    echo->timeout = std::chrono::milliseconds(*timeout_ms);
+    exit_code = nearpoint::cli::run_dds_echo(*echo, std::cout, std::cerr);
+  });
+}
+#endif
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -683,6 +729,9 @@ int main(int argc, char** argv) {
     add_demo_subcommand(app, exit_code);
 #elif NEARPOINT_HAVE_DDS
     add_stream_subcommand(app, exit_code);
+#endif
+#if NEARPOINT_HAVE_DDS
+    add_dds_subcommand(app, exit_code);
 #endif
     // Set after the subcommands, which would otherwise inherit it: `nearpoint scene --help`
     // must not repeat the top-level examples.

@@ -2,12 +2,16 @@
 // What the DDS server bridge and the DDS client must agree on, in one place: topic names, QoS,
 // and the rule that Cyclone DDS never runs without a configuration here.
 //
-// Topics (ROS 2 convention: a ROS 2 topic /nearpoint/pose_updates is the DDS topic
-// rt/nearpoint/pose_updates, and type nearpoint/msg/PoseUpdate is
-// nearpoint::msg::dds_::PoseUpdate_):
-//   <prefix>pose_updates      nearpoint::msg::dds_::PoseUpdate_       client -> server
-//   <prefix>distance_reports  nearpoint::msg::dds_::DistanceReport_   server -> client
-// with <prefix> = "rt/nearpoint/" by default.
+// The topics are ROS 2 topics (the types: ros/nearpoint_msgs, generated into nearpoint_ros.h):
+//   ROS 2 name                    DDS topic                       DDS type
+//   /nearpoint/pose_updates       rt/nearpoint/pose_updates nearpoint_msgs::msg::dds_::PoseUpdate_
+//   /nearpoint/distance_reports   rt/nearpoint/distance_reports
+//   nearpoint_msgs::msg::dds_::DistanceReport_ /nearpoint/threshold_events
+//   rt/nearpoint/threshold_events   nearpoint_msgs::msg::dds_::ThresholdEvent_
+// with "rt/nearpoint/" the default prefix (rt/ + the ROS 2 namespace, as rmw_cyclonedds maps
+// it). The types are keyless and plain XCDR1, as ROS 2 requires; scenes are told apart by the
+// scene_id field, which lets one reader serve every scene (scene ids are free text, not ROS
+// names).
 #pragma once
 
 #include <dds/dds.h>
@@ -16,39 +20,61 @@
 #include <memory>
 #include <string>
 
-#include "nearpoint_distance_report.h"
-#include "nearpoint_pose_update.h"
+#include "nearpoint_ros.h"
 
 namespace nearpoint::dds {
 
 inline constexpr const char* kDefaultTopicPrefix = "rt/nearpoint/";
 inline constexpr const char* kPoseUpdatesSuffix = "pose_updates";
 inline constexpr const char* kDistanceReportsSuffix = "distance_reports";
+inline constexpr const char* kThresholdEventsSuffix = "threshold_events";
 
-/// Keep-last depth of every reader and writer on both topics, per instance (= per scene id).
-/// 64 updates are ~0.6 s of a 100 Hz control loop: the server's bridge thread takes samples as
-/// they arrive (no geometry on it), so its history fills only if that thread is starved for that
-/// long; a client that does not take its reports loses the oldest beyond 64.
-inline constexpr std::int32_t kHistoryDepth = 64;
+/// The DDS type names, as ROS 2 tools show them (ros2 topic info: nearpoint_msgs/msg/PoseUpdate).
+inline constexpr const char* kPoseUpdateType = "nearpoint_msgs::msg::dds_::PoseUpdate_";
+inline constexpr const char* kDistanceReportType = "nearpoint_msgs::msg::dds_::DistanceReport_";
+inline constexpr const char* kThresholdEventType = "nearpoint_msgs::msg::dds_::ThresholdEvent_";
+
+/// ROS 2's default QoS profile: KEEP_LAST 10, RELIABLE, VOLATILE (rmw_qos_profile_default).
+/// The types are keyless, so the depth is shared by every writer of a topic: a reader that does
+/// not take its samples within 10 of them loses the oldest.
+inline constexpr std::int32_t kDefaultHistoryDepth = 10;
 
 /// How long a reliable write may wait for history space before failing (keep-last writers
 /// replace their oldest sample instead, so this bounds only transient resource waits).
 inline constexpr dds_duration_t kMaxBlockingTime = DDS_MSECS(100);
 
-/// The QoS of both topics, readers and writers alike: reliable, keep-last kHistoryDepth,
-/// volatile (a late joiner sees no old updates or reports).
+/// The QoS of every topic, readers and writers alike: keep-last `depth`, volatile (a late
+/// joiner sees no old updates or reports), reliable unless `best_effort` (ROS 2's sensor data
+/// profile; a reliable reader does not match a best-effort writer).
 struct QosDeleter {
   void operator()(dds_qos_t* qos) const { dds_delete_qos(qos); }
 };
 using QosPtr = std::unique_ptr<dds_qos_t, QosDeleter>;
-QosPtr stream_qos();
+QosPtr stream_qos(std::int32_t depth = kDefaultHistoryDepth, bool best_effort = false);
+
+/// Our readers keep at least this many samples: on a keyless topic one history holds the samples
+/// of every writer (every client of the prefix, every scene), and a reader's depth is local (not
+/// part of QoS matching), so a deep one costs a peer nothing and keeps bursts from many clients.
+inline constexpr std::int32_t kMinReaderHistoryDepth = 256;
+QosPtr reader_qos(std::int32_t depth = kDefaultHistoryDepth, bool best_effort = false);
 
 /// The full topic names for a prefix.
 std::string pose_updates_topic(const std::string& prefix);
 std::string distance_reports_topic(const std::string& prefix);
+std::string threshold_events_topic(const std::string& prefix);
 
 /// Empty when `prefix` makes legal topic names; otherwise what is wrong with it.
 std::string check_topic_prefix(const std::string& prefix);
+
+/// Empty when `name` is a legal full DDS topic name for a ROS 2 topic (rt/ followed by a ROS 2
+/// name without its leading '/': tokens of letters, digits and '_' separated by '/', none
+/// starting with a digit); otherwise what is wrong with it.
+std::string check_ros_topic(const std::string& name);
+
+/// The ROS 2 view of a DDS endpoint: topic "rt/a/b" is /a/b, type "pkg::msg::dds_::Name_" is
+/// pkg/msg/Name; names not in that form are returned unchanged.
+std::string ros_topic_name(const std::string& dds_topic);
+std::string ros_type_name(const std::string& dds_type);
 
 /// Without a configuration Cyclone DDS joins the machine's external interface and multicasts
 /// discovery off the machine. Empty when CYCLONEDDS_URI is set (or `allow_default` says the

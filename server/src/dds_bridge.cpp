@@ -11,10 +11,12 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string_view>
 #include <thread>
 #include <vector>
 
+#include "dds_joint_states.hpp"
 #include "metrics.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/log.hpp"
@@ -24,13 +26,16 @@
 namespace nearpoint::server {
 namespace {
 
-using UpdateSample = nearpoint_msg_dds__PoseUpdate_;
-using ReportSample = nearpoint_msg_dds__DistanceReport_;
-using PairSample = nearpoint_msg_dds__PairDistance_;
+using UpdateSample = nearpoint_msgs_msg_dds__PoseUpdate_;
+using ReportSample = nearpoint_msgs_msg_dds__DistanceReport_;
+using PairSample = nearpoint_msgs_msg_dds__PairDistance_;
+using EventSample = nearpoint_msgs_msg_dds__ThresholdEvent_;
 using Guid = std::array<std::uint8_t, 16>;
 
 /// The highest domain id Cyclone's default port mapping allows (7400 + 250·d + … < 65536).
 constexpr std::uint32_t kMaxDomainId = 230;
+/// A keep-last depth beyond this is a resource limit, not a history.
+constexpr std::int32_t kMaxHistoryDepth = 100000;
 /// Samples taken per dds_take call.
 constexpr std::int32_t kTakeBatch = 32;
 /// How long a new stream's first evaluation waits for the report writer to discover a reader of
@@ -49,12 +54,31 @@ std::string own(const char* text) {
   return text ? std::string(text) : std::string();
 }
 
-nearpoint_msg_dds__Vector3_ to_sample(const model::Vec3d& v) {
+geometry_msgs_msg_dds__Vector3_ to_vector(const model::Vec3d& v) {
   return {v.x(), v.y(), v.z()};
 }
 
-nearpoint_msg_dds__PoseGradient_ to_sample(const Eigen::Matrix<double, 6, 1>& gradient) {
-  return {to_sample(model::Vec3d(gradient.head<3>())), to_sample(model::Vec3d(gradient.tail<3>()))};
+geometry_msgs_msg_dds__Point_ to_point(const model::Vec3d& v) {
+  return {v.x(), v.y(), v.z()};
+}
+
+nearpoint_msgs_msg_dds__PoseGradient_ to_sample(const Eigen::Matrix<double, 6, 1>& gradient) {
+  return {to_vector(model::Vec3d(gradient.head<3>())), to_vector(model::Vec3d(gradient.tail<3>()))};
+}
+
+/// An update's std_msgs/Header, echoed in its report and events (not interpreted).
+struct Header {
+  std::int32_t sec = 0;
+  std::uint32_t nanosec = 0;
+  std::string frame_id;
+};
+
+Header own(const std_msgs_msg_dds__Header_& header) {
+  return {header.stamp.sec, header.stamp.nanosec, own(header.frame_id)};
+}
+
+std_msgs_msg_dds__Header_ borrow(const Header& header) {
+  return {{header.sec, header.nanosec}, borrow(header.frame_id)};
 }
 
 /// The sample as the scene API's input. Mechanical, like proto_convert: the scene API validates,
@@ -65,15 +89,15 @@ model::PoseUpdateInput to_input(const UpdateSample& sample) {
   out.sequence = sample.sequence_number;
   out.poses.reserve(sample.poses._length);
   for (std::uint32_t i = 0; i < sample.poses._length; ++i) {
-    const nearpoint_msg_dds__ObjectPose_& in = sample.poses._buffer[i];
+    const nearpoint_msgs_msg_dds__ObjectPose_& in = sample.poses._buffer[i];
     model::ObjectPoseInput& pose = out.poses.emplace_back();
     pose.object_id = own(in.object_id);
-    const nearpoint_msg_dds__Quaternion_& q = in.pose.rotation;
+    const geometry_msgs_msg_dds__Quaternion_& q = in.pose.orientation;
     pose.pose.rotation_wxyz = {q.w, q.x, q.y, q.z};
-    const nearpoint_msg_dds__Vector3_& t = in.pose.translation;
+    const geometry_msgs_msg_dds__Point_& t = in.pose.position;
     pose.pose.translation = model::Vec3d(t.x, t.y, t.z);
   }
-  const nearpoint_msg_dds__QueryOptions_& options = sample.options;
+  const nearpoint_msgs_msg_dds__QueryOptions_& options = sample.options;
   if (options.has_epsilon) out.options.epsilon = options.epsilon;
   if (options.has_near_points) out.options.near_points = options.near_points;
   out.options.penetration = model::from_dds<model::PenetrationMode>(options.penetration);
@@ -86,21 +110,23 @@ model::PoseUpdateInput to_input(const UpdateSample& sample) {
   out.flow_control = model::from_dds<model::FlowControl>(sample.flow_control);
   out.thresholds.reserve(sample.thresholds._length);
   for (std::uint32_t i = 0; i < sample.thresholds._length; ++i) {
-    const nearpoint_msg_dds__Threshold_& in = sample.thresholds._buffer[i];
+    const nearpoint_msgs_msg_dds__Threshold_& in = sample.thresholds._buffer[i];
     out.thresholds.push_back(model::ThresholdInput{own(in.name), in.distance, in.hysteresis,
                                                    own(in.object_a), own(in.object_b), in.groups});
   }
   return out;
 }
 
-/// Who a report goes to: the update's scene (the key), its client id and writer.
+/// Who a report goes to: the update's scene, its client id and writer (and its header, echoed).
 struct Addressee {
   std::string scene_id;
   std::string client_id;
   Guid writer_guid{};
+  Header header;
 };
 
 void address(const Addressee& to, ReportSample& out) {
+  out.header = borrow(to.header);
   out.scene_id = borrow(to.scene_id);
   out.client_id = borrow(to.client_id);
   std::memcpy(out.writer_guid, to.writer_guid.data(), sizeof out.writer_guid);
@@ -124,6 +150,7 @@ struct StreamKey {
 struct Waiting {
   PreparedUpdate update;
   std::string client_id;
+  Header header;
   std::optional<PendingError> error;
 };
 
@@ -133,8 +160,8 @@ struct StreamState {
   StreamKey key;
   std::uint64_t number = 0;
   std::unique_ptr<PoseStream> stream;
-  /// `client_id` is the one of the update being evaluated (read by the pool thread while
-  /// `evaluating`, written only while not).
+  /// `client_id` and `header` are the ones of the update being evaluated (read by the pool thread
+  /// while `evaluating`, written only while not).
   Addressee to;
   /// The DDS participant of the stream's writer: its reports are for a reader there.
   Guid participant{};
@@ -171,7 +198,23 @@ struct DdsBridge::Impl {
   dds_entity_t participant = 0;
   dds_entity_t reader = 0;
   dds_entity_t writer = 0;
+  dds_entity_t event_writer = 0;
   dds_entity_t guard = 0;
+  /// One reader per --dds-joint-states binding, with its scene and, per writer, the sequence
+  /// number of its last JointState (JointState has none; the reports count them from 1).
+  struct JointReader {
+    dds_entity_t reader = 0;
+    std::string scene_id;
+    std::map<dds_instance_handle_t, std::uint64_t> sequences;
+    std::set<dds_instance_handle_t> warned;
+  };
+  std::vector<JointReader> joint_readers;
+  /// Discovery of other participants' endpoints: one whose topic is ours but whose type is not
+  /// (a peer built from other message definitions) never matches, silently on DDS's side, so
+  /// the bridge logs it, once per endpoint.
+  dds_entity_t publications = 0;
+  dds_entity_t subscriptions = 0;
+  std::set<std::string> mismatches_logged;
   dds_entity_t waitset = 0;
   std::thread thread;
 
@@ -206,6 +249,9 @@ struct DdsBridge::Impl {
       }
       reconcile_writers();
       take_updates();
+      for (JointReader& joints : joint_readers) take_joint_states(joints);
+      check_types(publications, /*publication=*/true);
+      check_types(subscriptions, /*publication=*/false);
       // Reading the writer's matched status resets it, so that its condition stops triggering.
       dds_publication_matched_status_t publication{};
       dds_get_publication_matched_status(writer, &publication);
@@ -288,14 +334,24 @@ struct DdsBridge::Impl {
   }
 
   /// Ends the streams of writers that are no longer matched (deleted, or lost by liveliness).
+  /// A stream's writer may be matched by the pose reader or, for joint states, by a JointState
+  /// reader: the writers still there are those any of them matches.
   void reconcile_writers() {
-    dds_subscription_matched_status_t status{};
-    if (dds_get_subscription_matched_status(reader, &status) < 0) return;
-    if (status.current_count_change == 0 && status.total_count_change == 0) return;
-    std::vector<dds_instance_handle_t> matched(std::size_t(status.current_count) + 8);
-    dds_return_t count = dds_get_matched_publications(reader, matched.data(), matched.size());
-    if (count < 0) return;
-    matched.resize(std::min<std::size_t>(matched.size(), std::size_t(count)));
+    bool changed = false;
+    std::vector<dds_instance_handle_t> matched;
+    std::vector<dds_entity_t> readers{reader};
+    for (const JointReader& joints : joint_readers) readers.push_back(joints.reader);
+    for (const dds_entity_t source : readers) {
+      dds_subscription_matched_status_t status{};
+      if (dds_get_subscription_matched_status(source, &status) < 0) return;
+      changed = changed || status.current_count_change != 0 || status.total_count_change != 0;
+      std::vector<dds_instance_handle_t> some(std::size_t(status.current_count) + 8);
+      const dds_return_t count = dds_get_matched_publications(source, some.data(), some.size());
+      if (count < 0) return;
+      some.resize(std::min<std::size_t>(some.size(), std::size_t(count)));
+      matched.insert(matched.end(), some.begin(), some.end());
+    }
+    if (!changed) return;
     std::sort(matched.begin(), matched.end());
     std::lock_guard lock(mutex);
     for (auto it = streams.begin(); it != streams.end();) {
@@ -331,13 +387,131 @@ struct DdsBridge::Impl {
     }
   }
 
+  /// The type each of our topics carries, for the endpoints of other participants: what a
+  /// publication (`publication`) or a subscription on it must name to match ours.
+  std::string expected_type(const std::string& topic, bool publication) const {
+    if (publication && topic == dds::pose_updates_topic(config.topic_prefix))
+      return dds::kPoseUpdateType;
+    if (!publication && topic == dds::distance_reports_topic(config.topic_prefix))
+      return dds::kDistanceReportType;
+    if (!publication && topic == dds::threshold_events_topic(config.topic_prefix))
+      return dds::kThresholdEventType;
+    if (publication)
+      for (const JointStateBinding& binding : config.joint_states)
+        if (topic == binding.topic) return "sensor_msgs::msg::dds_::JointState_";
+    return {};
+  }
+
+  /// Logs the endpoints discovered on our topics with another type (they will never match).
+  void check_types(dds_entity_t discovery, bool publication) {
+    if (discovery <= 0) return;
+    for (;;) {
+      std::array<void*, kTakeBatch> samples{};
+      std::array<dds_sample_info_t, kTakeBatch> infos{};
+      const dds_return_t taken =
+          dds_take(discovery, samples.data(), infos.data(), samples.size(), kTakeBatch);
+      if (taken <= 0) return;
+      for (dds_return_t i = 0; i < taken; ++i) {
+        if (!infos[std::size_t(i)].valid_data) continue;
+        const auto* e = static_cast<const dds_builtintopic_endpoint_t*>(samples[std::size_t(i)]);
+        const std::string topic = own(e->topic_name), type = own(e->type_name);
+        const std::string expected = expected_type(topic, publication);
+        if (expected.empty() || type == expected) continue;
+        const std::string key = dds::guid_hex(e->key.v);
+        if (!mismatches_logged.insert(key).second) continue;
+        log_warn("dds_type_mismatch")
+            .kv("endpoint", publication ? "publication" : "subscription")
+            .kv("topic", topic)
+            .kv("type", type)
+            .kv("expected", expected)
+            .kv("participant", dds::guid_hex(e->participant_key.v))
+            .kv("message",
+                "an endpoint on our topic with another type never matches ours; build it from "
+                "ros/nearpoint_msgs (ROS 2 types are matched by name)");
+      }
+      dds_return_loan(discovery, samples.data(), taken);
+      if (taken < kTakeBatch) return;
+    }
+  }
+
+  /// Takes the JointState samples of one binding. Each is decoded and checked
+  /// (decode_joint_state) and becomes an update of the bound scene with joint positions by name,
+  /// on the stream of its writer (sequence numbers counted per writer); one that cannot be
+  /// decoded is answered at once with INVALID_ARGUMENT naming the field (logged once per
+  /// writer).
+  void take_joint_states(JointReader& joints) {
+    for (;;) {
+      std::array<void*, kTakeBatch> samples{};
+      std::array<dds_sample_info_t, kTakeBatch> infos{};
+      const dds_return_t taken =
+          dds_take(joints.reader, samples.data(), infos.data(), samples.size(), kTakeBatch);
+      if (taken < 0) {
+        log_error("dds_take_failed").kv("message", dds::describe("dds_take(joint_states)", taken));
+        return;
+      }
+      std::vector<PendingError> errors;
+      for (dds_return_t i = 0; i < taken; ++i) {
+        const dds_sample_info_t& info = infos[std::size_t(i)];
+        if (!info.valid_data) continue;
+        const auto& sample =
+            *static_cast<const sensor_msgs_msg_dds__JointState_*>(samples[std::size_t(i)]);
+        dds_builtintopic_endpoint_t* endpoint =
+            dds_get_matched_publication_data(joints.reader, info.publication_handle);
+        if (!endpoint) continue;  // the writer has gone: nobody to answer
+        Addressee to{joints.scene_id, kJointStatesClientId, {}, own(sample.header)};
+        std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
+        dds_builtintopic_free_endpoint(endpoint);
+        const std::uint64_t sequence = ++joints.sequences[info.publication_handle];
+        Expected<JointPositions> positions = decode_joint_state(sample);
+        if (positions) {
+          // The joint positions by name are the update (the scene API applies them to the
+          // scene's robot, or refuses a scene without one); the JointState's writer is a stream
+          // like a PoseUpdate writer.
+          model::PoseUpdateInput input;
+          input.scene_id = joints.scene_id;
+          input.sequence = sequence;
+          input.joints.names = std::move(positions->names);
+          input.joints.positions = std::move(positions->positions);
+          if (std::optional<PendingError> error =
+                  accept(std::move(input), kJointStatesClientId, std::move(to.header),
+                         joints.reader, info.publication_handle))
+            errors.push_back(std::move(*error));
+          continue;
+        }
+        // Not decodable (fewer positions than names, a repeated name, …): answered at once.
+        const Error& error = positions.error();
+        std::lock_guard lock(mutex);
+        ++stats.updates_taken;
+        ++stats.updates_rejected;
+        metrics::record_dds_sample(/*in=*/true);
+        if (joints.warned.insert(info.publication_handle).second)
+          log_warn("dds_joint_state_rejected")
+              .kv("scene", joints.scene_id)
+              .kv("writer", dds::guid_hex(to.writer_guid.data()))
+              .kv("code", to_string(error.code))
+              .kv("field", error.field)
+              .kv("message", error.message);
+        errors.push_back(PendingError{std::move(to), sequence, error});
+      }
+      if (taken > 0) dds_return_loan(joints.reader, samples.data(), taken);
+      for (const PendingError& error : errors) write_error(error);
+      if (taken < kTakeBatch) return;
+    }
+  }
+
   /// Validates one update and queues it on its stream; returns the error report to write when
   /// it is rejected. Cheap: no geometry.
   std::optional<PendingError> accept(const UpdateSample& sample,
                                      dds_instance_handle_t publication) {
+    return accept(to_input(sample), own(sample.client_id), own(sample.header), reader, publication);
+  }
+
+  /// As above for an update already in the scene API's terms (from a PoseUpdate or, for a robot
+  /// scene, a JointState), taken by `source` (the reader that matched its writer).
+  std::optional<PendingError> accept(model::PoseUpdateInput input, std::string client_id,
+                                     Header header, dds_entity_t source,
+                                     dds_instance_handle_t publication) {
     const Clock::time_point received = Clock::now();
-    model::PoseUpdateInput input = to_input(sample);
-    std::string client_id = own(sample.client_id);
     std::lock_guard lock(mutex);
     ++stats.updates_taken;
     metrics::record_dds_sample(/*in=*/true);
@@ -347,9 +521,12 @@ struct DdsBridge::Impl {
     std::optional<Error> malformed = check_id(input.scene_id, "scene_id");
     if (!malformed) malformed = check_name(client_id, "client_id");
     if (malformed) {
-      dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, publication);
+      dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(source, publication);
       if (!endpoint) return std::nullopt;  // the writer has gone: nobody to answer
-      Addressee to{input.scene_id.substr(0, kQuotedBytes), client_id.substr(0, kMaxNameBytes), {}};
+      Addressee to{input.scene_id.substr(0, kQuotedBytes),
+                   client_id.substr(0, kMaxNameBytes),
+                   {},
+                   std::move(header)};
       std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
       dds_builtintopic_free_endpoint(endpoint);
       return reject(nullptr, std::move(to), input.sequence, *malformed);
@@ -359,14 +536,14 @@ struct DdsBridge::Impl {
     if (found == streams.end()) {
       // The writer's GUID addresses the reports; a writer no longer matched has gone (its
       // samples arrived just before its deletion was seen) and cannot be answered.
-      dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(reader, publication);
+      dds_builtintopic_endpoint_t* endpoint = dds_get_matched_publication_data(source, publication);
       if (!endpoint) {
         log_warn("dds_update_from_unmatched_writer")
             .kv("scene", input.scene_id)
             .kv("sequence", input.sequence);
         return std::nullopt;
       }
-      Addressee to{input.scene_id, client_id, {}};
+      Addressee to{input.scene_id, client_id, {}, header};
       std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
       Guid participant{};
       std::memcpy(participant.data(), endpoint->participant_key.v, participant.size());
@@ -393,7 +570,7 @@ struct DdsBridge::Impl {
       // The error report is queued behind the stream's earlier answers, so that a stream's
       // reports, errors included, come in the order its updates were taken. (A stream whose
       // scene is unknown stays open, unbound and without caches, until its writer goes.)
-      Addressee to{stream.to.scene_id, client_id, stream.to.writer_guid};
+      Addressee to{stream.to.scene_id, client_id, stream.to.writer_guid, std::move(header)};
       Waiting entry;
       entry.error = reject(&stream, std::move(to), input.sequence, prepared.error());
       stream.waiting.push_back(std::move(entry));
@@ -410,7 +587,8 @@ struct DdsBridge::Impl {
           .kv("writer", dds::guid_hex(stream.to.writer_guid.data()))
           .kv("reader_matched", stream.ready ? "yes" : "not_yet");
     }
-    Waiting next{std::move(prepared.value()), std::move(client_id), std::nullopt};
+    Waiting next{std::move(prepared.value()), std::move(client_id), std::move(header),
+                 std::nullopt};
     // DDS cannot hold the publisher back: beyond the limit the newest update absorbs the newest
     // one waiting (its poses already include the older one's) and takes its place at the back,
     // and its report says so.
@@ -461,6 +639,7 @@ struct DdsBridge::Impl {
     --stream.waiting_updates;
     stream.evaluating = true;
     stream.to.client_id = std::move(next.client_id);
+    stream.to.header = std::move(next.header);
     ++evaluating;
     stream.stream->evaluate(std::move(next.update),
                             [this, &stream](Report report) { on_report(stream, report); });
@@ -487,9 +666,9 @@ struct DdsBridge::Impl {
       out.piece_b = in.piece_b;
       out.warm_started = in.warm_started;
       out.has_near_points = in.has_near_points;
-      out.point_a = to_sample(in.point_a);
-      out.point_b = to_sample(in.point_b);
-      out.normal = to_sample(in.normal);
+      out.point_a = to_point(in.point_a);
+      out.point_b = to_point(in.point_b);
+      out.normal = to_vector(in.normal);
       out.has_penetration_bound = in.has_penetration_bound;
       out.penetration_bound = in.penetration_bound;
       out.has_gradient = in.has_gradient;
@@ -504,9 +683,9 @@ struct DdsBridge::Impl {
       out.penetration_depth = in.depth;
       out.penetration_depth_lower = in.depth_lower;
       out.penetration_depth_upper = in.depth_upper;
-      out.depth_point_a = to_sample(in.depth_point_a);
-      out.depth_point_b = to_sample(in.depth_point_b);
-      out.depth_direction = to_sample(in.depth_direction);
+      out.depth_point_a = to_point(in.depth_point_a);
+      out.depth_point_b = to_point(in.depth_point_b);
+      out.depth_direction = to_vector(in.depth_direction);
       out.depth_termination = model::to_dds(in.depth_termination);
       out.depth_iterations = in.depth_iterations;
     }
@@ -526,10 +705,13 @@ struct DdsBridge::Impl {
     sample.counts = {report.counts.pairs_evaluated, report.counts.pairs_pruned,
                      report.counts.pairs_unmoved};
     sample.report_mode = model::to_dds(report.mode);
-    std::vector<nearpoint_msg_dds__ThresholdEvent_> events(report.events.size());
+    std::vector<EventSample> events(report.events.size());
     for (std::size_t i = 0; i < report.events.size(); ++i) {
       const model::ThresholdEvent& in = report.events[i];
-      nearpoint_msg_dds__ThresholdEvent_& out = events[i];
+      EventSample& out = events[i];
+      out.header = sample.header;
+      out.scene_id = sample.scene_id;
+      out.client_id = sample.client_id;
       out.threshold = borrow(
           report.threshold_names ? (*report.threshold_names)[in.threshold].c_str() : nullptr);
       out.threshold_index = in.threshold;
@@ -543,9 +725,17 @@ struct DdsBridge::Impl {
     sample.events._length = sample.events._maximum = std::uint32_t(events.size());
     sample.events._release = false;
     const dds_return_t written = dds_write(writer, &sample);
+    // Each crossing also on its own topic, for subscribers that want the events alone.
+    std::uint64_t event_failures = 0;
+    for (const EventSample& event : events)
+      if (dds_write(event_writer, &event) < 0) ++event_failures;
 
     std::lock_guard lock(mutex);
     if (count_write(written, report.sequence, &stream)) ++stream.reports;
+    if (event_failures > 0) {
+      stats.write_failures += event_failures;
+      log_warn("dds_event_write_failed").kv("stream", stream.number).kv("events", event_failures);
+    }
     stream.evaluating = false;
     --evaluating;
     if (stream.closing && stream.waiting.empty()) {
@@ -630,6 +820,25 @@ Outcome check_dds_config(const DdsConfig& config) {
         text("is ", config.domain_id, "; Cyclone DDS's port mapping allows 0-", kMaxDomainId));
   if (std::string problem = dds::check_topic_prefix(config.topic_prefix); !problem.empty())
     return invalid_argument("dds.prefix", problem);
+  std::set<std::string> joint_topics;
+  for (const JointStateBinding& binding : config.joint_states) {
+    if (std::string problem = dds::check_ros_topic(binding.topic); !problem.empty())
+      return invalid_argument("dds.joint_states.topic", "'" + binding.topic + "' " + problem);
+    if (std::optional<Error> bad = check_id(binding.scene_id, "dds.joint_states.scene"))
+      return *bad;
+    if (!joint_topics.insert(binding.topic).second)
+      return invalid_argument("dds.joint_states.topic",
+                              text("'", binding.topic, "' is bound to two scenes; one each"));
+    for (const std::string& own_topic : {dds::pose_updates_topic(config.topic_prefix),
+                                         dds::distance_reports_topic(config.topic_prefix),
+                                         dds::threshold_events_topic(config.topic_prefix)})
+      if (binding.topic == own_topic)
+        return invalid_argument("dds.joint_states.topic",
+                                text("'", binding.topic, "' is one of nearpointd's own topics"));
+  }
+  if (config.history_depth < 1 || config.history_depth > kMaxHistoryDepth)
+    return invalid_argument("dds.history_depth", text("is ", config.history_depth, "; 1-",
+                                                      kMaxHistoryDepth, " samples"));
   return {};
 }
 
@@ -654,19 +863,26 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
     impl.participant = 0;
     return fail("dds_create_participant", code);
   }
-  const dds::QosPtr qos = dds::stream_qos();
+  const dds::QosPtr qos = dds::stream_qos(config.history_depth, config.best_effort);
   const dds_entity_t update_topic =
-      dds_create_topic(impl.participant, &nearpoint_msg_dds__PoseUpdate__desc,
+      dds_create_topic(impl.participant, &nearpoint_msgs_msg_dds__PoseUpdate__desc,
                        dds::pose_updates_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
   if (update_topic < 0) return fail("dds_create_topic(pose_updates)", update_topic);
   const dds_entity_t report_topic = dds_create_topic(
-      impl.participant, &nearpoint_msg_dds__DistanceReport__desc,
+      impl.participant, &nearpoint_msgs_msg_dds__DistanceReport__desc,
       dds::distance_reports_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
   if (report_topic < 0) return fail("dds_create_topic(distance_reports)", report_topic);
-  impl.reader = dds_create_reader(impl.participant, update_topic, qos.get(), nullptr);
+  const dds_entity_t event_topic = dds_create_topic(
+      impl.participant, &nearpoint_msgs_msg_dds__ThresholdEvent__desc,
+      dds::threshold_events_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  if (event_topic < 0) return fail("dds_create_topic(threshold_events)", event_topic);
+  const dds::QosPtr read_qos = dds::reader_qos(config.history_depth, config.best_effort);
+  impl.reader = dds_create_reader(impl.participant, update_topic, read_qos.get(), nullptr);
   if (impl.reader < 0) return fail("dds_create_reader", impl.reader);
   impl.writer = dds_create_writer(impl.participant, report_topic, qos.get(), nullptr);
   if (impl.writer < 0) return fail("dds_create_writer", impl.writer);
+  impl.event_writer = dds_create_writer(impl.participant, event_topic, qos.get(), nullptr);
+  if (impl.event_writer < 0) return fail("dds_create_writer(threshold_events)", impl.event_writer);
   if (const dds_return_t rc = dds_set_status_mask(
           impl.reader, DDS_DATA_AVAILABLE_STATUS | DDS_SUBSCRIPTION_MATCHED_STATUS);
       rc < 0)
@@ -684,13 +900,50 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
     return fail("dds_waitset_attach(writer)", rc);
   if (const dds_return_t rc = dds_waitset_attach(impl.waitset, impl.guard, impl.guard); rc < 0)
     return fail("dds_waitset_attach(guard)", rc);
+  for (const JointStateBinding& binding : config.joint_states) {
+    const dds_entity_t topic =
+        dds_create_topic(impl.participant, &sensor_msgs_msg_dds__JointState__desc,
+                         binding.topic.c_str(), qos.get(), nullptr);
+    if (topic < 0) return fail("dds_create_topic(joint_states)", topic);
+    Impl::JointReader& joints = impl.joint_readers.emplace_back();
+    joints.scene_id = binding.scene_id;
+    joints.reader = dds_create_reader(impl.participant, topic, read_qos.get(), nullptr);
+    if (joints.reader < 0) return fail("dds_create_reader(joint_states)", joints.reader);
+    if (const dds_return_t rc = dds_set_status_mask(
+            joints.reader, DDS_DATA_AVAILABLE_STATUS | DDS_SUBSCRIPTION_MATCHED_STATUS);
+        rc < 0)
+      return fail("dds_set_status_mask(joint_states)", rc);
+    if (const dds_return_t rc = dds_waitset_attach(impl.waitset, joints.reader, joints.reader);
+        rc < 0)
+      return fail("dds_waitset_attach(joint_states)", rc);
+    log_info("dds_joint_states")
+        .kv("scene", binding.scene_id)
+        .kv("topic", binding.topic)
+        .kv("type", "sensor_msgs::msg::dds_::JointState_");
+  }
+
+  impl.publications =
+      dds_create_reader(impl.participant, DDS_BUILTIN_TOPIC_DCPSPUBLICATION, nullptr, nullptr);
+  impl.subscriptions =
+      dds_create_reader(impl.participant, DDS_BUILTIN_TOPIC_DCPSSUBSCRIPTION, nullptr, nullptr);
+  if (impl.publications < 0) return fail("dds_create_reader(DCPSPublication)", impl.publications);
+  if (impl.subscriptions < 0)
+    return fail("dds_create_reader(DCPSSubscription)", impl.subscriptions);
+  for (const dds_entity_t discovery : {impl.publications, impl.subscriptions}) {
+    if (const dds_return_t rc = dds_set_status_mask(discovery, DDS_DATA_AVAILABLE_STATUS); rc < 0)
+      return fail("dds_set_status_mask(discovery)", rc);
+    if (const dds_return_t rc = dds_waitset_attach(impl.waitset, discovery, discovery); rc < 0)
+      return fail("dds_waitset_attach(discovery)", rc);
+  }
 
   impl.thread = std::thread([&impl] { impl.run(); });
   log_info("dds_ready")
       .kv("domain", config.domain_id)
       .kv("updates_topic", dds::pose_updates_topic(config.topic_prefix))
       .kv("reports_topic", dds::distance_reports_topic(config.topic_prefix))
-      .kv("history_depth", dds::kHistoryDepth)
+      .kv("events_topic", dds::threshold_events_topic(config.topic_prefix))
+      .kv("history_depth", config.history_depth)
+      .kv("reliability", config.best_effort ? "best_effort" : "reliable")
       .kv("max_in_flight", impl.max_waiting)
       .kv("config", std::getenv("CYCLONEDDS_URI") ? std::getenv("CYCLONEDDS_URI") : "(default)");
   return self;

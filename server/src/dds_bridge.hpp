@@ -1,8 +1,9 @@
 // SPDX-License-Identifier: Apache-2.0
 // The DDS bridge: nearpointd's second transport, a thin adapter over the scene API exactly as the
-// gRPC service is. It reads nearpoint::msg::dds_::PoseUpdate_ samples on <prefix>pose_updates and
-// answers each with a nearpoint::msg::dds_::DistanceReport_ on <prefix>distance_reports (topic
-// names, QoS and history depth: proto/dds/nearpoint_dds.hpp).
+// gRPC service is. It reads nearpoint_msgs::msg::dds_::PoseUpdate_ samples on
+// <prefix>pose_updates and answers each with a nearpoint_msgs::msg::dds_::DistanceReport_ on
+// <prefix>distance_reports, and writes each threshold crossing on <prefix>threshold_events too
+// (ROS 2 topics /nearpoint/...; names, types and QoS: proto/dds/nearpoint_dds.hpp).
 //
 // Streams. A stream is one DDS writer (its publication handle) publishing for one scene id:
 // each such pair owns a PoseStream, so warm-start caches, sequence numbers and "objects not
@@ -32,17 +33,40 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "nearpoint/server/errors.hpp"
 #include "nearpoint/server/scene_service.hpp"
 
 namespace nearpoint::server {
 
+/// A scene that takes sensor_msgs/JointState samples from a topic (--dds-joint-states; see
+/// dds_joint_states.hpp).
+struct JointStateBinding {
+  std::string scene_id;
+  /// The DDS topic (rt/ + the ROS 2 name).
+  std::string topic = "rt/joint_states";
+};
+
+/// "SCENE" or "SCENE=TOPIC" (TOPIC as a ROS 2 name, /joint_states, or as the DDS topic,
+/// rt/joint_states); INVALID_ARGUMENT naming `field` when the scene id or topic is not legal.
+Expected<JointStateBinding> parse_joint_state_binding(const std::string& spec,
+                                                      const std::string& field);
+
 struct DdsConfig {
   /// DDS domain id (0–230 with Cyclone's default port mapping).
   std::uint32_t domain_id = 0;
-  /// Topic names are prefix + "pose_updates" and prefix + "distance_reports".
+  /// Topic names are prefix + "pose_updates", "distance_reports" and "threshold_events".
   std::string topic_prefix = "rt/nearpoint/";
+  /// Keep-last depth of every reader and writer (ROS 2's default profile: 10). The topics are
+  /// keyless, so it is shared by every client of a topic; the bridge thread takes updates as they
+  /// arrive (no geometry on it), so it matters only if that thread is starved.
+  std::int32_t history_depth = 10;
+  /// Best-effort instead of reliable (ROS 2's sensor data profile): lost updates are not
+  /// resent. A reliable ROS 2 reader does not match a best-effort writer.
+  bool best_effort = false;
+  /// Scenes fed by sensor_msgs/JointState topics, one topic each.
+  std::vector<JointStateBinding> joint_states;
   /// Start even when CYCLONEDDS_URI is unset (Cyclone's defaults: the external interface and
   /// multicast). Off by default: see deploy/cyclonedds-loopback.xml.
   bool allow_default_config = false;

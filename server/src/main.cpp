@@ -110,6 +110,7 @@ struct Flags {
 #if NEARPOINT_HAVE_DDS
   bool dds = false;
   nearpoint::server::DdsConfig dds_config;
+  std::vector<std::string> dds_joint_states;
 #endif
 };
 
@@ -163,8 +164,18 @@ void add_transport_flags(CLI::App& app, Flags& flags) {
       ->capture_default_str()
       ->check(CLI::Range(0, 230));
   app.add_option("--dds-prefix", flags.dds_config.topic_prefix,
-                 "Topic prefix: <prefix>pose_updates and <prefix>distance_reports")
+                 "Topic prefix: <prefix>pose_updates, <prefix>distance_reports and "
+                 "<prefix>threshold_events (rt/ + a ROS 2 namespace)")
       ->capture_default_str();
+  app.add_option("--dds-history-depth", flags.dds_config.history_depth,
+                 "Keep-last depth of the DDS readers and writers (ROS 2's default: 10)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--dds-joint-states", flags.dds_joint_states,
+                 "SCENE[=TOPIC]: take sensor_msgs/JointState for the scene from TOPIC (default "
+                 "/joint_states) and answer on the reports topic (repeatable; robot scenes)");
+  app.add_flag("--dds-best-effort", flags.dds_config.best_effort,
+               "Best-effort DDS topics (ROS 2's sensor data profile) instead of reliable");
   app.add_flag("--dds-allow-default-config", flags.dds_config.allow_default_config,
                "Start DDS without CYCLONEDDS_URI (Cyclone's defaults use the external network "
                "interface and multicast)");
@@ -294,6 +305,18 @@ int apply_flags(Flags& flags) {
   // DDS's configuration now, before anything binds: `--dds` without CYCLONEDDS_URI must not
   // first write the port file and log `listening`.
   if (flags.dds) {
+    for (const std::string& spec : flags.dds_joint_states) {
+      nearpoint::server::Expected<nearpoint::server::JointStateBinding> binding =
+          nearpoint::server::parse_joint_state_binding(spec, "--dds-joint-states");
+      if (!binding) {
+        nearpoint::server::log_error("start_failed")
+            .kv("transport", "dds")
+            .kv("field", binding.error().field)
+            .kv("message", binding.error().message);
+        return kExitUsage;
+      }
+      flags.dds_config.joint_states.push_back(std::move(binding.value()));
+    }
     if (nearpoint::server::Outcome checked = nearpoint::server::check_dds_config(flags.dds_config);
         !checked) {
       nearpoint::server::log_error("start_failed")

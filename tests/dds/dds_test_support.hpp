@@ -48,7 +48,7 @@ struct UpdateMessage {
   std::string client_id = "test";
   std::uint64_t sequence = 0;
   std::vector<Pose> poses;
-  nearpoint_msg_dds__QueryOptions_ options{};
+  nearpoint_msgs_msg_dds__QueryOptions_ options{};
   std::uint8_t flow_control = 0;
   struct Threshold {
     std::string name, object_a, object_b;
@@ -63,9 +63,9 @@ struct UpdateMessage {
     for (std::size_t i = 0; i < poses.size(); ++i) {
       buffer_[i].object_id = poses[i].object_id.data();
       const auto& q = poses[i].rotation_wxyz;
-      buffer_[i].pose.rotation = {q[0], q[1], q[2], q[3]};
+      buffer_[i].pose.orientation = {q[1], q[2], q[3], q[0]};  // geometry_msgs: x, y, z, w
       const auto& t = poses[i].translation;
-      buffer_[i].pose.translation = {t[0], t[1], t[2]};
+      buffer_[i].pose.position = {t[0], t[1], t[2]};
     }
     sample_ = {};
     sample_.scene_id = scene_id.data();
@@ -89,8 +89,8 @@ struct UpdateMessage {
   }
 
  private:
-  std::vector<nearpoint_msg_dds__ObjectPose_> buffer_;
-  std::vector<nearpoint_msg_dds__Threshold_> threshold_buffer_;
+  std::vector<nearpoint_msgs_msg_dds__ObjectPose_> buffer_;
+  std::vector<nearpoint_msgs_msg_dds__Threshold_> threshold_buffer_;
   cli::PoseUpdateSample sample_{};
 };
 
@@ -164,7 +164,7 @@ inline ReceivedReport copy_report(const cli::DistanceReportSample& sample) {
     pair.depth = p.penetration_depth;
     pair.depth_lower = p.penetration_depth_lower;
     pair.depth_upper = p.penetration_depth_upper;
-    auto array = [](const nearpoint_msg_dds__Vector3_& v) { return std::array{v.x, v.y, v.z}; };
+    auto array = [](const auto& v) { return std::array{v.x, v.y, v.z}; };
     pair.depth_point_a = array(p.depth_point_a);
     pair.depth_point_b = array(p.depth_point_b);
     pair.depth_direction = array(p.depth_direction);

@@ -20,6 +20,12 @@ for f in include/nearpoint/distance.hpp include/nearpoint/version.hpp \
   [[ -e "$prefix/$f" ]] || { echo "FAIL: $f not installed"; exit 1; }
 done
 # The headers are public ones only: nothing from src/ directories.
+if grep -q "^NEARPOINT_WITH_DDS:BOOL=ON" "$build/CMakeCache.txt"; then
+  for f in package.xml CMakeLists.txt msg/PoseUpdate.msg msg/DistanceReport.msg; do
+    [[ -e "$prefix/share/nearpoint/ros/nearpoint_msgs/$f" ]] ||
+      { echo "FAIL: share/nearpoint/ros/nearpoint_msgs/$f not installed"; exit 1; }
+  done
+fi
 if find "$prefix/include" -name '*_internal.hpp' | grep -q .; then
   echo "FAIL: internal headers installed"; exit 1
 fi

@@ -9,7 +9,7 @@
 //   spelling — how the CLI's flags, the scene files and the JSON outputs spell it
 //              ("within-cutoff"); empty for a row no one spells (REPORT_MODE_UNSPECIFIED);
 //   wire     — the nearpoint.v1 enum's number (proto/nearpoint/v1/*.proto);
-//   dds      — the number the DDS IDL (proto/dds/*.idl) carries for it.
+//   dds      — the number the DDS messages (ros/nearpoint_msgs/msg/*.msg) carry for it.
 // The proto adapters check at compile time that `wire` equals the generated enums.
 //
 // Unknown values, one rule everywhere: a number or a spelling that no row holds reads as the
