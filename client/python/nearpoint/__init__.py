@@ -33,28 +33,37 @@ from typing import Any, Optional
 
 import numpy as _np
 
-from ._engine import (
-    Cache,
-    Compound,
-    DepthTermination,
-    FinishedBy,
-    Pose,
-    Result,
-    Shape,
-    Status,
-    Termination,
-    box,
-    capsule,
-    cone,
-    cylinder,
-    distance,
-    ellipsoid,
-    point,
-    polytope,
-    segment,
-    sphere,
-)
-from ._engine import distance_batch as _distance_batch
+# The engine is a C++ extension; the client is plain Python. A client-only user must still be
+# able to import the package when the extension cannot load (a sanitizer build's extension needs
+# its runtime preloaded into the interpreter): then the engine's names raise ImportError with
+# the loader's reason on first use, instead of the whole package failing to import.
+_engine_error: Optional[ImportError] = None
+try:
+    from ._engine import (
+        Cache,
+        Compound,
+        DepthTermination,
+        FinishedBy,
+        Pose,
+        Result,
+        Shape,
+        Status,
+        Termination,
+        box,
+        capsule,
+        cone,
+        cylinder,
+        distance,
+        ellipsoid,
+        point,
+        polytope,
+        segment,
+        sphere,
+    )
+    from ._engine import distance_batch as _distance_batch
+except ImportError as error:  # pragma: no cover (exercised by the TSan stage's client tests)
+    _engine_error = error
+
 from ._version import __version__
 
 try:  # the hulls need the build's CGAL (nearpoint::hull); present in every packaged build
@@ -105,6 +114,7 @@ def distance_batch(a, poses_a, b, poses_b, *, threads: int = 1, cache: Optional[
     or "status" (invalid rows keep Status.invalid_input in `status`). Other keywords are the
     options of `distance`. Returns a `BatchResult`.
     """
+    _require_engine("distance_batch")
     return BatchResult(_distance_batch(a, poses_a, b, poses_b, threads=threads, cache=cache,
                                        errors=errors, **options))
 
@@ -112,6 +122,7 @@ def distance_batch(a, poses_a, b, poses_b, *, threads: int = 1, cache: Optional[
 def mesh_hull(vertices, triangles, rounding: float = 0.0) -> Shape:
     """The convex hull of a triangle mesh: of the `vertices` (N, 3) its `triangles` (M, 3,
     integer indices) use. Unused vertices are left out; indices are checked."""
+    _require_engine("mesh_hull")
     tri = _np.asarray(triangles)
     if tri.ndim != 2 or tri.shape[1] != 3 or tri.shape[0] == 0:
         raise ValueError(f"triangles: expected an (M, 3) array of indices, got shape {tri.shape}")
@@ -126,10 +137,17 @@ def mesh_hull(vertices, triangles, rounding: float = 0.0) -> Shape:
     return hull(_np.ascontiguousarray(used), rounding)  # noqa: F821 (present with the hulls)
 
 
+def _require_engine(name: str) -> None:
+    if _engine_error is not None:
+        raise ImportError(f"nearpoint.{name}: the engine extension did not load: {_engine_error}")
+
+
 def __getattr__(name: str):
     # nearpoint.client on first use, so that the engine alone needs neither grpcio nor protobuf.
     if name == "client":
         return importlib.import_module(".client", __name__)
+    if name in __all__:
+        _require_engine(name)
     raise AttributeError(f"module 'nearpoint' has no attribute '{name}'")
 
 
