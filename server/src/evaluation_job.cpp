@@ -146,8 +146,9 @@ std::size_t SceneService::plan(Job& job) {
 
 void SceneService::run(std::shared_ptr<Job> job) {
   // Planning (which objects moved, the broad phase) touches every pair of a moved object, and the
-  // last task copies results into the report, so both run on the pool, never on a transport
-  // thread; planning then splits the pairs that reach the engine into tasks, this one included.
+  // last task copies results into the report, so for a scene worth splitting both run on the
+  // pool; planning then splits the pairs that reach the engine into tasks, this one included.
+  // (Smaller evaluations of streams run where they were read: run_here.)
   pool_.post([this, job] {
     const std::size_t tasks = plan(*job);
     for (std::size_t t = 1; t < tasks; ++t) pool_.post([job] { run_task(*job); });
