@@ -28,7 +28,7 @@
 #include <vector>
 
 #ifdef NEARPOINT_BENCH_MESHES
-#include "nearpoint/client/mesh_import.hpp"
+#include "nearpoint/client/mesh_loader.hpp"
 #endif
 #include "nearpoint/model/percentile.hpp"
 #include "nearpoint/robots/robot.hpp"
@@ -106,21 +106,7 @@ bool run_model(const std::string& path, int updates, double cutoff, std::size_t 
   formats::SceneFile file;
   robots::ImportOptions options;
 #ifdef NEARPOINT_BENCH_MESHES
-  options.meshes = [](const formats::MeshRequest& request, std::vector<model::PieceInput>& pieces) {
-    client::MeshImportOptions mesh;
-    mesh.merge_parts = request.merge;
-    mesh.scale = request.scale;
-    for (const std::filesystem::path& file : request.files) {
-      const client::MeshImport imported = client::import_mesh(file, mesh);
-      if (!imported.ok()) return imported.error;
-      for (const client::ConvexPiece& piece : imported.pieces) {
-        model::PieceInput input;
-        input.shape = model::PolytopeInput{piece.vertices};
-        pieces.push_back(std::move(input));
-      }
-    }
-    return std::string();
-  };
+  options.meshes = client::mesh_loader();
 #endif
   if (std::string error = robots::load_robot_scene(path, options, {}, file); !error.empty()) {
     std::fprintf(stderr, "%s\n", error.c_str());

@@ -10,6 +10,7 @@
 
 #ifdef NEARPOINT_WITH_MESH_IMPORT
 #include "nearpoint/client/mesh_import.hpp"
+#include "nearpoint/client/mesh_loader.hpp"
 #endif
 
 namespace nearpoint::cli {
@@ -55,25 +56,13 @@ bool have_mesh_import() {
 }
 
 formats::MeshLoader mesh_loader() {
-  return [](const formats::MeshRequest& request,
-            std::vector<model::PieceInput>& pieces) -> std::string {
 #ifdef NEARPOINT_WITH_MESH_IMPORT
-    client::MeshImportOptions options;
-    options.merge_parts = request.merge;
-    options.scale = request.scale;
-    for (const std::filesystem::path& file : request.files) {
-      const client::MeshImport imported = client::import_mesh(file, options);
-      if (!imported.ok()) return imported.error;
-      for (const client::ConvexPiece& piece : imported.pieces)
-        pieces.push_back(client::polytope_piece(piece.vertices));
-    }
-    return {};
+  return client::mesh_loader();
 #else
-    (void)request;
-    (void)pieces;
+  return [](const formats::MeshRequest&, std::vector<model::PieceInput>&) -> std::string {
     return "this nearpoint was built without mesh import (assimp); give the pieces as SHAPEs";
-#endif
   };
+#endif
 }
 
 Json to_json(const client::GeometryInfo& info) {

@@ -28,7 +28,7 @@
 
 #include "common/child_process.hpp"
 #include "nearpoint/client/client.hpp"
-#include "nearpoint/client/mesh_import.hpp"
+#include "nearpoint/client/mesh_loader.hpp"
 #include "nearpoint/compound.hpp"
 #include "nearpoint/robots/robot.hpp"
 
@@ -43,23 +43,7 @@ using Clock = std::chrono::steady_clock;
 const fs::path kExamples = NEARPOINT_EXAMPLES_DIR;
 const fs::path kMujocoModels = NEARPOINT_MUJOCO_MODELS_DIR;
 
-formats::MeshLoader mesh_loader() {
-  return [](const formats::MeshRequest& request, std::vector<model::PieceInput>& pieces) {
-    client::MeshImportOptions options;
-    options.merge_parts = request.merge;
-    options.scale = request.scale;
-    for (const fs::path& file : request.files) {
-      const client::MeshImport imported = client::import_mesh(file, options);
-      if (!imported.ok()) return imported.error;
-      for (const client::ConvexPiece& piece : imported.pieces) {
-        model::PieceInput input;
-        input.shape = model::PolytopeInput{piece.vertices};
-        pieces.push_back(std::move(input));
-      }
-    }
-    return std::string();
-  };
-}
+using client::mesh_loader;
 
 std::string temp_path(const std::string& name) {
   return (fs::temp_directory_path() /
