@@ -478,7 +478,9 @@ struct DdsBridge::Impl {
             errors.push_back(std::move(*error));
           continue;
         }
-        // Not decodable (fewer positions than names, a repeated name, …): answered at once.
+        // Not decodable (fewer positions than names, a repeated name, …): answered without an
+        // evaluation, but in its turn: behind the writer's earlier samples when its stream is
+        // open (their reports come first, as on gRPC), at once otherwise.
         const Error& error = positions.error();
         std::lock_guard lock(mutex);
         ++stats.updates_taken;
@@ -491,6 +493,17 @@ struct DdsBridge::Impl {
               .kv("code", to_string(error.code))
               .kv("field", error.field)
               .kv("message", error.message);
+        const auto open = streams.find(StreamKey{info.publication_handle, joints.scene_id});
+        if (open != streams.end()) {
+          StreamState& stream = *open->second;
+          ++stream.updates;
+          ++stream.rejected;
+          Waiting entry;
+          entry.error = PendingError{std::move(to), sequence, error};
+          stream.waiting.push_back(std::move(entry));
+          pump(stream);
+          continue;
+        }
         errors.push_back(PendingError{std::move(to), sequence, error});
       }
       if (taken > 0) dds_return_loan(joints.reader, samples.data(), taken);

@@ -253,6 +253,47 @@ TEST(RosPeer, JointStatesDriveARobotScene) {
   EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
 }
 
+// A JointState that cannot be decoded is answered in its turn: published right behind a
+// well-formed one (whose evaluation is still running when it arrives) and before another, its
+// error report comes between their reports, as on gRPC, never ahead of an earlier sample's.
+TEST(RosPeer, UndecodableJointStateIsAnsweredInItsTurn) {
+  const std::string port_file = ::testing::TempDir() + "ros_peer_order.port";
+  std::remove(port_file.c_str());
+  ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--port-file", port_file,
+                       "--workers", "2", "--dds", "--dds-domain", std::to_string(kDomain + 5),
+                       "--dds-joint-states", "arm7"});
+  ASSERT_TRUE(server.started());
+  ASSERT_NE(server.wait_for_stderr("event=listening", std::chrono::seconds(30)), "")
+      << server.stderr_text();
+  int port = 0;
+  std::ifstream(port_file) >> port;
+  ASSERT_GT(port, 0);
+  ChildProcess create({NEARPOINT_CLI_PATH, "scene", "create",
+                       NEARPOINT_SOURCE_DIR "/examples/robots/arm7.urdf", "--target",
+                       "127.0.0.1:" + std::to_string(port)});
+  ASSERT_EQ(create.wait_exit(std::chrono::seconds(60)), 0) << create.stderr_text();
+  for (int round = 0; round < 5; ++round) {
+    SCOPED_TRACE("round " + std::to_string(round));
+    ChildProcess peer({ROS_PEER_PATH, std::to_string(kDomain + 5), "arm7", "--joint-pipeline",
+                       "joint1=0.1,joint2=0.2", "BAD", "joint1=0.3,joint2=0.4"});
+    ASSERT_TRUE(peer.started());
+    ASSERT_EQ(peer.wait_exit(std::chrono::seconds(60)), 0) << peer.stderr_text();
+    const std::vector<std::string> lines = peer.stdout_lines();
+    ASSERT_EQ(lines.size(), 3u);
+    for (std::size_t k = 0; k < 3; ++k) {
+      SCOPED_TRACE(lines[k]);
+      const Json report = Json::parse(lines[k]);
+      EXPECT_EQ(report.at("sequence"), k + 1);
+      EXPECT_EQ(report.at("status"), k == 1 ? 3 : 0);
+      if (k == 1) {
+        EXPECT_EQ(report.at("error_field"), "joint_states.position");
+      }
+    }
+  }
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
+}
+
 // A participant built from other message definitions, publishing on our topic: DDS matches ROS 2
 // types by name, so it gets nothing, and nearpointd logs why (once), naming both types.
 TEST(RosPeer, MismatchedTypeGetsNothingAndIsLogged) {

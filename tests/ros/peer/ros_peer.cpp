@@ -23,6 +23,11 @@
 // publishes one JointState per step on rt/joint_states, waits for each report and prints it as
 // the pose mode does ({"sequence", "status", "stamp_sec", "message", "pairs"}).
 //
+//   ros_peer DOMAIN SCENE --joint-pipeline STEP...
+// as --joint-steps, but publishes every step at once (a step "BAD" is a JointState with two
+// names and one position) and prints the reports addressed to it in the order they arrive:
+//   {"sequence": N, "status": S, "error_field": "..."}
+//
 //   ros_peer DOMAIN SCENE --wrong-type
 // publishes a sensor_msgs/JointState on rt/nearpoint/pose_updates (a peer built from other
 // message definitions), waits 3 s and prints {"reports": N}: the reports addressed to it.
@@ -76,11 +81,17 @@ int main(int argc, char** argv) {
   std::string scene = argv[2];
   const bool joint_states = std::string(argv[3]) == "--joint-states";
   const bool wrong_type = std::string(argv[3]) == "--wrong-type";
-  const bool joint_steps = std::string(argv[3]) == "--joint-steps";
+  const bool joint_pipeline = std::string(argv[3]) == "--joint-pipeline";
+  const bool joint_steps = std::string(argv[3]) == "--joint-steps" || joint_pipeline;
   std::vector<std::pair<std::vector<std::string>, std::vector<double>>> steps;
   for (int i = 4; joint_steps && i < argc; ++i) {
     auto& [names, values] = steps.emplace_back();
     std::string step = argv[i];
+    if (step == "BAD") {  // two names, one position
+      names = {"shoulder", "elbow"};
+      values = {0.5};
+      continue;
+    }
     for (std::size_t at = 0; at < step.size();) {
       std::size_t end = step.find(',', at);
       if (end == std::string::npos) end = step.size();
@@ -197,6 +208,41 @@ int main(int argc, char** argv) {
     }
     dds_delete(participant);
     return answered == 3 ? 0 : fail("reports missing for the joint states");
+  }
+
+  if (joint_pipeline) {
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      std::vector<char*> names;
+      for (std::string& name : steps[k].first) names.push_back(name.data());
+      sensor_msgs_msg_dds__JointState_ state{};
+      state.header.stamp = {int32_t(1000 + k), 0};
+      state.header.frame_id = const_cast<char*>("");
+      state.name = {uint32_t(names.size()), uint32_t(names.size()), names.data(), false};
+      const auto values = uint32_t(steps[k].second.size());
+      state.position = {values, values, steps[k].second.data(), false};
+      if (const dds_return_t rc = dds_write(writer, &state); rc < 0)
+        return fail(std::string("dds_write: ") + dds_strretcode(rc));
+    }
+    std::size_t answered = 0;
+    const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (answered < steps.size() && std::chrono::steady_clock::now() < wait_until) {
+      void* samples[1] = {nullptr};
+      dds_sample_info_t info;
+      if (dds_take(reader, samples, &info, 1, 1) != 1) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        continue;
+      }
+      const auto& r = *static_cast<const nearpoint_msgs_msg_dds__DistanceReport_*>(samples[0]);
+      if (info.valid_data && std::memcmp(r.writer_guid, own.v, 16) == 0) {
+        ++answered;
+        std::printf("{\"sequence\": %llu, \"status\": %u, \"error_field\": %s}\n",
+                    static_cast<unsigned long long>(r.sequence_number), r.status,
+                    json_string(r.error_field).c_str());
+      }
+      dds_return_loan(reader, samples, 1);
+    }
+    dds_delete(participant);
+    return answered == steps.size() ? 0 : fail("reports missing for the pipelined steps");
   }
 
   const std::size_t count = joint_steps ? steps.size() : poses.size();
