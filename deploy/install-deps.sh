@@ -29,8 +29,11 @@ build_packages=(
   prometheus-cpp-dev
   # DDS bridge and client: Cyclone DDS's C library and idlc (C API; no C++ binding is packaged);
   # the DDS types are generated from the ROS 2 .msg files under ros/ by rosidl translate and
-  # rosidl_parser (ros/generate_dds_idl.py)
-  cyclonedds-dev cyclonedds-tools rosidl-tools python3-rosidl
+  # rosidl_parser (ros/generate_dds_idl.py); rosidl's command line imports yaml, and its .msg
+  # adapter catkin_pkg and empy, none of which Debian's rosidl packages depend on (found by the
+  # image build, which starts from a bare Debian)
+  cyclonedds-dev cyclonedds-tools rosidl-tools python3-rosidl python3-yaml python3-empy
+  python3-catkin-pkg
   # server: SHA-256 of content ids (libcrypto; gRPC's TLS links it too)
   libssl-dev
   # the man pages of nearpoint and nearpointd, made from their --help at build time (optional:
