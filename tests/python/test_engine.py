@@ -37,9 +37,14 @@ ALL_ON = {"near_points": True, "gradient": True, "penetration_bound": True,
           "penetration_depth": True}
 
 
+# engine_reference without the sanitizer runtime that sanitizer builds preload into python3 (see
+# tests/CMakeLists.txt): the program links its own, and two runtimes in one process refuse to start.
+REFERENCE_ENV = {k: v for k, v in os.environ.items() if k != "LD_PRELOAD"}
+
+
 def reference(path):
     out = subprocess.run([ARGS.reference, "results", path], check=True, capture_output=True,
-                         text=True).stdout
+                         text=True, env=REFERENCE_ENV).stdout
     return [[cases.canon(tok) for tok in line.split()] for line in out.splitlines()]
 
 
@@ -163,6 +168,7 @@ class Oracle(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         out = subprocess.run([ARGS.reference, "paper", str(ARGS.paper_draws)], check=True,
+                             env=REFERENCE_ENV,
                              capture_output=True, text=True).stdout
         cls.polytopes, cls.examples = {}, []
         for line in out.splitlines():
