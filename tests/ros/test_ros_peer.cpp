@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <set>
 #include <string>
 #include <thread>
@@ -24,8 +25,34 @@ namespace {
 using nearpoint::testkit::ChildProcess;
 using Json = nlohmann::json;
 
-// 131-140: tests/ros (101-130: tests/dds); this file uses 132-135.
+// 131-140: tests/ros (101-130: tests/dds); this file uses 132-137.
 constexpr int kDomain = 132;
+
+/// nearpointd with robot scene "arm7" (examples/robots/arm7.urdf, created over gRPC by `nearpoint
+/// scene create`) bound to rt/joint_states on DDS domain `domain`; the gRPC port in `port`.
+/// Null (with the test failed) when it does not start.
+std::unique_ptr<ChildProcess> start_arm7_server(int domain, const std::string& name, int& port) {
+  const std::string port_file = ::testing::TempDir() + name + ".port";
+  std::remove(port_file.c_str());
+  auto server = std::make_unique<ChildProcess>(std::vector<std::string>{
+      NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--port-file", port_file, "--workers", "2",
+      "--dds", "--dds-domain", std::to_string(domain), "--dds-joint-states", "arm7"});
+  if (!server->started() ||
+      server->wait_for_stderr("event=listening", std::chrono::seconds(30)).empty()) {
+    ADD_FAILURE() << "nearpointd did not start: " << server->stderr_text();
+    return nullptr;
+  }
+  port = 0;
+  std::ifstream(port_file) >> port;
+  ChildProcess create({NEARPOINT_CLI_PATH, "scene", "create",
+                       NEARPOINT_SOURCE_DIR "/examples/robots/arm7.urdf", "--target",
+                       "127.0.0.1:" + std::to_string(port)});
+  if (port <= 0 || create.wait_exit(std::chrono::seconds(60)) != 0) {
+    ADD_FAILURE() << "scene arm7 not created (port " << port << "): " << create.stderr_text();
+    return nullptr;
+  }
+  return server;
+}
 
 /// Distance from the vertical axis through (ax, ay) to the unit cube at (cx, cy) turned by theta
 /// about z, minus the round shape's radius (examples/dds_scene.json: both round shapes span the
@@ -179,21 +206,11 @@ TEST(RosPeer, JointStatesAreDecodedAndAnswered) {
 // distances equal those of the same steps streamed over gRPC by `nearpoint stream --joints` (the
 // robot path of issue 32).
 TEST(RosPeer, JointStatesDriveARobotScene) {
-  const std::string port_file = ::testing::TempDir() + "ros_peer_robot.port";
-  std::remove(port_file.c_str());
-  ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--port-file", port_file,
-                       "--workers", "2", "--dds", "--dds-domain", std::to_string(kDomain + 3),
-                       "--dds-joint-states", "arm7"});
-  ASSERT_TRUE(server.started());
-  ASSERT_NE(server.wait_for_stderr("event=listening", std::chrono::seconds(30)), "")
-      << server.stderr_text();
   int port = 0;
-  std::ifstream(port_file) >> port;
-  ASSERT_GT(port, 0);
-  ChildProcess create({NEARPOINT_CLI_PATH, "scene", "create",
-                       NEARPOINT_SOURCE_DIR "/examples/robots/arm7.urdf", "--target",
-                       "127.0.0.1:" + std::to_string(port)});
-  ASSERT_EQ(create.wait_exit(std::chrono::seconds(60)), 0) << create.stderr_text();
+  const std::unique_ptr<ChildProcess> server_process =
+      start_arm7_server(kDomain + 3, "ros_peer_robot", port);
+  ASSERT_TRUE(server_process);
+  ChildProcess& server = *server_process;
 
   // The wave's first 6 steps, as a trajectory file and as the peer's JointState steps.
   const std::string trajectory = ::testing::TempDir() + "ros_peer_wave.jsonl";
@@ -257,21 +274,11 @@ TEST(RosPeer, JointStatesDriveARobotScene) {
 // well-formed one (whose evaluation is still running when it arrives) and before another, its
 // error report comes between their reports, as on gRPC, never ahead of an earlier sample's.
 TEST(RosPeer, UndecodableJointStateIsAnsweredInItsTurn) {
-  const std::string port_file = ::testing::TempDir() + "ros_peer_order.port";
-  std::remove(port_file.c_str());
-  ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--port-file", port_file,
-                       "--workers", "2", "--dds", "--dds-domain", std::to_string(kDomain + 5),
-                       "--dds-joint-states", "arm7"});
-  ASSERT_TRUE(server.started());
-  ASSERT_NE(server.wait_for_stderr("event=listening", std::chrono::seconds(30)), "")
-      << server.stderr_text();
   int port = 0;
-  std::ifstream(port_file) >> port;
-  ASSERT_GT(port, 0);
-  ChildProcess create({NEARPOINT_CLI_PATH, "scene", "create",
-                       NEARPOINT_SOURCE_DIR "/examples/robots/arm7.urdf", "--target",
-                       "127.0.0.1:" + std::to_string(port)});
-  ASSERT_EQ(create.wait_exit(std::chrono::seconds(60)), 0) << create.stderr_text();
+  const std::unique_ptr<ChildProcess> server_process =
+      start_arm7_server(kDomain + 5, "ros_peer_order", port);
+  ASSERT_TRUE(server_process);
+  ChildProcess& server = *server_process;
   for (int round = 0; round < 5; ++round) {
     SCOPED_TRACE("round " + std::to_string(round));
     ChildProcess peer({ROS_PEER_PATH, std::to_string(kDomain + 5), "arm7", "--joint-pipeline",

@@ -73,6 +73,30 @@ std::string json_string(const char* s) {
   return out + "\"";
 }
 
+/// Takes DistanceReports addressed to the writer `own` until `count` have come or 20 s have
+/// passed, calling `print` on each in arrival order; returns how many came.
+template <class Print>
+std::size_t take_reports(dds_entity_t reader, const dds_guid_t& own, std::size_t count,
+                         Print print) {
+  std::size_t answered = 0;
+  const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (answered < count && std::chrono::steady_clock::now() < wait_until) {
+    void* samples[1] = {nullptr};
+    dds_sample_info_t info;
+    if (dds_take(reader, samples, &info, 1, 1) != 1) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      continue;
+    }
+    const auto& r = *static_cast<const nearpoint_msgs_msg_dds__DistanceReport_*>(samples[0]);
+    if (info.valid_data && std::memcmp(r.writer_guid, own.v, 16) == 0) {
+      ++answered;
+      print(r);
+    }
+    dds_return_loan(reader, samples, 1);
+  }
+  return answered;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -185,27 +209,14 @@ int main(int argc, char** argv) {
       if (const dds_return_t rc = dds_write(writer, &state); rc < 0)
         return fail(std::string("dds_write: ") + dds_strretcode(rc));
     }
-    std::uint32_t answered = 0;
-    const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-    while (answered < 3 && std::chrono::steady_clock::now() < wait_until) {
-      void* samples[1] = {nullptr};
-      dds_sample_info_t info;
-      if (dds_take(reader, samples, &info, 1, 1) != 1) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        continue;
-      }
-      const auto& r = *static_cast<const nearpoint_msgs_msg_dds__DistanceReport_*>(samples[0]);
-      if (info.valid_data && std::memcmp(r.writer_guid, own.v, 16) == 0) {
-        ++answered;
-        std::printf(
-            "{\"sequence\": %llu, \"status\": %u, \"scene_id\": %s, \"client_id\": %s, "
-            "\"error_field\": %s, \"stamp_sec\": %d}\n",
-            static_cast<unsigned long long>(r.sequence_number), r.status,
-            json_string(r.scene_id).c_str(), json_string(r.client_id).c_str(),
-            json_string(r.error_field).c_str(), r.header.stamp.sec);
-      }
-      dds_return_loan(reader, samples, 1);
-    }
+    const std::size_t answered = take_reports(reader, own, 3, [](const auto& r) {
+      std::printf(
+          "{\"sequence\": %llu, \"status\": %u, \"scene_id\": %s, \"client_id\": %s, "
+          "\"error_field\": %s, \"stamp_sec\": %d}\n",
+          static_cast<unsigned long long>(r.sequence_number), r.status,
+          json_string(r.scene_id).c_str(), json_string(r.client_id).c_str(),
+          json_string(r.error_field).c_str(), r.header.stamp.sec);
+    });
     dds_delete(participant);
     return answered == 3 ? 0 : fail("reports missing for the joint states");
   }
@@ -223,24 +234,11 @@ int main(int argc, char** argv) {
       if (const dds_return_t rc = dds_write(writer, &state); rc < 0)
         return fail(std::string("dds_write: ") + dds_strretcode(rc));
     }
-    std::size_t answered = 0;
-    const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-    while (answered < steps.size() && std::chrono::steady_clock::now() < wait_until) {
-      void* samples[1] = {nullptr};
-      dds_sample_info_t info;
-      if (dds_take(reader, samples, &info, 1, 1) != 1) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        continue;
-      }
-      const auto& r = *static_cast<const nearpoint_msgs_msg_dds__DistanceReport_*>(samples[0]);
-      if (info.valid_data && std::memcmp(r.writer_guid, own.v, 16) == 0) {
-        ++answered;
-        std::printf("{\"sequence\": %llu, \"status\": %u, \"error_field\": %s}\n",
-                    static_cast<unsigned long long>(r.sequence_number), r.status,
-                    json_string(r.error_field).c_str());
-      }
-      dds_return_loan(reader, samples, 1);
-    }
+    const std::size_t answered = take_reports(reader, own, steps.size(), [](const auto& r) {
+      std::printf("{\"sequence\": %llu, \"status\": %u, \"error_field\": %s}\n",
+                  static_cast<unsigned long long>(r.sequence_number), r.status,
+                  json_string(r.error_field).c_str());
+    });
     dds_delete(participant);
     return answered == steps.size() ? 0 : fail("reports missing for the pipelined steps");
   }
