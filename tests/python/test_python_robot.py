@@ -43,7 +43,11 @@ class PythonRobotTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.server = NearpointdProcess(ARGS.nearpointd, ["--workers", "2"]).__enter__()
+        # Registered before anything else can fail: tearDownClass does not run when setUpClass
+        # raises, and the server would outlive the test.
+        cls.addClassCleanup(cls.server.__exit__, None, None, None)
         cls.client = npc.connect(f"127.0.0.1:{cls.server.port}")
+        cls.addClassCleanup(cls.client.close)
         from nearpoint.proto import nearpoint_scene_pb2 as scene_pb
         robot = scene_pb.Robot(name="planar")
         upper = robot.links.add(name="upper")
@@ -56,11 +60,6 @@ class PythonRobotTest(unittest.TestCase):
         wall = cls.client.register_geometry([npc.box(BOX_HALF)], name="wall")
         cls.scene = cls.client.create_scene({"hand": hand, "wall": (wall, BOX_CENTRE)},
                                             robot=robot, scene_id="planar")
-
-    @classmethod
-    def tearDownClass(cls):
-        cls.client.close()
-        cls.server.__exit__(None, None, None)
 
     def test_streamed_joints_give_the_analytic_distance_and_its_gradient(self):
         path = [{"shoulder": 0.1 * k, "elbow": 0.5 - 0.07 * k} for k in range(12)]
