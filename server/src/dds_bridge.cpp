@@ -498,10 +498,7 @@ struct DdsBridge::Impl {
           StreamState& stream = *open->second;
           ++stream.updates;
           ++stream.rejected;
-          Waiting entry;
-          entry.error = PendingError{std::move(to), sequence, error};
-          stream.waiting.push_back(std::move(entry));
-          pump(stream);
+          queue_error(stream, PendingError{std::move(to), sequence, error});
           continue;
         }
         errors.push_back(PendingError{std::move(to), sequence, error});
@@ -584,10 +581,7 @@ struct DdsBridge::Impl {
       // reports, errors included, come in the order its updates were taken. (A stream whose
       // scene is unknown stays open, unbound and without caches, until its writer goes.)
       Addressee to{stream.to.scene_id, client_id, stream.to.writer_guid, std::move(header)};
-      Waiting entry;
-      entry.error = reject(&stream, std::move(to), input.sequence, prepared.error());
-      stream.waiting.push_back(std::move(entry));
-      pump(stream);
+      queue_error(stream, *reject(&stream, std::move(to), input.sequence, prepared.error()));
       return std::nullopt;
     }
     if (!stream.announced) {
@@ -635,6 +629,16 @@ struct DdsBridge::Impl {
         .kv("field", error.field)
         .kv("message", error.message);
     return PendingError{std::move(to), sequence, error};
+  }
+
+  /// Queues an error report behind the stream's earlier answers (its reports, errors included,
+  /// leave in the order the stream's samples were taken) and writes what is due. Requires
+  /// `mutex`.
+  void queue_error(StreamState& stream, PendingError error) {
+    Waiting entry;
+    entry.error = std::move(error);
+    stream.waiting.push_back(std::move(entry));
+    pump(stream);
   }
 
   /// Writes the stream's error reports that are due and starts its next evaluation, if none is

@@ -164,7 +164,7 @@ void PoseStream::coalesce(PreparedUpdate& newer, const PreparedUpdate& older) {
   newer.absorbed = std::move(steps);
 }
 
-std::shared_ptr<EvaluationJob> PoseStream::make_job(PreparedUpdate&& update) {
+std::shared_ptr<EvaluationJob> PoseStream::take_evaluation(PreparedUpdate update) {
   auto job = std::make_shared<EvaluationJob>();
   job->scene = scene_->definition();
   job->poses = std::move(update.poses);
@@ -188,7 +188,7 @@ std::shared_ptr<EvaluationJob> PoseStream::make_job(PreparedUpdate&& update) {
 }
 
 void PoseStream::evaluate(PreparedUpdate update, ReportCallback done) {
-  std::shared_ptr<EvaluationJob> job = make_job(std::move(update));
+  std::shared_ptr<EvaluationJob> job = take_evaluation(std::move(update));
   job->complete = [done = std::move(done)](EvaluationJob& finished) {
     done(std::move(finished.report));
   };
@@ -198,10 +198,6 @@ void PoseStream::evaluate(PreparedUpdate update, ReportCallback done) {
 bool PoseStream::evaluates_inline() const {
   return service_.limits().inline_evaluation && scene_ &&
          scene_->definition()->tasks_per_evaluation <= 1;
-}
-
-std::shared_ptr<EvaluationJob> PoseStream::take_evaluation(PreparedUpdate update) {
-  return make_job(std::move(update));
 }
 
 Report PoseStream::run_evaluation(EvaluationJob& job) {

@@ -41,6 +41,7 @@
 #include <cstring>
 #include <set>
 #include <string>
+#include <utility>
 #include <thread>
 #include <tuple>
 #include <vector>
@@ -71,6 +72,23 @@ std::string json_string(const char* s) {
     out += *p;
   }
   return out + "\"";
+}
+
+/// Joint names and their positions, one JointState.
+using JointStep = std::pair<std::vector<std::string>, std::vector<double>>;
+
+/// Publishes `step` as a sensor_msgs/JointState stamped `stamp_sec` (its names and positions as
+/// given, so that a step may carry fewer positions than names).
+dds_return_t write_joint_state(dds_entity_t writer, JointStep& step, int32_t stamp_sec) {
+  std::vector<char*> names;
+  for (std::string& name : step.first) names.push_back(name.data());
+  sensor_msgs_msg_dds__JointState_ state{};
+  state.header.stamp = {stamp_sec, 0};
+  state.header.frame_id = const_cast<char*>("");
+  state.name = {uint32_t(names.size()), uint32_t(names.size()), names.data(), false};
+  const auto values = uint32_t(step.second.size());
+  state.position = {values, values, step.second.data(), false};
+  return dds_write(writer, &state);
 }
 
 /// Takes DistanceReports addressed to the writer `own` until `count` have come or 20 s have
@@ -107,7 +125,7 @@ int main(int argc, char** argv) {
   const bool wrong_type = std::string(argv[3]) == "--wrong-type";
   const bool joint_pipeline = std::string(argv[3]) == "--joint-pipeline";
   const bool joint_steps = std::string(argv[3]) == "--joint-steps" || joint_pipeline;
-  std::vector<std::pair<std::vector<std::string>, std::vector<double>>> steps;
+  std::vector<JointStep> steps;
   for (int i = 4; joint_steps && i < argc; ++i) {
     auto& [names, values] = steps.emplace_back();
     std::string step = argv[i];
@@ -222,18 +240,9 @@ int main(int argc, char** argv) {
   }
 
   if (joint_pipeline) {
-    for (std::size_t k = 0; k < steps.size(); ++k) {
-      std::vector<char*> names;
-      for (std::string& name : steps[k].first) names.push_back(name.data());
-      sensor_msgs_msg_dds__JointState_ state{};
-      state.header.stamp = {int32_t(1000 + k), 0};
-      state.header.frame_id = const_cast<char*>("");
-      state.name = {uint32_t(names.size()), uint32_t(names.size()), names.data(), false};
-      const auto values = uint32_t(steps[k].second.size());
-      state.position = {values, values, steps[k].second.data(), false};
-      if (const dds_return_t rc = dds_write(writer, &state); rc < 0)
+    for (std::size_t k = 0; k < steps.size(); ++k)
+      if (const dds_return_t rc = write_joint_state(writer, steps[k], int32_t(1000 + k)); rc < 0)
         return fail(std::string("dds_write: ") + dds_strretcode(rc));
-    }
     const std::size_t answered = take_reports(reader, own, steps.size(), [](const auto& r) {
       std::printf("{\"sequence\": %llu, \"status\": %u, \"error_field\": %s}\n",
                   static_cast<unsigned long long>(r.sequence_number), r.status,
@@ -247,15 +256,7 @@ int main(int argc, char** argv) {
   for (std::size_t k = 0; k < count; ++k) {
     dds_return_t written = 0;
     if (joint_steps) {
-      std::vector<char*> names;
-      for (std::string& name : steps[k].first) names.push_back(name.data());
-      sensor_msgs_msg_dds__JointState_ state{};
-      state.header.stamp = {int32_t(1000 + k), 0};
-      state.header.frame_id = const_cast<char*>("");
-      state.name = {uint32_t(names.size()), uint32_t(names.size()), names.data(), false};
-      state.position = {uint32_t(names.size()), uint32_t(names.size()), steps[k].second.data(),
-                        false};
-      written = dds_write(writer, &state);
+      written = write_joint_state(writer, steps[k], int32_t(1000 + k));
     } else {
       const auto [x, y, theta] = poses[k];
       nearpoint_msgs_msg_dds__ObjectPose_ pose{};

@@ -210,7 +210,8 @@ class PoseStream {
   /// polytope pairs) spent a third of nearpointd's CPU on the thread hand-offs.
   bool evaluates_inline() const;
   /// As `evaluate`, on the calling thread, in two steps: `take` (under the owner's lock, like
-  /// every other call) and `run` (without it: it touches only the job and the stream's caches
+  /// every other call: the job that evaluates `update` against this stream's caches and
+  /// incremental state) and `run` (without it: it touches only the job and the stream's caches
   /// and results, which no other call does while an evaluation is under way).
   std::shared_ptr<EvaluationJob> take_evaluation(PreparedUpdate update);
   Report run_evaluation(EvaluationJob& job);
@@ -222,8 +223,6 @@ class PoseStream {
  private:
   friend class SceneService;
   explicit PoseStream(SceneService& service);
-  /// The job that evaluates `update` against this stream's caches and incremental state.
-  std::shared_ptr<EvaluationJob> make_job(PreparedUpdate&& update);
 
   SceneService& service_;
   std::shared_ptr<Scene> scene_;
