@@ -20,10 +20,7 @@ scene_args=()
 case "$reference" in
   demo) ;;
   cell45)
-    # The scene generator is capacity.sh's, so both measure the same scene and path.
-    sed -n '/^    python3 - "\$work" <<.PY.$/,/^PY$/p' "$root/bench/service/capacity.sh" | sed '1d;$d' \
-      >"$work/cell45.py"
-    python3 "$work/cell45.py" "$work"
+    python3 "$root/bench/service/cell45.py" "$work"  # capacity.sh's scene and path
     scene_args=("$work/cell45.json" "$work/cell45.jsonl") ;;
   *) echo "usage: profile.sh [demo|cell45] [SECONDS]" >&2; exit 2 ;;
 esac
