@@ -216,7 +216,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
       // theirs: reports leave in the order their updates were read.
       v1::DistanceReport report;
       to_proto(error, update.sequence, report);
-      pending_.emplace_back(std::move(report));
+      pending_.emplace_back(Serialise(report, report.ByteSizeLong()));
     } else if (stream_->flow_control() == model::FlowControl::coalesce && !pending_.empty() &&
                std::holds_alternative<PreparedUpdate>(pending_.back())) {
       PreparedUpdate& older = std::get<PreparedUpdate>(pending_.back());
@@ -291,8 +291,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
       grpc::ByteBuffer message = ToBuffer(stream_->run_evaluation(*job));
       job.reset();
       lock.lock();
-      evaluating_ = false;
-      if (!broken_) outgoing_.push_back(std::move(message));
+      Answered(std::move(message));
       Pump();
     }
   }
@@ -307,9 +306,8 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     // Error reports at the head of the queue go out once everything read before them has been
     // answered (no evaluation in progress).
     while (!broken_ && !evaluating_ && !pending_.empty() &&
-           std::holds_alternative<v1::DistanceReport>(pending_.front())) {
-      const v1::DistanceReport& refusal = std::get<v1::DistanceReport>(pending_.front());
-      outgoing_.push_back(Serialise(refusal, refusal.ByteSizeLong()));
+           std::holds_alternative<grpc::ByteBuffer>(pending_.front())) {
+      outgoing_.push_back(std::move(std::get<grpc::ByteBuffer>(pending_.front())));
       pending_.pop_front();
     }
     if (!broken_ && !evaluating_ && !pending_.empty() && (!coalescing || outgoing_.empty())) {
@@ -396,12 +394,18 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     return grpc::ByteBuffer(&slice, 1);
   }
 
+  /// The evaluation under way is over; its report goes out unless nothing can be written any
+  /// more. Requires `mutex_`.
+  void Answered(grpc::ByteBuffer message) {
+    evaluating_ = false;
+    if (!broken_) outgoing_.push_back(std::move(message));
+  }
+
   /// The evaluation's report, on a pool thread.
   void OnReport(Report report) {
     grpc::ByteBuffer message = ToBuffer(report);
     std::unique_lock lock(mutex_);
-    evaluating_ = false;
-    if (!broken_) outgoing_.push_back(std::move(message));
+    Answered(std::move(message));
     Pump(lock);
   }
 
@@ -419,8 +423,8 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   v1::PoseUpdate parsed_;
   grpc::ByteBuffer current_write_;
   /// Read and not yet answered, in read order: updates to evaluate, and the error reports of
-  /// rejected updates waiting for their turn.
-  std::deque<std::variant<PreparedUpdate, v1::DistanceReport>> pending_;
+  /// rejected updates (serialised) waiting for their turn.
+  std::deque<std::variant<PreparedUpdate, grpc::ByteBuffer>> pending_;
   /// Serialised reports waiting for the write in progress, oldest first.
   std::deque<grpc::ByteBuffer> outgoing_;
   /// Reused by ToBuffer (see there).
