@@ -255,7 +255,7 @@ class CompoundQuery {
         // overflows) proves nothing, and the pair is evaluated (and refused, if it must be).
         const bool may_matter = !(gap >= best + out_.nearest.error_bound) ||
                                 ((want_penetration || want_depth) && best == 0 && gap <= 0);
-        if (!may_matter || gap > options_.distance_cutoff) {
+        if ((!may_matter || gap > options_.distance_cutoff) && !may_be_refused(gap)) {
           // Pruned by the cutoff, the pair is proven no nearer than its gap, which may still lie
           // below the best answer's lower end: the objects' distance is the least over pairs.
           if (may_matter) lowest_ = std::min(lowest_, gap);
@@ -267,6 +267,9 @@ class CompoundQuery {
         piece_options_.distance_cutoff = std::min(options_.distance_cutoff, best);
         DistanceResult<S> r;
         const bool r_in_world = evaluate(i, j, r);
+        // Refused pairs refuse the objects' query. Every pair that could be refused is evaluated
+        // (may_be_refused), whatever the best so far: whether a query is refused does not depend
+        // on the warm start or on the order of the pairs.
         if (r.status == Status::invalid_input) {
           out_.nearest = r;
           restore_caches();
@@ -301,6 +304,36 @@ class CompoundQuery {
       }
     }
     return true;
+  }
+
+  // Whether a pair with this sphere gap could be refused, so that it must be evaluated even
+  // when its gap prunes it: a warm start that made the best distance smaller (or larger) must not
+  // change which pairs are looked at for refusal (found by fuzz_engine: a float compound refused
+  // warm and answered cold). A pair is refused when its D(K) is below 2^-kMeasurableSpread of its
+  // working magnitude M; M − D(K) is the placement that evaluate() passes (2|p_B − p_A| and twice
+  // each composed piece's |t_offset| + |z̄|), the centroids and relative translation (without the
+  // origin shift) and the compensation of far centroids, all within the spheres' magnitudes
+  // (gap_roundoff_ / 16ε) plus twice the placement. D(K) is at least the pair's distance, which
+  // is at least the gap: a gap above that fraction of those lengths cannot be refused. A working
+  // magnitude near the largest number (refused as too large) is evaluated too.
+  bool may_be_refused(S gap) {
+    constexpr S epsilon = std::numeric_limits<S>::epsilon();
+    if (!(placement_sizes_ >= 0)) {
+      const auto largest = [](const Compound<S>& c) {
+        S size = 0;
+        for (std::size_t i = 0; i < c.size(); ++i)
+          size = std::max(size, c.piece(i).offset.translation.cwiseAbs().sum() +
+                                    core_center(c.piece(i).shape).cwiseAbs().sum());
+        return size;
+      };
+      placement_sizes_ =
+          S(4) * (frame_b_.translation.cwiseAbs().sum() + largest(a_) + largest(b_)) +
+          S(4) * std::numeric_limits<S>::denorm_min() / epsilon;
+    }
+    const S lengths = S(2) * placement_sizes_ + gap_roundoff_ / (S(16) * epsilon);
+    if (!(lengths <= std::numeric_limits<S>::max() / S(1024))) return true;
+    // 2^-(spread − 2): a margin of 4 for the rounding of D(K), M and the gap.
+    return !(gap > std::ldexp(lengths, -(detail::kMeasurableSpread<S> - 2)));
   }
 
   static int contact_rank(Status status) {
@@ -420,6 +453,7 @@ class CompoundQuery {
   DistanceOptions<S> piece_options_;
   bool nearest_in_world_ = false;  // the frame of the best answer's near points
   S gap_roundoff_ = 0;
+  S placement_sizes_ = -1;  // computed by may_be_refused when first needed
   S lowest_ = 0;
   S stretch_a_ = 1, stretch_b_ = 1;  // bounds on ‖R_A‖₂, ‖R_B‖₂ (stretch_bound)
   S signed_lower_ = std::numeric_limits<S>::infinity();

@@ -36,21 +36,7 @@ namespace {
 
 using detail::set_invalid;
 
-/// The range of D(K) the loop runs in as given: [2^low, 2^high]. Inside it no square, product or
-/// Johnson Δ (up to D⁷ for a tetrahedron's ν numerator) under- or overflows, with room for ε²
-/// factors; outside it K is rescaled by a power of two first (see rescaled_query). Scaling by 2^k
-/// is exact, so the answers of the two paths agree bit for bit wherever both are representable.
-template <class S>
-struct LoopRange;
-template <>
-struct LoopRange<double> {
-  static constexpr int low = -128, high = 128;  // D⁷ within 2^±896 of 1
-};
-template <>
-struct LoopRange<float> {
-  static constexpr int low = -16, high = 16;  // D⁷ within 2^±112 of 1
-};
-
+using detail::LoopRange;
 using detail::power_of_two;
 
 /// The largest radius sum and size accepted: the answer (a distance, a penetration bound, near
@@ -248,10 +234,15 @@ template <class S, class K>
 // back through memory on the way to the first support point (measured: 4.7% of a query on the
 // paper set, paired runs). Returns false without touching `result` or `cache` when
 // `may_rescale` and D(K) or the radii lie outside the loop's range: the caller then rescales K
-// (rescaled_query). `magnitude_out` receives the working magnitude M computed here.
+// (rescaled_query). `scale_out` receives D(K) and the working magnitude M computed here.
+template <class S>
+struct QueryScale {
+  S diameter = 0;
+  S magnitude = 0;
+};
 template <class S, class GA, class GB>
 bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<S>& result,
-           bool may_rescale, S& magnitude_out) {
+           bool may_rescale, QueryScale<S>& scale_out) {
   const GA& ga = in.a.geometry;
   const GB& gb = in.b.geometry;
   const S radius_a = in.a.radius, radius_b = in.b.radius;
@@ -312,7 +303,7 @@ bool query(const QueryInput<S, GA, GB>& in, SimplexCache* cache, DistanceResult<
   if (!options.origin_shift)
     magnitude += S(2) * (a_center.cwiseAbs().sum() + b_center.cwiseAbs().sum() +
                          translation.cwiseAbs().sum());
-  magnitude_out = magnitude;
+  scale_out = {diameter, magnitude};
   const S radii = radius_a + radius_b;
   // One branch decides whether K is in the loop's range (and the radii representable): outside
   // it, tiny shapes would square to subnormals (1e-170 boxes came back "intersecting", bound 0)
@@ -592,7 +583,7 @@ template <class S, class GA, class GB>
       scaled_a.translation = scale_vector(Vec3<S>(-translation_lo), k);
     }
     scaled_options.distance_cutoff = std::ldexp(options.distance_cutoff, k);
-    S magnitude = 0;
+    QueryScale<S> scale;
     const auto scaled_ga = scale_geometry<S>(ga, k);
     const auto scaled_gb = scale_geometry<S>(gb, k);
     // Shapes modelled far from their local origins (centres near the largest number) cannot be
@@ -611,13 +602,22 @@ template <class S, class GA, class GB>
                scaled_options,
                in.defect2_a,
                std::ldexp(in.placement, k)};
-    const bool done = query<S>(scaled, cache, result, attempt < 2, magnitude);
+    const bool done = query<S>(scaled, cache, result, attempt < 2, scale);
     if (done) break;
-    if (!(magnitude > 0 && magnitude <= kLargestLength<S>)) {
+    if (!(scale.magnitude > 0 && scale.magnitude <= kLargestLength<S>)) {
       attempt = 1;  // zero or non-finite: the next pass decides without rescaling
       continue;
     }
-    k -= std::ilogb(magnitude);
+    // M near 1, unless that leaves D(K) below the range: then D(K) at the range's low end, as far
+    // as M allows. The range holds any K with M/D(K) below 2^(high − low − 1); scaling M to 1
+    // alone refused pairs whose D(K) lay 2^17 below M in float (a compound's piece posed 3e4 from
+    // its object's origin, 1.5e-5 from the other piece: found by fuzz_engine, refused only when a
+    // warm start led the query to that pair).
+    int correction = -std::ilogb(scale.magnitude);
+    if (scale.diameter > 0 && std::ilogb(scale.diameter) + correction < LoopRange<S>::low)
+      correction = std::min(LoopRange<S>::low - std::ilogb(scale.diameter),
+                            LoopRange<S>::high - 1 - std::ilogb(scale.magnitude));
+    k += correction;
   }
   if (result.status == Status::invalid_input) return;
 
@@ -737,8 +737,8 @@ void detail::distance_with_valid_poses(const Shape<S>& a, const Pose<S>& pose_a,
         using GB = std::decay_t<decltype(gb)>;
         const QueryInput<S, GA, GB> in{
             {ga, a.radius, pose_a}, {gb, b.radius, pose_b}, options, defect2_a, placement};
-        S magnitude;
-        if (!query<S>(in, cache, result, true, magnitude)) rescaled_query<S>(in, cache, result);
+        QueryScale<S> scale;
+        if (!query<S>(in, cache, result, true, scale)) rescaled_query<S>(in, cache, result);
       },
       a.geometry, b.geometry);
   // The promise of no non-finite output. Inside the loop's range distances, bounds and d⁻ are

@@ -212,6 +212,29 @@ Vec3<S> centroid_offset(const Pose<S>& pose_a, const Vec3<S>& center_a, const Po
                      compensated_difference(pose_b, center_b, &pose_a, center_a, &residual));
 }
 
+/// The range of D(K) the loop runs in as given: [2^low, 2^high]. Inside it no square, product or
+/// Johnson Δ (up to D⁷ for a tetrahedron's ν numerator) under- or overflows, with room for ε²
+/// factors; outside it K is rescaled by a power of two first (see rescaled_query). Scaling by 2^k
+/// is exact, so the answers of the two paths agree bit for bit wherever both are representable.
+template <class S>
+struct LoopRange;
+template <>
+struct LoopRange<double> {
+  static constexpr int low = -128, high = 128;  // D⁷ within 2^±896 of 1
+};
+template <>
+struct LoopRange<float> {
+  static constexpr int low = -16, high = 16;  // D⁷ within 2^±112 of 1
+};
+
+/// What rescaling can bring into that range: K whose working magnitude M (every length whose ulps
+/// the bound counts) is at most 2^kMeasurableSpread<S> times D(K). Past it D(K) is too small
+/// against M to be measured in this precision and the query is refused ("shapes differ too much
+/// in size"); compound queries use it to know, before evaluating a piece pair, whether it could be
+/// refused at all.
+template <class S>
+constexpr int kMeasurableSpread = LoopRange<S>::high - LoopRange<S>::low - 1;
+
 /// Marks a result as rejected input, with the reason.
 template <class S>
 inline void set_invalid(DistanceResult<S>& result, const char* message) {

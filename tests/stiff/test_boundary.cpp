@@ -228,6 +228,27 @@ TEST(Boundary, ScaleSweepFloat) {
   scale_sweep<float>(-35, 35, 2, 1e-3);
 }
 
+// The rescale's choice of scale: any K whose working magnitude M and D(K) fit the loop's range
+// together (M/D(K) up to 2^31 in float) is measured, not refused. Scaling M to 1 alone refused
+// pairs 2^17 apart in size (fuzz_engine: a compound's piece posed 3e4 from its object's origin,
+// 1.5e-5 from the other piece). Without the origin shift M holds the centroids (|z̄| = 3 here),
+// so two points s apart at x = 3 have M ≈ 12 and D(K) = s.
+TEST(Boundary, FloatRescaleMeasuresWhateverTheRangeHolds) {
+  DistanceOptions<float> options;
+  options.origin_shift = false;
+  options.near_points = true;
+  for (int e = 4; e <= 40; ++e) {
+    const float s = std::ldexp(1.0f, -e);
+    const std::vector<Vec3<float>> a{{3, 0, 0}}, b{{3, s, 0}};
+    const Pose<float> pose = placed<float>({0, 0, 0});
+    const DistanceResult<float> r = distance(Shape<float>(Polytope<float>(a)), pose,
+                                             Shape<float>(Polytope<float>(b)), pose, options);
+    const bool in_range = 12.0 / s < std::ldexp(1.0, 31);
+    expect_certified(r, exact(a, pose, b, pose), "points 2^-" + std::to_string(e) + " apart",
+                     /*may_refuse=*/!in_range);
+  }
+}
+
 // --- Item 9: huge radii. Guards the radii limit (refused with a message, never a non-finite
 // number).
 

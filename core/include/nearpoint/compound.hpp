@@ -62,6 +62,11 @@ struct CompoundResult {
   /// bound on the objects' depth; `depth_upper` bounds the deepest pair's depth only (the union's
   /// can be larger when the pairs push apart in different directions). The witnesses, direction
   /// and gradient are the deepest pair's.
+  ///
+  /// When a piece pair is refused (`invalid_input`, e.g. pieces that differ too much in size from
+  /// their separation to be measured in this precision), so is the query, with that pair's reason.
+  /// Every pair that could be refused is evaluated whatever the best distance found before it, so
+  /// whether a query is refused does not depend on the warm-start caches.
   DistanceResult<Scalar> nearest;
   int piece_a = -1;
   int piece_b = -1;
