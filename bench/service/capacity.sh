@@ -41,17 +41,10 @@ for _ in $(seq 200); do [ -s "$work/port" ] && break; sleep 0.05; done
 target="127.0.0.1:$(cat "$work/port")"
 ticks() { awk '{print $14 + $15}' "/proc/$server/stat"; }  # utime + stime, clock ticks
 hz="$(getconf CLK_TCK)"
-batch="${BATCH:-1}"
-batch_args=()  # unbatched: no flag, so that an older build's nearpoint can be measured too
-if [ "$batch" -gt 1 ]; then
-  window="${WINDOW:-$((2 * batch))}"
-  batch_args=(--batch "$batch")
-else
-  window="${WINDOW:-4}"
-fi
+source "$root/bench/service/load_flags.sh"  # BATCH, WINDOW
 before="$(ticks)"
 "$build/client/nearpoint" load --target "$target" --streams "$streams" --duration "$seconds" \
-  --window "$window" "${batch_args[@]}" --json "${scene_args[@]}" 2>"$work/load.log" \
+  "${load_flags[@]}" --json "${scene_args[@]}" 2>"$work/load.log" \
   >"$work/load.json" ||
   { cat "$work/load.log" >&2; exit 1; }
 after="$(ticks)"

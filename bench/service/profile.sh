@@ -32,19 +32,12 @@ server=$!
 trap 'kill $server 2>/dev/null || true; wait $server 2>/dev/null || true; rm -rf "$work"' EXIT
 for _ in $(seq 200); do [ -s "$work/port" ] && break; sleep 0.05; done
 target="127.0.0.1:$(cat "$work/port")"
-batch="${BATCH:-1}"
-batch_args=()  # unbatched: no flag, so that an older build's nearpoint can be measured too
-if [ "$batch" -gt 1 ]; then
-  window="${WINDOW:-$((2 * batch))}"
-  batch_args=(--batch "$batch")
-else
-  window="${WINDOW:-4}"
-fi
+source "$root/bench/service/load_flags.sh"  # BATCH, WINDOW
 perf record -q -F 2000 -g -p "$server" -o "$work/perf.data" -- sleep "$((seconds + 1))" \
   2>"$work/perf.log" &
 recorder=$!
 "$build/client/nearpoint" load --target "$target" --streams "${STREAMS:-2}" \
-  --duration "$seconds" --window "$window" "${batch_args[@]}" --json "${scene_args[@]}" \
+  --duration "$seconds" "${load_flags[@]}" --json "${scene_args[@]}" \
   2>"$work/load.log" >"$work/load.json" || { cat "$work/load.log" >&2; exit 1; }
 wait "$recorder" || { cat "$work/perf.log" >&2; exit 1; }
 [ -n "${KEEP:-}" ] && cp "$work/perf.data" "$KEEP"

@@ -435,7 +435,9 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
       outgoing_.pop_front();
     }
     reports_in_write_ = write_slices_.size();
-    current_write_ = grpc::ByteBuffer(write_slices_.data(), write_slices_.size());
+    grpc::ByteBuffer message(write_slices_.data(), write_slices_.size());  // refs the slices
+    current_write_.Swap(&message);
+    write_slices_.clear();
     writing_ = true;
     StartWrite(&current_write_);
   }
@@ -510,7 +512,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   v1::PoseUpdate parsed_;
   v1::PoseUpdateBatch parsed_batch_;  // batched streams parse here instead
   grpc::ByteBuffer current_write_;
-  /// The reports in current_write_ (0 while none is under way), and their slices.
+  /// The reports in current_write_ (0 while none is under way); the slices it is built from.
   std::size_t reports_in_write_ = 0;
   std::vector<grpc::Slice> write_slices_;
   /// Read and not yet answered, in read order: updates to evaluate, and the error reports of
