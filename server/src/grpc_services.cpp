@@ -274,8 +274,8 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
       if (context_->IsCancelled()) finish_reason_ = "cancelled";
       log_info("stream_closed")
           .kv("stream", number_)
-          .kv("messages", messages_read_)
           .kv("updates", updates_read_)
+          .kv("messages", messages_read_)
           .kv("rejected", updates_rejected_)
           .kv("coalesced", updates_coalesced_)
           .kv("reports", reports_written_)
