@@ -12,7 +12,11 @@
 #          vertices (about 550 in all), all 45 pairs, every object moving every update along a
 #          smooth path (period 1000 updates), no cutoff
 #   bench/service/capacity.sh [demo|cell45] [STREAMS] [SECONDS]     (defaults cell45, 4, 5)
-# Environment: BUILD_DIR (default build), WINDOW (updates in flight per stream, default 4).
+# Environment: BUILD_DIR (default build), BATCH (pose sets per message, default 1: StreamPoses;
+# more: StreamPoseBatches), WINDOW (updates in flight per stream, default 4, with BATCH > 1 two
+# batches).
+# Also prints the geometry share: the reports' geometry_us (time in the engine) over nearpointd's
+# CPU time per update.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -37,9 +41,11 @@ for _ in $(seq 200); do [ -s "$work/port" ] && break; sleep 0.05; done
 target="127.0.0.1:$(cat "$work/port")"
 ticks() { awk '{print $14 + $15}' "/proc/$server/stat"; }  # utime + stime, clock ticks
 hz="$(getconf CLK_TCK)"
+source "$root/bench/service/load_flags.sh"  # BATCH, WINDOW
 before="$(ticks)"
 "$build/client/nearpoint" load --target "$target" --streams "$streams" --duration "$seconds" \
-  --window "${WINDOW:-4}" --json "${scene_args[@]}" 2>"$work/load.log" >"$work/load.json" ||
+  "${load_flags[@]}" --json "${scene_args[@]}" 2>"$work/load.log" \
+  >"$work/load.json" ||
   { cat "$work/load.log" >&2; exit 1; }
 after="$(ticks)"
 python3 - "$work/load.json" "$before" "$after" "$hz" "$seconds" "$streams" "$reference" <<'PY'
@@ -49,9 +55,15 @@ before, after, hz, seconds, streams = (float(v) for v in sys.argv[2:7])
 cpu = (after - before) / hz
 reports, errors = result["reports"], result["errors"]
 latency = result["latency_us"]
-print(f"{sys.argv[7]}: {streams:.0f} streams for {seconds:.0f} s: {reports} reports "
+print(f"{sys.argv[7]}: {streams:.0f} streams x {result['window']} in flight, batch "
+      f"{result.get('batch', 1)}, for {seconds:.0f} s: {reports} reports "
       f"({errors} errors), {reports / result['duration_s']:.0f} updates/s, nearpointd CPU "
       f"{cpu:.2f} s ({100 * cpu / result['duration_s']:.0f}% of one core)")
+cpu_us_per_update = 1e6 * cpu / max(reports, 1)
+geometry_us = result.get("geometry_us_per_report")  # absent from builds before batching
 print(f"capacity: {reports / cpu:.0f} updates per CPU-second of nearpointd (--workers 1); "
       f"latency p50 {latency['p50']:.0f} us, p99 {latency['p99']:.0f} us")
+if geometry_us is not None:
+    print(f"geometry share: {geometry_us:.1f} us of geometry per update over "
+          f"{cpu_us_per_update:.1f} us of CPU = {100 * geometry_us / cpu_us_per_update:.0f}%")
 PY

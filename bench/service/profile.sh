@@ -7,7 +7,9 @@
 # server's own bookkeeping). Needs perf (Debian's linux-perf) and kernel.perf_event_paranoid ≤ 1
 # or root.
 #   bench/service/profile.sh [demo|cell45] [SECONDS]      (defaults cell45, 5)
-# Environment: BUILD_DIR (default build), STREAMS (2), WINDOW (4), KEEP=FILE keeps perf.data.
+# Environment: BUILD_DIR (default build), STREAMS (2), BATCH (pose sets per message, 1:
+# StreamPoses; more: StreamPoseBatches), WINDOW (4, with BATCH > 1 two batches), KEEP=FILE keeps
+# perf.data.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -30,11 +32,12 @@ server=$!
 trap 'kill $server 2>/dev/null || true; wait $server 2>/dev/null || true; rm -rf "$work"' EXIT
 for _ in $(seq 200); do [ -s "$work/port" ] && break; sleep 0.05; done
 target="127.0.0.1:$(cat "$work/port")"
+source "$root/bench/service/load_flags.sh"  # BATCH, WINDOW
 perf record -q -F 2000 -g -p "$server" -o "$work/perf.data" -- sleep "$((seconds + 1))" \
   2>"$work/perf.log" &
 recorder=$!
 "$build/client/nearpoint" load --target "$target" --streams "${STREAMS:-2}" \
-  --duration "$seconds" --window "${WINDOW:-4}" --json "${scene_args[@]}" \
+  --duration "$seconds" "${load_flags[@]}" --json "${scene_args[@]}" \
   2>"$work/load.log" >"$work/load.json" || { cat "$work/load.log" >&2; exit 1; }
 wait "$recorder" || { cat "$work/perf.log" >&2; exit 1; }
 [ -n "${KEEP:-}" ] && cp "$work/perf.data" "$KEEP"

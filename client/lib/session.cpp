@@ -45,7 +45,10 @@ SessionImpl::SessionImpl(SessionHost& client, std::string scene_id, std::string 
 std::shared_ptr<SessionImpl::Call> SessionImpl::open_call(const std::string& server_scene_id) {
   auto call = std::make_shared<Call>();
   if (routable(server_scene_id)) call->context.AddMetadata(kSceneRoutingHeader, server_scene_id);
-  call->stream = client_.stub().StreamPoses(&call->context);
+  if (options_.batched)
+    call->batch_stream = client_.stub().StreamPoseBatches(&call->context);
+  else
+    call->stream = client_.stub().StreamPoses(&call->context);
   return call;
 }
 
@@ -177,6 +180,34 @@ bool SessionImpl::reconnect(const Status& cause) {
   return false;
 }
 
+void SessionImpl::take_report(Call& call, const v1::DistanceReport& message, bool& scene_missing) {
+  Report report = detail::from_proto(message);
+  // The server does not hold our scene (restarted; or a sharding proxy routed the stream to a
+  // replica that does not have it): the stream can never work, so replace it.
+  const bool missing = report.error.code == kNotFound && report.error_field == "scene_id";
+  const bool replaced = missing && options_.reconnect && client_.owns_scene(scene_id_);
+  if (replaced && !scene_missing) {
+    scene_missing = true;
+    {
+      // Before the caller sees the report: a push made after it waits for the new stream
+      // instead of going out on this one.
+      std::lock_guard lock(mutex_);
+      if (state_ == State::connected) state_ = State::reconnecting;
+    }
+    call.context.TryCancel();
+  }
+  if (replaced)
+    // Lost to routing like an update in flight when a replica dies, and answered the same way
+    // (UNAVAILABLE: never evaluated, push it again), whichever replica the proxy chose while
+    // its ring changed; the server's words stay in the message.
+    report.error =
+        Status::error(kUnavailable,
+                      "not evaluated: the replica that answered does not hold the scene; the "
+                      "session re-creates it and resumes the stream (" +
+                          report.error.describe() + ")");
+  deliver(std::move(report));
+}
+
 void SessionImpl::read_loop() {
   for (;;) {
     std::shared_ptr<Call> call;
@@ -184,40 +215,21 @@ void SessionImpl::read_loop() {
       std::lock_guard lock(mutex_);
       call = call_;
     }
-    v1::DistanceReport message;
     bool scene_missing = false;
-    while (call->stream->Read(&message)) {
-      Report report = detail::from_proto(message);
-      // The server does not hold our scene (restarted; or a sharding proxy routed the stream to
-      // a replica that does not have it): the stream can never work, so replace it.
-      const bool missing = report.error.code == kNotFound && report.error_field == "scene_id";
-      const bool replaced = missing && options_.reconnect && client_.owns_scene(scene_id_);
-      if (replaced && !scene_missing) {
-        scene_missing = true;
-        {
-          // Before the caller sees the report: a push made after it waits for the new stream
-          // instead of going out on this one.
-          std::lock_guard lock(mutex_);
-          if (state_ == State::connected) state_ = State::reconnecting;
-        }
-        call->context.TryCancel();
-      }
-      if (replaced)
-        // Lost to routing like an update in flight when a replica dies, and answered the same
-        // way (UNAVAILABLE: never evaluated, push it again), whichever replica the proxy chose
-        // while its ring changed; the server's words stay in the message.
-        report.error =
-            Status::error(kUnavailable,
-                          "not evaluated: the replica that answered does not hold the scene; the "
-                          "session re-creates it and resumes the stream (" +
-                              report.error.describe() + ")");
-      deliver(std::move(report));
+    if (call->batch_stream) {
+      v1::DistanceReportBatch batch;
+      while (call->batch_stream->Read(&batch))
+        for (const v1::DistanceReport& message : batch.reports())
+          take_report(*call, message, scene_missing);
+    } else {
+      v1::DistanceReport message;
+      while (call->stream->Read(&message)) take_report(*call, message, scene_missing);
     }
     grpc::Status status;
     {
       std::lock_guard write(write_mutex_);
       call->finished = true;
-      status = call->stream->Finish();
+      status = call->finish();
     }
     if (scene_missing)
       status = grpc::Status(grpc::StatusCode::NOT_FOUND,
@@ -287,15 +299,45 @@ Expected<std::uint64_t> SessionImpl::push_joints(const JointPositions& joints,
   return push_update({}, &joints, deadline, options);
 }
 
+Expected<std::uint64_t> SessionImpl::push_batch(
+    const std::vector<std::vector<ObjectPose>>& pose_sets, Clock::time_point deadline,
+    const QueryOptions* options) {
+  if (pose_sets.empty())
+    return Status::error(3, "push_batch needs a pose set");  // INVALID_ARGUMENT
+  std::lock_guard pushing(push_mutex_);
+  std::unique_lock lock(mutex_);
+  if (Status waited = wait_for_window(lock, pose_sets.size(), deadline); !waited.ok())
+    return waited;
+  v1::PoseUpdateBatch batch;
+  for (const std::vector<ObjectPose>& poses : pose_sets)
+    next_update(poses, nullptr, options, *batch.add_updates());
+  std::shared_ptr<Call> call = call_;
+  lock.unlock();
+  send(*call, batch);
+  return batch.updates(0).sequence();
+}
+
 Expected<std::uint64_t> SessionImpl::push_update(const std::vector<ObjectPose>& poses,
                                                  const JointPositions* joints,
                                                  Clock::time_point deadline,
                                                  const QueryOptions* options) {
   std::lock_guard pushing(push_mutex_);
   std::unique_lock lock(mutex_);
+  if (Status waited = wait_for_window(lock, 1, deadline); !waited.ok()) return waited;
+  v1::PoseUpdateBatch batch;
+  next_update(poses, joints, options, *batch.add_updates());
+  std::shared_ptr<Call> call = call_;
+  lock.unlock();
+  send(*call, batch);
+  return batch.updates(0).sequence();
+}
+
+Status SessionImpl::wait_for_window(std::unique_lock<std::mutex>& lock, std::size_t count,
+                                    Clock::time_point deadline) {
   const bool ready = changed_.wait_until(lock, deadline, [&] {
     return state_ == State::failed || state_ == State::closing || state_ == State::closed ||
-           (state_ == State::connected && outstanding_ < options_.max_in_flight);
+           (state_ == State::connected &&
+            (outstanding_ + count <= options_.max_in_flight || outstanding_ == 0));
   });
   if (state_ == State::failed) return failure_;
   if (state_ == State::closing || state_ == State::closed)
@@ -304,7 +346,24 @@ Expected<std::uint64_t> SessionImpl::push_update(const std::vector<ObjectPose>& 
     return Status::error(kDeadlineExceeded, state_ == State::reconnecting
                                                 ? "still reconnecting"
                                                 : "the in-flight window stayed full");
-  v1::PoseUpdate update;
+  return {};
+}
+
+void SessionImpl::send(Call& call, const v1::PoseUpdateBatch& updates) {
+  std::lock_guard write(write_mutex_);
+  // A failed write means the stream is gone; the reader thread sees that too and answers these
+  // updates with UNAVAILABLE error reports.
+  if (call.finished) return;
+  if (call.batch_stream) {
+    call.batch_stream->Write(updates);
+    return;
+  }
+  for (const v1::PoseUpdate& update : updates.updates())
+    if (!call.stream->Write(update)) return;
+}
+
+void SessionImpl::next_update(const std::vector<ObjectPose>& poses, const JointPositions* joints,
+                              const QueryOptions* options, v1::PoseUpdate& update) {
   const std::uint64_t sequence = next_sequence_++;
   update.set_scene_id(server_scene_id_);
   update.set_sequence(sequence);
@@ -354,15 +413,8 @@ Expected<std::uint64_t> SessionImpl::push_update(const std::vector<ObjectPose>& 
     proto::to_proto(sent, *update.mutable_joints());
   }
   resync_ = false;
-  std::shared_ptr<Call> call = call_;
   in_flight_.push_back({sequence, Clock::now()});
   ++outstanding_;
-  lock.unlock();
-  std::lock_guard write(write_mutex_);
-  // A failed write means the stream is gone; the reader thread sees that too and answers this
-  // update with an UNAVAILABLE error report.
-  if (!call->finished) call->stream->Write(update);
-  return sequence;
 }
 
 Expected<Report> SessionImpl::next(Clock::time_point deadline) {
@@ -398,7 +450,7 @@ Status SessionImpl::close(Clock::time_point deadline) {
   }
   {
     std::lock_guard write(write_mutex_);
-    if (!call->finished) call->stream->WritesDone();
+    if (!call->finished) call->writes_done();
   }
   std::unique_lock lock(mutex_);
   if (!changed_.wait_until(lock, deadline,

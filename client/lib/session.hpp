@@ -53,6 +53,9 @@ class SessionImpl final : public Session {
   bool start(Status& error);
   Expected<std::uint64_t> push(const std::vector<ObjectPose>& poses, Clock::time_point deadline,
                                const QueryOptions* options) override;
+  Expected<std::uint64_t> push_batch(const std::vector<std::vector<ObjectPose>>& pose_sets,
+                                     Clock::time_point deadline,
+                                     const QueryOptions* options) override;
   Expected<std::uint64_t> push_joints(const JointPositions& joints, Clock::time_point deadline,
                                       const QueryOptions* options) override;
   Expected<Report> next(Clock::time_point deadline) override;
@@ -71,8 +74,14 @@ class SessionImpl final : public Session {
   // One gRPC call (one stream). The context outlives the stream (declared first).
   struct Call {
     grpc::ClientContext context;
+    // One of the two: StreamPoses, or StreamPoseBatches (SessionOptions::batched).
     std::unique_ptr<grpc::ClientReaderWriter<v1::PoseUpdate, v1::DistanceReport>> stream;
+    std::unique_ptr<grpc::ClientReaderWriter<v1::PoseUpdateBatch, v1::DistanceReportBatch>>
+        batch_stream;
     bool finished = false;  // Finish() was called: no more writes (guarded by write_mutex_)
+
+    void writes_done() { stream ? stream->WritesDone() : batch_stream->WritesDone(); }
+    grpc::Status finish() { return stream ? stream->Finish() : batch_stream->Finish(); }
   };
   struct InFlight {
     std::uint64_t sequence;
@@ -84,7 +93,18 @@ class SessionImpl final : public Session {
   Expected<std::uint64_t> push_update(const std::vector<ObjectPose>& poses,
                                       const JointPositions* joints, Clock::time_point deadline,
                                       const QueryOptions* options);
+  // Waits (on `lock`, of mutex_) until `count` more updates fit in the window: OK, or why not.
+  Status wait_for_window(std::unique_lock<std::mutex>& lock, std::size_t count,
+                         Clock::time_point deadline);
+  // The next update (its sequence number, the session's options and thresholds, and after a
+  // reconnect every pose pushed before), now in flight; under mutex_.
+  void next_update(const std::vector<ObjectPose>& poses, const JointPositions* joints,
+                   const QueryOptions* options, v1::PoseUpdate& update);
+  // Writes `updates` on `call`: one message, or one per update (StreamPoses).
+  void send(Call& call, const v1::PoseUpdateBatch& updates);
   void read_loop();
+  // One report read off the stream (see read_loop); `scene_missing` is the stream's.
+  void take_report(Call& call, const v1::DistanceReport& message, bool& scene_missing);
   // The server's answer to the update `report.sequence`, which also answers every update before
   // it that is still in flight (coalesced into it).
   void deliver(Report report);

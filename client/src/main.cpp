@@ -573,6 +573,12 @@ void add_load_subcommand(CLI::App& app, int& exit_code) {
                    "Updates in flight per stream (1: latency; more: throughput)")
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
+  command
+      ->add_option("--batch", options->batch,
+                   "Pose sets per message (more than 1: StreamPoseBatches, at least one batch "
+                   "in flight)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
   add_remote_options(*command, options->remote);
   add_keep_scene_flag(*command, options->keep_scene);
   command->footer(std::string(R"(

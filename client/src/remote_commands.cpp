@@ -645,6 +645,8 @@ namespace {
 /// What the load's streams measured.
 struct LoadResult {
   std::vector<double> latencies_us;
+  /// The reports' ReportTiming::geometry_us, summed: the engine's share of the server's work.
+  double geometry_us = 0;
   std::size_t errors = 0;
   std::string first_error;
   double elapsed_s = 0;
@@ -692,6 +694,7 @@ LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
                             const LoadCommandOptions& options, std::ostream& err) {
   std::mutex mutex;
   std::vector<double> latencies_us;
+  double geometry_us = 0;
   std::atomic<std::size_t> done{0}, errors{0};
   std::string first_error;
   const auto start = Clock::now();
@@ -701,8 +704,11 @@ LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
   for (int k = 0; k < options.streams; ++k) {
     threads.emplace_back([&, k] {
       std::vector<double> local;
+      double local_geometry_us = 0;
+      const std::size_t batch = std::max<std::size_t>(1, options.batch);
       client::SessionOptions session_options;
-      session_options.max_in_flight = std::max<std::size_t>(1, options.window);
+      session_options.max_in_flight = std::max(options.window, batch);
+      session_options.batched = batch > 1;
       session_options.reconnect = false;
       session_options.on_report = [&](const client::Report& report) {
         if (!report.error.ok()) {
@@ -713,6 +719,7 @@ LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
         }
         local.push_back(
             std::chrono::duration<double, std::micro>(report.received - report.sent).count());
+        local_geometry_us += report.timing.geometry_us;
         done.fetch_add(1, std::memory_order_relaxed);
       };
       auto session = client.open_session(scene_id, session_options);
@@ -724,21 +731,30 @@ LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
       }
       // Streams start at different points of the path, so they do not run in lock step.
       std::size_t step = std::size_t(k) * path.size() / std::size_t(options.streams);
+      std::vector<std::vector<client::ObjectPose>> pose_sets;
       while (Clock::now() < stop_at && interrupt_signal() == 0) {
-        auto pushed =
-            (*session)->push(path[step % path.size()], stop_at + std::chrono::seconds(10));
+        const Clock::time_point deadline = stop_at + std::chrono::seconds(10);
+        if (batch > 1) {
+          pose_sets.clear();
+          for (std::size_t i = 0; i < batch; ++i)
+            pose_sets.push_back(path[(step + i) % path.size()]);
+        }
+        const client::Expected<std::uint64_t> pushed =
+            batch == 1 ? (*session)->push(path[step % path.size()], deadline)
+                       : (*session)->push_batch(pose_sets, deadline);
         if (!pushed) {
           errors.fetch_add(1);
           std::lock_guard lock(mutex);
           if (first_error.empty()) first_error = pushed.status().describe();
           break;
         }
-        ++step;
+        step += batch;
       }
       (void)(*session)->close(Clock::now() + std::chrono::seconds(10));
       session->reset();  // joins the reader: `local` is complete
       std::lock_guard lock(mutex);
       latencies_us.insert(latencies_us.end(), local.begin(), local.end());
+      geometry_us += local_geometry_us;
     });
   }
   // The progress line, until the streams are done.
@@ -759,6 +775,7 @@ LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
   LoadResult result;
   result.elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
   result.latencies_us = std::move(latencies_us);
+  result.geometry_us = geometry_us;
   result.errors = errors.load();
   result.first_error = std::move(first_error);
   return result;
@@ -777,18 +794,22 @@ void print_load_summary(LoadResult& result, const std::string& scene_id,
     out << Json{{"scene_id", scene_id},
                 {"streams", options.streams},
                 {"window", options.window},
+                {"batch", options.batch},
                 {"duration_s", result.elapsed_s},
                 {"reports", count},
                 {"errors", result.errors},
                 {"updates_per_s", rate},
+                {"geometry_us_per_report", count ? result.geometry_us / double(count) : 0.0},
                 {"latency_us", {{"p50", p50}, {"p90", p90}, {"p99", p99}, {"max", max}}}}
                .dump()
         << "\n";
     return;
   }
   out << "scene " << scene_id << ": " << counted(options.streams, "stream") << " × "
-      << options.window << " in flight for " << number(options.duration_s, 3)
-      << " s: " << counted(count, "report") << ", " << number(rate, 5) << " updates/s\n"
+      << options.window << " in flight"
+      << (options.batch > 1 ? ", " + std::to_string(options.batch) + " per message," : "")
+      << " for " << number(options.duration_s, 3) << " s: " << counted(count, "report") << ", "
+      << number(rate, 5) << " updates/s\n"
       << "round-trip latency (push to report): p50 " << number(p50, 4) << " µs, p90 "
       << number(p90, 4) << " µs, p99 " << number(p99, 4) << " µs, max " << number(max, 4)
       << " µs\n";

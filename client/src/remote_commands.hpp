@@ -103,6 +103,9 @@ struct LoadCommandOptions {
   int streams = 2;
   double duration_s = 3;
   std::size_t window = 1;  // 1: one update in flight per stream (latency); more: throughput
+  /// Pose sets per message: 1 on StreamPoses; more on StreamPoseBatches (the window is then at
+  /// least one batch).
+  std::size_t batch = 1;
   double progress_every = 0.5;
   /// The scene created here (the demo scene, or from a file) is deleted at the end unless this
   /// is set (--keep-scene).

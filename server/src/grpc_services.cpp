@@ -7,6 +7,9 @@
 #include <variant>
 #include <vector>
 
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/wire_format_lite.h>
+
 #include "metrics.hpp"
 #include "nearpoint/server/log.hpp"
 #include "proto_convert.hpp"
@@ -114,7 +117,16 @@ grpc::ServerUnaryReactor* serve_unary(CallRegistry& calls, grpc::CallbackServerC
   return reactor;
 }
 
-// ---- StreamPoses ----
+// ---- StreamPoses and StreamPoseBatches ----
+
+/// Which of the two pose-stream RPCs a reactor serves. They differ only in framing: a batched
+/// stream reads a PoseUpdateBatch per message and writes a DistanceReportBatch per message; every
+/// update in it goes through exactly what a lone update on StreamPoses goes through.
+enum class StreamFraming { one_per_message, batched };
+
+/// The most a report's key and length add to it inside a DistanceReportBatch: one byte of key
+/// (field 1, length-delimited) and a varint of at most 5 bytes (the length is below 2^32).
+constexpr std::size_t kBatchEntryOverhead = 6;
 
 /// One pose stream. Every accepted update yields exactly one report, in order: updates are
 /// evaluated one at a time (the stream's caches are its single mutable state) and reports are
@@ -131,6 +143,12 @@ grpc::ServerUnaryReactor* serve_unary(CallRegistry& calls, grpc::CallbackServerC
 ///    An error report queued behind an update keeps its place: a newer update does not merge
 ///    across it.
 ///
+/// Batched streams (StreamPoseBatches) count updates, not messages: a batch is read whole and
+/// each of its updates is accepted as if it had arrived alone (BLOCK may then hold up to N − 1
+/// plus one batch's updates). Its reports are kept already framed as DistanceReportBatch
+/// entries, so that a write is the reports ready at that moment, concatenated up to the message
+/// size limit: nothing waits for a batch to fill.
+///
 /// Locking: `mutex_` guards every member below it. gRPC never runs a reaction inline inside
 /// StartRead/StartWrite/Finish (their tags are not inlineable), so calling them under the lock
 /// is safe; OnDone takes the lock once before deleting, so whoever called Finish has let go.
@@ -138,8 +156,15 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
                                 public DrainableStream {
  public:
   PoseStreamReactor(DistanceServiceImpl& service, grpc::CallbackServerContext* context,
-                    std::uint64_t number)
-      : service_(service), context_(context), number_(number), peer_(context->peer()) {
+                    std::uint64_t number, StreamFraming framing)
+      : service_(service),
+        context_(context),
+        number_(number),
+        peer_(context->peer()),
+        batched_(framing == StreamFraming::batched),
+        rpc_(batched_ ? "StreamPoseBatches" : "StreamPoses"),
+        report_limit_(batched_ ? service.max_message_bytes() - kBatchEntryOverhead
+                               : service.max_message_bytes()) {
     const auto constructed = handoff_.construction();  // see tsan_handoff.hpp
     max_in_flight_ = std::max<std::size_t>(1, service.scenes().limits().max_in_flight_per_stream);
     Expected<std::unique_ptr<PoseStream>> stream = service.scenes().open_stream();
@@ -150,7 +175,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
           .kv("message", stream.error().message);
       finished_ = true;
       const grpc::Status refused = to_grpc_status(stream.error());
-      metrics::record_grpc_status("StreamPoses", refused.error_code());
+      metrics::record_grpc_status(rpc_, refused.error_code());
       Finish(refused);
       return;
     }
@@ -165,6 +190,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     }
     log_info("stream_open")
         .kv("stream", number_)
+        .kv("rpc", rpc_)
         .kv("peer", peer_)
         .kv("routing_key", routing_key(context));
     std::unique_lock lock(mutex_);
@@ -183,11 +209,13 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
       Pump(lock);
       return;
     }
-    if (std::string why = parse_message(incoming_, parsed_); !why.empty()) {
+    google::protobuf::Message& parsed =
+        batched_ ? static_cast<google::protobuf::Message&>(parsed_batch_) : parsed_;
+    if (std::string why = parse_message(incoming_, parsed); !why.empty()) {
       // Not an update we can answer or refuse by sequence number: stop reading, answer what was
       // read before it, then end the stream INVALID_ARGUMENT (never OK after input we could not
       // read).
-      unparsable_ = text("message ", updates_read_ + 1, " of the stream (after sequence ",
+      unparsable_ = text("message ", messages_read_ + 1, " of the stream (after sequence ",
                          last_sequence_, ") ", why, "; the ", updates_read_,
                          " updates before it were answered and nothing after it was read");
       log_warn("stream_message_unparsable")
@@ -198,8 +226,78 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
       Pump(lock);
       return;
     }
+    ++messages_read_;
+    if (batched_) {
+      // One by one, as if each had arrived alone: the first may start evaluating before the
+      // next is accepted, so that COALESCE merges only what arrives while the stream is busy.
+      // (Not Pump(): no read may start before the whole batch counts as in flight.)
+      for (const v1::PoseUpdate& update : parsed_batch_.updates()) {
+        Accept(update);
+        StartEvaluation();
+      }
+    } else {
+      Accept(parsed_);
+    }
+    Pump(lock);
+  }
+
+  void OnWriteDone(bool ok) override {
+    const auto reaction = handoff_.reaction();
+    std::unique_lock lock(mutex_);
+    writing_ = false;
+    if (ok) {
+      reports_written_ += reports_in_write_;
+      ++messages_written_;
+    } else {
+      broken_ = true;  // the call is over (client gone, deadline, cancel): stop writing
+    }
+    reports_in_write_ = 0;
+    Pump(lock);
+  }
+
+  void OnCancel() override {
+    const auto reaction = handoff_.reaction();
+    std::unique_lock lock(mutex_);
+    broken_ = true;
+    Pump(lock);
+  }
+
+  void OnDone() override {
+    handoff_.done();
+    { std::lock_guard lock(mutex_); }  // whoever called Finish has released the lock
+    if (registered_) {
+      service_.calls().remove(this);
+      // A client that vanishes (SIGKILL, lost network) ends the reads just like a half-close
+      // (OnReadDone(false)), so an idle stream went on to Finish(OK) and was logged "ok". Only
+      // now is it known whether the status reached the client: gRPC marks the call cancelled
+      // when it did not.
+      if (context_->IsCancelled()) finish_reason_ = "cancelled";
+      log_info("stream_closed")
+          .kv("stream", number_)
+          .kv("updates", updates_read_)
+          .kv("messages", messages_read_)
+          .kv("rejected", updates_rejected_)
+          .kv("coalesced", updates_coalesced_)
+          .kv("reports", reports_written_)
+          .kv("messages_written", messages_written_)
+          .kv("status", finish_reason_);
+    }
+    delete this;
+  }
+
+  void Drain() override {
+    std::unique_lock lock(mutex_);
+    draining_ = true;
+    Pump(lock);
+  }
+
+ private:
+  /// One update read off the stream: validated (PoseStream::prepare) and queued behind what was
+  /// read before it, its error report if rejected, or merged into the queued update under
+  /// COALESCE. Requires `mutex_`.
+  void Accept(const v1::PoseUpdate& message) {
     ++updates_read_;
-    const model::PoseUpdateInput update = to_input(parsed_);
+    const model::PoseUpdateInput update = to_input(message);
     last_sequence_ = update.sequence;
     Expected<PreparedUpdate> prepared = stream_->prepare(update, Clock::now());
     metrics::record_update(prepared ? nullptr : &prepared.error());
@@ -226,58 +324,10 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     } else {
       pending_.push_back(std::move(prepared.value()));
     }
-    Pump(lock);
   }
 
-  void OnWriteDone(bool ok) override {
-    const auto reaction = handoff_.reaction();
-    std::unique_lock lock(mutex_);
-    writing_ = false;
-    if (ok) {
-      ++reports_written_;
-    } else {
-      broken_ = true;  // the call is over (client gone, deadline, cancel): stop writing
-    }
-    Pump(lock);
-  }
-
-  void OnCancel() override {
-    const auto reaction = handoff_.reaction();
-    std::unique_lock lock(mutex_);
-    broken_ = true;
-    Pump(lock);
-  }
-
-  void OnDone() override {
-    handoff_.done();
-    { std::lock_guard lock(mutex_); }  // whoever called Finish has released the lock
-    if (registered_) {
-      service_.calls().remove(this);
-      // A client that vanishes (SIGKILL, lost network) ends the reads just like a half-close
-      // (OnReadDone(false)), so an idle stream went on to Finish(OK) and was logged "ok". Only
-      // now is it known whether the status reached the client: gRPC marks the call cancelled
-      // when it did not.
-      if (context_->IsCancelled()) finish_reason_ = "cancelled";
-      log_info("stream_closed")
-          .kv("stream", number_)
-          .kv("updates", updates_read_)
-          .kv("rejected", updates_rejected_)
-          .kv("coalesced", updates_coalesced_)
-          .kv("reports", reports_written_)
-          .kv("status", finish_reason_);
-    }
-    delete this;
-  }
-
-  void Drain() override {
-    std::unique_lock lock(mutex_);
-    draining_ = true;
-    Pump(lock);
-  }
-
- private:
   std::size_t in_flight() const {
-    return pending_.size() + (evaluating_ ? 1 : 0) + outgoing_.size() + (writing_ ? 1 : 0);
+    return pending_.size() + (evaluating_ ? 1 : 0) + outgoing_.size() + reports_in_write_;
   }
 
   /// Pump(), then the evaluations it handed to this thread (PoseStream::evaluates_inline):
@@ -288,7 +338,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     while (inline_evaluation_) {
       std::shared_ptr<EvaluationJob> job = std::move(inline_evaluation_);
       lock.unlock();
-      grpc::ByteBuffer message = ToBuffer(stream_->run_evaluation(*job));
+      grpc::Slice message = ToSlice(stream_->run_evaluation(*job));
       job.reset();
       lock.lock();
       Answered(std::move(message));
@@ -302,29 +352,8 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   void Pump() {
     if (finished_) return;
     const bool coalescing = stream_->flow_control() == model::FlowControl::coalesce;
-
-    // Error reports at the head of the queue go out once everything read before them has been
-    // answered (no evaluation in progress).
-    while (!broken_ && !evaluating_ && !pending_.empty() &&
-           std::holds_alternative<grpc::ByteBuffer>(pending_.front())) {
-      outgoing_.push_back(std::move(std::get<grpc::ByteBuffer>(pending_.front())));
-      pending_.pop_front();
-    }
-    if (!broken_ && !evaluating_ && !pending_.empty() && (!coalescing || outgoing_.empty())) {
-      PreparedUpdate next = std::move(std::get<PreparedUpdate>(pending_.front()));
-      pending_.pop_front();
-      evaluating_ = true;
-      if (stream_->evaluates_inline())
-        inline_evaluation_ = stream_->take_evaluation(std::move(next));
-      else
-        stream_->evaluate(std::move(next), [this](Report report) { OnReport(std::move(report)); });
-    }
-    if (!broken_ && !writing_ && !outgoing_.empty()) {
-      current_write_.Swap(&outgoing_.front());
-      outgoing_.pop_front();
-      writing_ = true;
-      StartWrite(&current_write_);
-    }
+    StartEvaluation();
+    if (!broken_ && !writing_ && !outgoing_.empty()) StartNextWrite();
 
     if (broken_) {
       // Nothing more can be written. Wait for the evaluation and the write in progress (they
@@ -364,20 +393,62 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
     }
   }
 
+  /// The part of Pump() that moves the queue along: error reports at the head of the queue go out
+  /// once everything read before them has been answered (no evaluation in progress), and the
+  /// next update starts evaluating when none is (under COALESCE only when no report is waiting).
+  /// Requires `mutex_`.
+  void StartEvaluation() {
+    while (!broken_ && !evaluating_ && !pending_.empty() &&
+           std::holds_alternative<grpc::Slice>(pending_.front())) {
+      outgoing_.push_back(std::move(std::get<grpc::Slice>(pending_.front())));
+      pending_.pop_front();
+    }
+    const bool coalescing = stream_->flow_control() == model::FlowControl::coalesce;
+    if (!broken_ && !evaluating_ && !pending_.empty() && (!coalescing || outgoing_.empty())) {
+      PreparedUpdate next = std::move(std::get<PreparedUpdate>(pending_.front()));
+      pending_.pop_front();
+      evaluating_ = true;
+      if (stream_->evaluates_inline())
+        inline_evaluation_ = stream_->take_evaluation(std::move(next));
+      else
+        stream_->evaluate(std::move(next), [this](Report report) { OnReport(std::move(report)); });
+    }
+  }
+
   void End(const grpc::Status& status, const char* reason) {
     finished_ = true;
     finish_reason_ = reason;
-    metrics::record_grpc_status("StreamPoses", status.error_code());
+    metrics::record_grpc_status(rpc_, status.error_code());
     Finish(status);
+  }
+
+  /// Writes the oldest report, or on a batched stream every report ready now that fits in one
+  /// message (at least one: each fits alone, see report_limit_). Requires `mutex_`.
+  void StartNextWrite() {
+    write_slices_.clear();
+    std::size_t bytes = 0;
+    while (!outgoing_.empty() &&
+           (write_slices_.empty() ||
+            (batched_ && bytes + outgoing_.front().size() <= service_.max_message_bytes()))) {
+      bytes += outgoing_.front().size();
+      write_slices_.push_back(std::move(outgoing_.front()));
+      outgoing_.pop_front();
+    }
+    reports_in_write_ = write_slices_.size();
+    grpc::ByteBuffer message(write_slices_.data(), write_slices_.size());  // refs the slices
+    current_write_.Swap(&message);
+    write_slices_.clear();
+    writing_ = true;
+    StartWrite(&current_write_);
   }
 
   /// The report's message, built and serialised outside the lock (it may be large) in a message
   /// kept for the next report: protobuf's Clear() keeps the pairs' objects and strings, so a
   /// stream's reports stop allocating once the first has been built. Evaluations of one stream
   /// never overlap, so neither do calls of this.
-  grpc::ByteBuffer ToBuffer(const Report& report) {
+  grpc::Slice ToSlice(const Report& report) {
     to_proto(report, report_scratch_);
-    if (auto error = check_report_fits(report_scratch_, service_.max_message_bytes())) {
+    if (auto error = check_report_fits(report_scratch_, report_limit_)) {
       log_error("report_too_large").kv("stream", number_).kv("message", error->message);
       to_proto(*error, report.sequence, report_scratch_);  // the update is answered all the same
       return Serialise(report_scratch_, report_scratch_.ByteSizeLong());
@@ -387,23 +458,37 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   }
 
   /// `message`, whose ByteSizeLong() is `size` and was just computed (the serialiser relies on
-  /// the sizes it cached), on the wire. Below --max-message-bytes, so well below 2 GB.
-  static grpc::ByteBuffer Serialise(const v1::DistanceReport& message, std::size_t size) {
-    grpc::Slice slice(size);
-    message.SerializeWithCachedSizesToArray(const_cast<std::uint8_t*>(slice.begin()));
-    return grpc::ByteBuffer(&slice, 1);
+  /// the sizes it cached), on the wire. Below --max-message-bytes, so well below 2 GB. On a
+  /// batched stream preceded by its key and length as an entry of DistanceReportBatch.reports,
+  /// so that a write is the entries' concatenation (a valid DistanceReportBatch) without a copy.
+  grpc::Slice Serialise(const v1::DistanceReport& message, std::size_t size) const {
+    using google::protobuf::internal::WireFormatLite;
+    using google::protobuf::io::CodedOutputStream;
+    constexpr std::uint32_t kEntryKey = WireFormatLite::MakeTag(
+        v1::DistanceReportBatch::kReportsFieldNumber, WireFormatLite::WIRETYPE_LENGTH_DELIMITED);
+    const std::size_t prefix = batched_ ? CodedOutputStream::VarintSize32(kEntryKey) +
+                                              CodedOutputStream::VarintSize64(size)
+                                        : 0;
+    grpc::Slice slice(prefix + size);
+    std::uint8_t* out = const_cast<std::uint8_t*>(slice.begin());
+    if (batched_) {
+      out = CodedOutputStream::WriteVarint32ToArray(kEntryKey, out);
+      out = CodedOutputStream::WriteVarint64ToArray(size, out);
+    }
+    message.SerializeWithCachedSizesToArray(out);
+    return slice;
   }
 
   /// The evaluation under way is over; its report goes out unless nothing can be written any
   /// more. Requires `mutex_`.
-  void Answered(grpc::ByteBuffer message) {
+  void Answered(grpc::Slice message) {
     evaluating_ = false;
     if (!broken_) outgoing_.push_back(std::move(message));
   }
 
   /// The evaluation's report, on a pool thread.
   void OnReport(Report report) {
-    grpc::ByteBuffer message = ToBuffer(report);
+    grpc::Slice message = ToSlice(report);
     std::unique_lock lock(mutex_);
     Answered(std::move(message));
     Pump(lock);
@@ -414,6 +499,10 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   grpc::CallbackServerContext* const context_;  // valid until OnDone returns
   const std::uint64_t number_;
   const std::string peer_;
+  const bool batched_;
+  const char* const rpc_;  // for metrics and logs
+  /// The largest report sent: --max-message-bytes, less a batch entry's framing when batched.
+  const std::size_t report_limit_;
   std::size_t max_in_flight_ = 1;
   std::unique_ptr<PoseStream> stream_;
   bool registered_ = false;
@@ -421,13 +510,17 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   std::mutex mutex_;
   grpc::ByteBuffer incoming_;
   v1::PoseUpdate parsed_;
+  v1::PoseUpdateBatch parsed_batch_;  // batched streams parse here instead
   grpc::ByteBuffer current_write_;
+  /// The reports in current_write_ (0 while none is under way); the slices it is built from.
+  std::size_t reports_in_write_ = 0;
+  std::vector<grpc::Slice> write_slices_;
   /// Read and not yet answered, in read order: updates to evaluate, and the error reports of
-  /// rejected updates (serialised) waiting for their turn.
-  std::deque<std::variant<PreparedUpdate, grpc::ByteBuffer>> pending_;
+  /// rejected updates (serialised, see Serialise) waiting for their turn.
+  std::deque<std::variant<PreparedUpdate, grpc::Slice>> pending_;
   /// Serialised reports waiting for the write in progress, oldest first.
-  std::deque<grpc::ByteBuffer> outgoing_;
-  /// Reused by ToBuffer (see there).
+  std::deque<grpc::Slice> outgoing_;
+  /// Reused by ToSlice (see there).
   v1::DistanceReport report_scratch_;
   bool reading_ = false;
   bool writing_ = false;
@@ -442,10 +535,12 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
   /// Why a message did not parse (the stream then ends INVALID_ARGUMENT); empty while all did.
   std::string unparsable_;
   std::uint64_t last_sequence_ = 0;
+  std::uint64_t messages_read_ = 0;
   std::uint64_t updates_read_ = 0;
   std::uint64_t updates_rejected_ = 0;
   std::uint64_t updates_coalesced_ = 0;
   std::uint64_t reports_written_ = 0;
+  std::uint64_t messages_written_ = 0;
 };
 
 // ---- Echo ----
@@ -751,7 +846,14 @@ grpc::ServerUnaryReactor* DistanceServiceImpl::Query(grpc::CallbackServerContext
 
 grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* DistanceServiceImpl::StreamPoses(
     grpc::CallbackServerContext* context) {
-  return new PoseStreamReactor(*this, context, next_stream_number_.fetch_add(1));
+  return new PoseStreamReactor(*this, context, next_stream_number_.fetch_add(1),
+                               StreamFraming::one_per_message);
+}
+
+grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* DistanceServiceImpl::StreamPoseBatches(
+    grpc::CallbackServerContext* context) {
+  return new PoseStreamReactor(*this, context, next_stream_number_.fetch_add(1),
+                               StreamFraming::batched);
 }
 
 grpc::ServerBidiReactor<v1::EchoMessage, v1::EchoMessage>* DiagnosticsServiceImpl::Echo(

@@ -61,8 +61,9 @@ using RawDistanceService = v1::DistanceService::WithRawCallbackMethod_RegisterGe
                     v1::DistanceService::WithRawCallbackMethod_ListScenes<
                         v1::DistanceService::WithRawCallbackMethod_Query<
                             v1::DistanceService::WithRawCallbackMethod_StreamPoses<
-                                v1::DistanceService::WithRawCallbackMethod_GetServerInfo<
-                                    v1::DistanceService::Service>>>>>>>>>;
+                                v1::DistanceService::WithRawCallbackMethod_StreamPoseBatches<
+                                    v1::DistanceService::WithRawCallbackMethod_GetServerInfo<
+                                        v1::DistanceService::Service>>>>>>>>>>;
 
 class DistanceServiceImpl final : public RawDistanceService {
  public:
@@ -97,6 +98,10 @@ class DistanceServiceImpl final : public RawDistanceService {
   /// Messages are parsed as nearpoint.v1.PoseUpdate; one that does not parse ends the stream
   /// with INVALID_ARGUMENT once the updates read before it are answered.
   grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* StreamPoses(
+      grpc::CallbackServerContext* context) override;
+  /// StreamPoses with nearpoint.v1.PoseUpdateBatch and DistanceReportBatch messages: the same
+  /// reactor, each update in a batch handled as if it had arrived alone.
+  grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* StreamPoseBatches(
       grpc::CallbackServerContext* context) override;
   /// Answers set_server_info()'s description with the bound port filled in.
   grpc::ServerUnaryReactor* GetServerInfo(grpc::CallbackServerContext* context,

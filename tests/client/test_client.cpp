@@ -399,6 +399,44 @@ TEST_F(WithServer, PushBlocksWhileTheWindowIsFull) {
   EXPECT_EQ((*session)->next(Clock::now() + seconds(1)).status().code, client::kOutOfRange);
 }
 
+// push_batch: one update per pose set, in order, each with its own sequence number and report,
+// on StreamPoseBatches (SessionOptions::batched: one message) and on StreamPoses (one message
+// per pose set) alike; a batch larger than the window waits for an empty window instead of
+// forever, and push() still works on a batched session.
+TEST_F(WithServer, PushBatchAnswersEveryPoseSetInOrder) {
+  auto client = client::Client::connect(server_->target());
+  const std::string scene_id = create_two_cube_scene(*client);
+  ASSERT_FALSE(scene_id.empty());
+  for (const bool batched : {true, false}) {
+    client::SessionOptions options;
+    options.max_in_flight = 2;
+    options.batched = batched;
+    auto session = client->open_session(scene_id, options);
+    ASSERT_TRUE(session.ok());
+    std::vector<std::vector<client::ObjectPose>> pose_sets;
+    for (int x = 3; x <= 7; ++x)
+      pose_sets.push_back(
+          {client::ObjectPose("a", Eigen::Isometry3d(Eigen::Translation3d(x, 0, 0)))});
+    auto first = (*session)->push_batch(pose_sets, Clock::now() + seconds(10));
+    ASSERT_TRUE(first.ok()) << first.status().describe();
+    EXPECT_EQ(*first, 1u);
+    for (std::uint64_t expected = 1; expected <= 5; ++expected) {
+      auto report = (*session)->next(Clock::now() + seconds(10));
+      ASSERT_TRUE(report.ok()) << report.status().describe();
+      EXPECT_EQ(report->sequence, expected) << "batched " << batched;
+      EXPECT_NEAR(report->pairs.at(0).distance, double(expected) + 1.0, 1e-12);
+    }
+    const client::ObjectPose last("a", Eigen::Isometry3d(Eigen::Translation3d(9, 0, 0)));
+    auto single = (*session)->push({last}, Clock::now() + seconds(10));
+    ASSERT_TRUE(single.ok()) << single.status().describe();
+    EXPECT_EQ(*single, 6u);
+    auto report = (*session)->next(Clock::now() + seconds(10));
+    ASSERT_TRUE(report.ok()) << report.status().describe();
+    EXPECT_NEAR(report->pairs.at(0).distance, 8.0, 1e-12);
+    EXPECT_TRUE((*session)->close(Clock::now() + seconds(10)).ok());
+  }
+}
+
 // Reconnect: the server is killed (no drain) and a new one started on the same port. The session
 // replays the geometries and the scene, re-sends the poses pushed before the drop (the new stream
 // starts from the initial poses), answers updates lost in the drop with UNAVAILABLE, and every
@@ -998,21 +1036,26 @@ TEST_F(WithServer, StreamThresholdsReportEnterAndExitEvents) {
 }
 
 TEST_F(WithServer, LoadRunsBoundedAndReportsPercentiles) {
-  LoadCommandOptions options;
-  options.remote = remote();
-  options.streams = 2;
-  options.duration_s = 0.4 * testkit::kTimeScale;
-  options.progress_every = 0.1 * testkit::kTimeScale;
-  std::ostringstream out, err;
-  const auto start = Clock::now();
-  ASSERT_EQ(run_load(options, out, err), 0) << err.str();
-  EXPECT_LT(Clock::now() - start, seconds(20) * testkit::kTimeScale);
-  const Json result = parse_json(out.str());
-  EXPECT_GT(result["reports"].get<int>(), 10);
-  EXPECT_EQ(result["errors"], 0);
-  EXPECT_LE(result["latency_us"]["p50"].get<double>(), result["latency_us"]["p99"].get<double>());
-  EXPECT_LE(result["latency_us"]["p99"].get<double>(), result["latency_us"]["max"].get<double>());
-  EXPECT_NE(err.str().find("updates/s"), std::string::npos);  // the progress line
+  for (const std::size_t batch : {1u, 8u}) {  // StreamPoses, then StreamPoseBatches
+    LoadCommandOptions options;
+    options.remote = remote();
+    options.streams = 2;
+    options.batch = batch;
+    options.duration_s = 0.4 * testkit::kTimeScale;
+    options.progress_every = 0.1 * testkit::kTimeScale;
+    std::ostringstream out, err;
+    const auto start = Clock::now();
+    ASSERT_EQ(run_load(options, out, err), 0) << err.str();
+    EXPECT_LT(Clock::now() - start, seconds(20) * testkit::kTimeScale);
+    const Json result = parse_json(out.str());
+    EXPECT_EQ(result["batch"], batch);
+    EXPECT_GT(result["reports"].get<int>(), 10);
+    EXPECT_EQ(result["errors"], 0);
+    EXPECT_GT(result["geometry_us_per_report"].get<double>(), 0.0);
+    EXPECT_LE(result["latency_us"]["p50"].get<double>(), result["latency_us"]["p99"].get<double>());
+    EXPECT_LE(result["latency_us"]["p99"].get<double>(), result["latency_us"]["max"].get<double>());
+    EXPECT_NE(err.str().find("updates/s"), std::string::npos);  // the progress line
+  }
 }
 
 }  // namespace

@@ -308,19 +308,21 @@ class PythonClientTest(unittest.TestCase):
         # A helix around the fixed box, sequence numbers 10, 20, 30, ...
         path = [(2.0 * math.cos(0.05 * k), 2.0 * math.sin(0.05 * k), 0.01 * k)
                 for k in range(60)]
-        updates = (npc.Update(sequence=10 * (k + 1), poses={"moving": c})
-                   for k, c in enumerate(path))
-        reports = list(self.client.stream(scene, updates, options={"near_points": True},
-                                          timeout=60))
-        self.assertEqual([r.sequence for r in reports], [10 * (k + 1) for k in range(60)])
-        for k, report in enumerate(reports):
-            self.assertIsNone(report.error)
-            (pair,) = report.pairs
-            truth = box_distance((0, 0, 0), (0.5, 0.5, 0.5), path[k], (0.3, 0.2, 0.1))
-            self.check_pair(pair, truth, f"update {k}")
-            # The first update starts cold; the stream's cache warms every later one.
-            self.assertEqual(pair.warm_started, k > 0, f"update {k}")
-            self.assertGreater(report.server_us, 0)
+        for batch in (1, 7):  # StreamPoses, then StreamPoseBatches (60 = 8 x 7 + 4)
+            with self.subTest(batch=batch):
+                updates = (npc.Update(sequence=10 * (k + 1), poses={"moving": c})
+                           for k, c in enumerate(path))
+                reports = list(self.client.stream(scene, updates, options={"near_points": True},
+                                                  timeout=60, batch=batch))
+                self.assertEqual([r.sequence for r in reports], [10 * (k + 1) for k in range(60)])
+                for k, report in enumerate(reports):
+                    self.assertIsNone(report.error)
+                    (pair,) = report.pairs
+                    truth = box_distance((0, 0, 0), (0.5, 0.5, 0.5), path[k], (0.3, 0.2, 0.1))
+                    self.check_pair(pair, truth, f"update {k}")
+                    # The first update starts cold; the stream's cache warms every later one.
+                    self.assertEqual(pair.warm_started, k > 0, f"update {k}")
+                    self.assertGreater(report.server_us, 0)
 
     def test_rejected_update_is_a_report_and_the_stream_goes_on(self):
         cube = self.register_box((0.5, 0.5, 0.5))
@@ -331,16 +333,18 @@ class PythonClientTest(unittest.TestCase):
             npc.Update(3, {"ghost": (1, 1, 1)}),                      # no such object
             npc.Update(4, {"b": (1.5, 0.5, 0)}),
         ]
-        reports = list(self.client.stream(scene, iter(updates), timeout=30))
-        self.assertEqual([r.sequence for r in reports], [1, 2, 3, 4])
-        self.check_pair(reports[0].pairs[0], 2.0, "update 1")
-        self.assertEqual(reports[1].pairs, ())
-        self.assertEqual(reports[1].error.code, "INVALID_ARGUMENT")
-        self.assertEqual(reports[1].error.field, "poses[0].pose.rotation")
-        self.assertIn("unit length", reports[1].error.message)
-        self.assertEqual(reports[2].error.code, "NOT_FOUND")
-        self.assertIn("ghost", reports[2].error.message)
-        self.check_pair(reports[3].pairs[0], 0.5, "update 4")
+        for batch in (1, 4):  # the bad updates in the middle of one batch, answered in place
+            with self.subTest(batch=batch):
+                reports = list(self.client.stream(scene, iter(updates), timeout=30, batch=batch))
+                self.assertEqual([r.sequence for r in reports], [1, 2, 3, 4])
+                self.check_pair(reports[0].pairs[0], 2.0, "update 1")
+                self.assertEqual(reports[1].pairs, ())
+                self.assertEqual(reports[1].error.code, "INVALID_ARGUMENT")
+                self.assertEqual(reports[1].error.field, "poses[0].pose.rotation")
+                self.assertIn("unit length", reports[1].error.message)
+                self.assertEqual(reports[2].error.code, "NOT_FOUND")
+                self.assertIn("ghost", reports[2].error.message)
+                self.check_pair(reports[3].pairs[0], 0.5, "update 4")
 
     def test_a_report_larger_than_4_mib_arrives(self):
         """Guards the client's receive limit (DEFAULT_MAX_MESSAGE_BYTES, the server's send limit):

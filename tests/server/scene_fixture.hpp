@@ -150,35 +150,75 @@ inline void expect_matches_local(const LocalScene& scene, const std::vector<Test
   }
 }
 
-/// A bidirectional pose stream through the generated sync client, with a deadline.
+/// A bidirectional pose stream through the generated sync client, with a deadline: StreamPoses
+/// (`batch` 0, the default), or StreamPoseBatches sending `batch` updates per message — write()
+/// buffers until `batch` are there, flush() and writes_done() send what is buffered — whose
+/// reports read() hands out one by one. The same test then drives either RPC.
 class StreamClient {
  public:
   explicit StreamClient(v1::DistanceService::Stub& stub,
-                        std::chrono::seconds deadline = kCallDeadline)
-      : context_(make_context(deadline)), stream_(stub.StreamPoses(context_.get())) {}
+                        std::chrono::seconds deadline = kCallDeadline, std::size_t batch = 0)
+      : context_(make_context(deadline)), batch_(batch) {
+    if (batch_ == 0)
+      stream_ = stub.StreamPoses(context_.get());
+    else
+      batch_stream_ = stub.StreamPoseBatches(context_.get());
+  }
 
-  bool write(const v1::PoseUpdate& update) { return stream_->Write(update); }
-  bool read(v1::DistanceReport& report) { return stream_->Read(&report); }
-  bool writes_done() { return stream_->WritesDone(); }
+  bool write(const v1::PoseUpdate& update) {
+    if (batch_ == 0) return stream_->Write(update);
+    *buffered_.add_updates() = update;
+    return buffered_.updates_size() < int(batch_) || flush();
+  }
+  /// Sends the buffered updates as one batch (if any).
+  bool flush() {
+    if (batch_ == 0 || buffered_.updates_size() == 0) return true;
+    const bool written = batch_stream_->Write(buffered_);
+    buffered_.Clear();
+    return written;
+  }
+  bool read(v1::DistanceReport& report) {
+    if (batch_ == 0) return stream_->Read(&report);
+    while (next_report_ == received_.reports_size()) {
+      if (!batch_stream_->Read(&received_)) return false;
+      ++messages_read_;
+      next_report_ = 0;
+    }
+    report = received_.reports(next_report_++);
+    return true;
+  }
+  bool writes_done() {
+    if (!flush()) return false;
+    return batch_ == 0 ? stream_->WritesDone() : batch_stream_->WritesDone();
+  }
   /// Half-closes, reads what is left (into `rest` if given) and returns the call's status.
   grpc::Status finish(std::vector<v1::DistanceReport>* rest = nullptr) {
-    stream_->WritesDone();
+    writes_done();
     v1::DistanceReport report;
-    while (stream_->Read(&report))
+    while (read(report))
       if (rest) rest->push_back(report);
-    return stream_->Finish();
+    return batch_ == 0 ? stream_->Finish() : batch_stream_->Finish();
   }
   /// Reads until the server ends the stream (without half-closing) and returns its status.
   grpc::Status read_to_end(std::vector<v1::DistanceReport>& out) {
     v1::DistanceReport report;
-    while (stream_->Read(&report)) out.push_back(report);
-    return stream_->Finish();
+    while (read(report)) out.push_back(report);
+    return batch_ == 0 ? stream_->Finish() : batch_stream_->Finish();
   }
   grpc::ClientContext& context() { return *context_; }
+  /// StreamPoseBatches: the DistanceReportBatch messages read so far.
+  std::size_t messages_read() const { return messages_read_; }
 
  private:
   std::unique_ptr<grpc::ClientContext> context_;
+  const std::size_t batch_;
   std::unique_ptr<grpc::ClientReaderWriter<v1::PoseUpdate, v1::DistanceReport>> stream_;
+  std::unique_ptr<grpc::ClientReaderWriter<v1::PoseUpdateBatch, v1::DistanceReportBatch>>
+      batch_stream_;
+  v1::PoseUpdateBatch buffered_;
+  v1::DistanceReportBatch received_;
+  int next_report_ = 0;
+  std::size_t messages_read_ = 0;
 };
 
 }  // namespace nearpoint::server::testing

@@ -228,23 +228,26 @@ TEST(ReportLimits, AReportTooLargeToSendIsReplacedByAnErrorReport) {
   v1::CreateSceneResponse created;
   ASSERT_TRUE(stub->CreateScene(make_context().get(), request, &created).ok());
 
-  StreamClient stream(*stub);
-  for (std::uint64_t sequence : {11u, 12u}) {
-    v1::PoseUpdate update;
-    update.set_scene_id(created.scene_id());
-    update.set_sequence(sequence);
-    ASSERT_TRUE(stream.write(update));
+  // On StreamPoses, and on StreamPoseBatches with both updates in one message.
+  for (const std::size_t batch : {0u, 2u}) {
+    StreamClient stream(*stub, kCallDeadline, batch);
+    for (std::uint64_t sequence : {11u, 12u}) {
+      v1::PoseUpdate update;
+      update.set_scene_id(created.scene_id());
+      update.set_sequence(sequence);
+      ASSERT_TRUE(stream.write(update));
+    }
+    for (std::uint64_t sequence : {11u, 12u}) {
+      v1::DistanceReport report;
+      ASSERT_TRUE(stream.read(report)) << "update " << sequence << " got no report";
+      EXPECT_EQ(report.sequence(), sequence);
+      ASSERT_TRUE(report.has_error());
+      EXPECT_EQ(report.error().code(), v1::ERROR_CODE_RESOURCE_EXHAUSTED);
+      EXPECT_TRUE(contains(report.error().message(), "--max-message-bytes"))
+          << report.error().message();
+    }
+    EXPECT_TRUE(stream.finish().ok());
   }
-  for (std::uint64_t sequence : {11u, 12u}) {
-    v1::DistanceReport report;
-    ASSERT_TRUE(stream.read(report)) << "update " << sequence << " got no report";
-    EXPECT_EQ(report.sequence(), sequence);
-    ASSERT_TRUE(report.has_error());
-    EXPECT_EQ(report.error().code(), v1::ERROR_CODE_RESOURCE_EXHAUSTED);
-    EXPECT_TRUE(contains(report.error().message(), "--max-message-bytes"))
-        << report.error().message();
-  }
-  EXPECT_TRUE(stream.finish().ok());
 
   v1::QueryRequest query;
   query.set_scene_id(created.scene_id());

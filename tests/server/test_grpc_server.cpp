@@ -5,6 +5,7 @@
 #include <grpcpp/generic/generic_stub.h>
 
 #include <atomic>
+#include <cstdio>
 #include <functional>
 #include <future>
 #include <limits>
@@ -47,12 +48,26 @@ class GrpcServerPoolTest : public GrpcServerTest {
   }
 };
 
+// The stream tests that take a parameter run on StreamPoses (0) and on StreamPoseBatches with
+// 1 and with 7 updates per message (7 divides none of their update counts: the last batch is a
+// partial one): each update of a batch must be handled exactly as if it had been sent alone.
+std::string framing_name(const ::testing::TestParamInfo<std::size_t>& info) {
+  return info.param == 0 ? "StreamPoses" : "Batches" + std::to_string(info.param);
+}
+const auto kFramings = ::testing::Values(std::size_t(0), std::size_t(1), std::size_t(7));
+
+class GrpcStreamTest : public GrpcServerTest, public ::testing::WithParamInterface<std::size_t> {};
+INSTANTIATE_TEST_SUITE_P(Framing, GrpcStreamTest, kFramings, framing_name);
+class GrpcStreamPoolTest : public GrpcServerPoolTest,
+                           public ::testing::WithParamInterface<std::size_t> {};
+INSTANTIATE_TEST_SUITE_P(Framing, GrpcStreamPoolTest, kFramings, framing_name);
+
 // ---- streams ----
 
 // The main path: a pipelined stream of 300 poses along a smooth trajectory (a writer thread
 // sends while the reader checks), every report in order with its sequence number and every
 // distance equal to the engine's within the error bounds.
-TEST_F(GrpcServerTest, StreamedTrajectoryMatchesTheEngineInOrder) {
+TEST_P(GrpcStreamTest, StreamedTrajectoryMatchesTheEngineInOrder) {
   v1::QueryOptions defaults;
   defaults.set_near_points(true);
   const LocalScene scene = make_scene(stub(), defaults);
@@ -60,12 +75,13 @@ TEST_F(GrpcServerTest, StreamedTrajectoryMatchesTheEngineInOrder) {
   constexpr int kSteps = 300;
   constexpr std::uint64_t kFirstSequence = 1000;
 
-  StreamClient stream(stub());
+  StreamClient stream(stub(), kCallDeadline, GetParam());
   std::thread writer([&] {
     for (int step = 0; step < kSteps; ++step)
       if (!stream.write(make_update(scene, kFirstSequence + std::uint64_t(step),
                                     trajectory(scene.size(), step))))
         return;
+    stream.flush();
   });
   CheckStats stats;
   int warm_pairs_after_first = 0, pairs_after_first = 0;
@@ -338,9 +354,9 @@ TEST_F(GrpcServerTest, ListScenesShowsLiveScenesUntilDeleted) {
 // Flow control, BLOCK (the default): a client that keeps writing without reading any report
 // gets every update answered, in order — the server stops reading (HTTP/2 flow control then
 // holds the writer back) instead of buffering without bound or dropping.
-TEST_F(GrpcServerTest, BlockPolicyAnswersEveryUpdateOfAFastWriter) {
+TEST_P(GrpcStreamTest, BlockPolicyAnswersEveryUpdateOfAFastWriter) {
   const LocalScene scene = make_scene(stub());
-  StreamClient stream(stub());
+  StreamClient stream(stub(), kCallDeadline, GetParam());
   constexpr int kUpdates = 200;
   std::promise<void> half_written;
   std::thread writer([&] {
@@ -369,12 +385,12 @@ TEST_F(GrpcServerTest, BlockPolicyAnswersEveryUpdateOfAFastWriter) {
 // keeps reading and merges what arrives while it is busy into the newest update. Every update is
 // accounted for (each report counts the updates it absorbed), the newest poses are answered, and
 // the merged reports are correct for their own sequence's poses.
-TEST_F(GrpcServerPoolTest, CoalescePolicyMergesUpdatesForASlowReader) {
+TEST_P(GrpcStreamPoolTest, CoalescePolicyMergesUpdatesForASlowReader) {
   v1::QueryOptions defaults;
   defaults.set_near_points(true);
   defaults.set_gradient(true);  // larger reports fill the transport's window sooner
   const LocalScene scene = make_scene(stub(), defaults);
-  StreamClient stream(stub());
+  StreamClient stream(stub(), kCallDeadline, GetParam());
   constexpr int kUpdates = 400;
   // "Busy" must not depend on how fast the engine is today: the workers are held until the
   // writer is done, so the server has to keep reading while nothing can be evaluated.
@@ -428,9 +444,9 @@ TEST_F(GrpcServerPoolTest, CoalescePolicyMergesUpdatesForASlowReader) {
 // sequence number of the update that caused it, the threshold's name and the pair's ids. Guards
 // the replay of absorbed updates (a merged update alone would see only its last poses) and the
 // proto conversion of events.
-TEST_F(GrpcServerPoolTest, ThresholdEventsSurviveCoalescedUpdates) {
+TEST_P(GrpcStreamPoolTest, ThresholdEventsSurviveCoalescedUpdates) {
   const LocalScene scene = make_scene(stub());
-  StreamClient stream(stub());
+  StreamClient stream(stub(), kCallDeadline, GetParam());
   constexpr int kUpdates = 20;
   testkit::HeldWorkers held(running_.server->scenes(), scene.scene_id);
   ASSERT_TRUE(held.held());
@@ -486,6 +502,141 @@ TEST_F(GrpcServerPoolTest, ThresholdEventsSurviveCoalescedUpdates) {
     EXPECT_EQ(events[e].first, e + 2);  // update 1 is far: nothing to report
     EXPECT_EQ(events[e].second, e % 2 ? v1::THRESHOLD_CROSSING_EXIT : v1::THRESHOLD_CROSSING_ENTER);
   }
+}
+
+// ---- batches (StreamPoseBatches) ----
+
+// Rejected updates inside a batch get their error report in their place and the others are
+// answered, as if each had been sent alone; the rejected ones change nothing. Reports that are
+// ready together leave in one message: the three refusals of an unbound stream's first batch
+// (no evaluation runs, so all three are ready when the batch has been read) arrive as one
+// DistanceReportBatch. Guards the per-update loop over a batch and the packing of writes.
+TEST_F(GrpcServerTest, RejectedUpdatesInABatchAreAnsweredInTheirPlace) {
+  const LocalScene scene = make_scene(stub());
+  StreamClient stream(stub(), kCallDeadline, /*batch=*/100);  // sent by flush()
+  auto read_reports = [&](std::size_t count) {
+    std::vector<v1::DistanceReport> reports(count);
+    for (v1::DistanceReport& report : reports) EXPECT_TRUE(stream.read(report));
+    return reports;
+  };
+  const std::vector<TestPose> first = trajectory(scene.size(), 3);
+  for (std::uint64_t sequence = 1; sequence <= 3; ++sequence) {
+    v1::PoseUpdate unknown_scene = make_update(scene, sequence, first);
+    unknown_scene.set_scene_id("scene-404");
+    ASSERT_TRUE(stream.write(unknown_scene));
+  }
+  ASSERT_TRUE(stream.flush());
+  std::vector<v1::DistanceReport> reports = read_reports(3);
+  EXPECT_EQ(stream.messages_read(), 1u);
+  for (std::uint64_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(reports[i].sequence(), i + 1);
+    EXPECT_EQ(reports[i].error().code(), v1::ERROR_CODE_NOT_FOUND);
+    EXPECT_EQ(reports[i].error().field(), "scene_id");
+  }
+
+  const std::vector<TestPose> second = trajectory(scene.size(), 9);
+  ASSERT_TRUE(stream.write(make_update(scene, 4, first)));
+  v1::PoseUpdate nan_translation = make_update(scene, 5, second);
+  nan_translation.mutable_poses(1)->mutable_pose()->mutable_translation()->set_x(std::nan(""));
+  ASSERT_TRUE(stream.write(nan_translation));
+  ASSERT_TRUE(stream.write(make_update(scene, 6, second)));
+  ASSERT_TRUE(stream.write(make_update(scene, 6, first)));  // sequence 6 again
+  v1::PoseUpdate unknown_object = make_update(scene, 7, first);
+  unknown_object.mutable_poses(2)->set_object_id("ghost");
+  ASSERT_TRUE(stream.write(unknown_object));
+  v1::PoseUpdate unchanged;  // no poses: the stream's last accepted ones (sequence 6's)
+  unchanged.set_sequence(8);
+  ASSERT_TRUE(stream.write(unchanged));
+  ASSERT_TRUE(stream.flush());
+  reports = read_reports(6);
+  const std::vector<std::uint64_t> sequences{4, 5, 6, 6, 7, 8};
+  for (std::size_t i = 0; i < reports.size(); ++i)
+    EXPECT_EQ(reports[i].sequence(), sequences[i]) << "report " << i;
+  expect_matches_local(scene, first, reports[0], false);
+  EXPECT_EQ(reports[1].error().field(), "poses[1].pose.translation.x");
+  expect_matches_local(scene, second, reports[2], false);
+  EXPECT_EQ(reports[3].error().code(), v1::ERROR_CODE_INVALID_ARGUMENT);
+  EXPECT_EQ(reports[3].error().field(), "sequence");
+  EXPECT_EQ(reports[4].error().code(), v1::ERROR_CODE_NOT_FOUND);
+  EXPECT_EQ(reports[4].error().field(), "poses[2].object_id");
+  expect_matches_local(scene, second, reports[5], false);
+  EXPECT_TRUE(stream.finish().ok());
+}
+
+// FLOW_CONTROL_BLOCK counts updates, not messages: with --max-in-flight 4 and batches of 3 while
+// nothing can be answered (the workers are held), the server reads batch 1 (3 updates in flight,
+// below 4), batch 2 (6), and then no more. The drain that follows says how many updates it read:
+// at most 6, whole batches, and exactly those answered. Counting messages would read 4 batches.
+// (The pause only gives the server time to read what it will; a slow machine makes the count
+// smaller, never larger.)
+TEST(GrpcServerBatches, BlockBackPressureCountsUpdatesNotMessages) {
+  ServerConfig config = test_config();
+  config.limits.max_in_flight_per_stream = 4;
+  config.limits.inline_evaluation = false;
+  RunningServer running = start_server(config);
+  ASSERT_TRUE(running.server);
+  const LocalScene scene = make_scene(*running.stub);
+  testkit::HeldWorkers held(running.server->scenes(), scene.scene_id);
+  ASSERT_TRUE(held.held());
+  StreamClient stream(*running.stub, kCallDeadline, /*batch=*/3);
+  for (int step = 0; step < 30; ++step)
+    ASSERT_TRUE(
+        stream.write(make_update(scene, std::uint64_t(step) + 1, trajectory(scene.size(), step))));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  auto shutdown = std::async(std::launch::async, [&] { running.server->shutdown(); });
+  held.release();
+  std::vector<v1::DistanceReport> reports;
+  const grpc::Status status = stream.read_to_end(reports);
+  ASSERT_EQ(shutdown.wait_for(std::chrono::seconds(15)), std::future_status::ready);
+  ASSERT_EQ(status.error_code(), grpc::StatusCode::UNAVAILABLE) << status.error_message();
+  std::size_t read = 0;
+  ASSERT_EQ(std::sscanf(status.error_message().c_str(),
+                        "server is draining (shutting down): all %zu", &read),
+            1)
+      << status.error_message();
+  ::testing::Test::RecordProperty("updates_read", int(read));
+  EXPECT_LE(read, 6u);
+  EXPECT_EQ(read % 3, 0u);
+  ASSERT_EQ(reports.size(), read);
+  for (std::size_t i = 0; i < reports.size(); ++i) {
+    EXPECT_EQ(reports[i].sequence(), i + 1);
+    expect_matches_local(scene, trajectory(scene.size(), int(i)), reports[i], false);
+  }
+}
+
+// A message that does not parse as a PoseUpdateBatch ends the stream INVALID_ARGUMENT after the
+// updates of the batches before it are answered, counting messages and updates apart.
+TEST_F(GrpcServerTest, MalformedBatchEndsTheStreamInvalidArgument) {
+  const LocalScene scene = make_scene(stub());
+  RawStream stream(running_.channel, "/nearpoint.v1.DistanceService/StreamPoseBatches");
+  ASSERT_TRUE(stream.started());
+  v1::PoseUpdateBatch batch;
+  *batch.add_updates() = make_update(scene, 1, trajectory(scene.size(), 1));
+  *batch.add_updates() = make_update(scene, 2, trajectory(scene.size(), 2));
+  ASSERT_TRUE(stream.write(batch.SerializeAsString()));
+  ASSERT_TRUE(stream.write(std::string("\xFF\xFF\xFF\xFF\x0F", 5)));
+  batch.Clear();
+  *batch.add_updates() = make_update(scene, 3, trajectory(scene.size(), 3));
+  stream.write(batch.SerializeAsString());  // must go unread (the stream may be over already)
+  std::vector<v1::DistanceReport> reports;
+  for (std::string bytes; stream.read(bytes);) {
+    v1::DistanceReportBatch received;
+    ASSERT_TRUE(received.ParseFromString(bytes));
+    reports.insert(reports.end(), received.reports().begin(), received.reports().end());
+  }
+  const grpc::Status status = stream.finish();
+  ASSERT_EQ(reports.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(reports[i].sequence(), i + 1);
+    expect_matches_local(scene, trajectory(scene.size(), int(i) + 1), reports[i], false);
+  }
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << status.error_message();
+  EXPECT_NE(status.error_message().find("message 2 of the stream (after sequence 2) does not "
+                                        "parse as nearpoint.v1.PoseUpdateBatch"),
+            std::string::npos)
+      << status.error_message();
+  EXPECT_NE(status.error_message().find("the 2 updates before it were answered"), std::string::npos)
+      << status.error_message();
 }
 
 // ---- unary queries ----
@@ -996,20 +1147,29 @@ TEST(GrpcServerLimits, LimitsAreResourceExhausted) {
 // Graceful shutdown: open streams stop reading, answer every update they had read (a gap-free
 // prefix of what was sent, each correct), and end with UNAVAILABLE; shutdown returns well
 // before the drain timeout, i.e. nothing had to be cancelled.
-TEST(GrpcServerShutdown, ShutdownDrainsOpenStreams) {
+// The drain's promise, on both RPCs: the status says "draining" and the count N of updates read
+// (updates, not messages), the first N updates sent were all answered, and a batch is read whole
+// or not at all.
+class GrpcServerShutdown : public ::testing::TestWithParam<std::size_t> {};
+INSTANTIATE_TEST_SUITE_P(Framing, GrpcServerShutdown, kFramings, framing_name);
+
+TEST_P(GrpcServerShutdown, ShutdownDrainsOpenStreams) {
   RunningServer running = start_server();
   ASSERT_TRUE(running.server);
   const LocalScene scene = make_scene(*running.stub);
-  StreamClient stream(*running.stub);
+  const std::size_t batch = GetParam();
+  StreamClient stream(*running.stub, kCallDeadline, batch);
   for (int step = 0; step < 5; ++step) {
     ASSERT_TRUE(
         stream.write(make_update(scene, std::uint64_t(step) + 1, trajectory(scene.size(), step))));
+    ASSERT_TRUE(stream.flush());
     v1::DistanceReport report;
     ASSERT_TRUE(stream.read(report));
   }
   for (int step = 5; step < 30; ++step)  // in flight when the shutdown starts
     ASSERT_TRUE(
         stream.write(make_update(scene, std::uint64_t(step) + 1, trajectory(scene.size(), step))));
+  ASSERT_TRUE(stream.flush());
   const auto begin = std::chrono::steady_clock::now();
   auto shutdown = std::async(std::launch::async, [&] { running.server->shutdown(); });
   std::vector<v1::DistanceReport> reports;
@@ -1021,6 +1181,15 @@ TEST(GrpcServerShutdown, ShutdownDrainsOpenStreams) {
   for (std::size_t i = 0; i < reports.size(); ++i) {
     ASSERT_EQ(reports[i].sequence(), 6 + i);
     expect_matches_local(scene, trajectory(scene.size(), int(5 + i)), reports[i], false);
+  }
+  std::size_t read = 0;
+  ASSERT_EQ(std::sscanf(status.error_message().c_str(),
+                        "server is draining (shutting down): all %zu", &read),
+            1)
+      << status.error_message();
+  EXPECT_EQ(read, 5 + reports.size()) << status.error_message();
+  if (batch > 0 && read < 30) {  // whole batches: the 25 in flight went as 7, 7, 7, 4
+    EXPECT_EQ((read - 5) % batch, 0u) << read << " updates read";
   }
   // New calls are refused once the server is down.
   v1::ListGeometriesResponse listed;

@@ -615,7 +615,8 @@ class Client:
                options: OptionsArg = None, flow_control: str = "block",
                timeout: Optional[float] = None,
                report_mode: Optional[str] = None,
-               thresholds: Sequence[scene_pb.Threshold] = ()) -> Iterator[Report]:
+               thresholds: Sequence[scene_pb.Threshold] = (),
+               batch: int = 1) -> Iterator[Report]:
         """Streams pose updates to the scene and yields one `Report` per update, in order.
 
         `updates` is any iterable (it may be a generator that runs as long as the robot moves) of
@@ -629,9 +630,14 @@ class Client:
         `thresholds` (see `threshold`) are sent with the first update; each report's `events`
         then carries the crossings (the options' distance_cutoff must be at least each
         threshold's distance + hysteresis).
+        `batch` > 1 sends that many consecutive updates per message (StreamPoseBatches: fewer
+        gRPC messages for fast streams, the same reports); a batch goes out once it is full or
+        `updates` ends.
         """
         if flow_control not in _FLOW_CONTROL:
             raise ValueError(f"flow_control must be one of {sorted(_FLOW_CONTROL)}")
+        if batch < 1:
+            raise ValueError("batch must be at least 1")
         default_options = _options(options, report_mode)
 
         def requests():
@@ -657,10 +663,26 @@ class Client:
                     message.options.CopyFrom(chosen)
                 yield message
 
-        responses = self._stub.StreamPoses(requests(), timeout=timeout,
-                                           metadata=_routing(scene_id))
+        def batches():
+            pending = distance_pb.PoseUpdateBatch()
+            for message in requests():
+                pending.updates.append(message)
+                if len(pending.updates) == batch:
+                    yield pending
+                    pending = distance_pb.PoseUpdateBatch()
+            if pending.updates:
+                yield pending
+
+        if batch == 1:
+            responses = self._stub.StreamPoses(requests(), timeout=timeout,
+                                               metadata=_routing(scene_id))
+            reports = responses
+        else:
+            responses = self._stub.StreamPoseBatches(batches(), timeout=timeout,
+                                                     metadata=_routing(scene_id))
+            reports = (report for message in responses for report in message.reports)
         try:
-            for response in responses:
+            for response in reports:
                 yield Report.from_proto(response)
         except grpc.RpcError as error:
             raise _raise_from(error) from None

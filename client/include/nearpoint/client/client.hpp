@@ -250,6 +250,12 @@ struct SessionOptions {
   QueryOptions options;
   /// Ask the server to merge updates that arrive while it is busy (FLOW_CONTROL_COALESCE).
   bool coalesce = false;
+  /// Stream on StreamPoseBatches (nearpoint.v1): push_batch() sends its pose sets in one message
+  /// and reports that are ready together arrive in one, which saves gRPC's cost per message for
+  /// clients that send at a high rate. Reports, sequence numbers and flow control are the same.
+  /// Off: StreamPoses, where push_batch() sends one message per pose set. A server older than
+  /// StreamPoseBatches fails the session UNIMPLEMENTED.
+  bool batched = false;
   /// Watched thresholds: sent with the stream's first update (and again on the first update
   /// after a reconnect: the new stream starts with every watch outside, so a pair already inside
   /// gets a second ENTER).
@@ -282,6 +288,14 @@ class Session {
   virtual Expected<std::uint64_t> push(const std::vector<ObjectPose>& poses,
                                        Clock::time_point deadline = Clock::time_point::max(),
                                        const QueryOptions* options = nullptr) = 0;
+
+  /// Sends one update per pose set, in order, each as push() would (its own sequence number and
+  /// report), in one message when SessionOptions::batched. Blocks until the whole batch fits in
+  /// `max_in_flight` (a batch larger than the window waits for an empty one). Returns the first
+  /// update's sequence number; the others follow it consecutively.
+  virtual Expected<std::uint64_t> push_batch(const std::vector<std::vector<ObjectPose>>& pose_sets,
+                                             Clock::time_point deadline = Clock::time_point::max(),
+                                             const QueryOptions* options = nullptr) = 0;
 
   /// Robot scenes: sends joint positions by name (joints not named keep theirs) instead of the
   /// poses of the objects the robot carries; otherwise as push().
