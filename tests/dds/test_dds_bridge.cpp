@@ -135,6 +135,19 @@ std::vector<UpdateMessage::Pose> path_poses(const TestScene& scene, int k) {
   return poses;
 }
 
+/// Publishes update `sequence` of the scene's path (path_poses at step `sequence`); false (and
+/// a test failure) when DDS refuses it.
+bool publish_path_step(cli::DdsPoseClient& client, const TestScene& scene, std::uint64_t sequence) {
+  UpdateMessage update;
+  update.scene_id = scene.scene_id;
+  update.sequence = sequence;
+  update.poses = path_poses(scene, int(sequence));
+  std::string error;
+  const bool published = client.publish(update.sample(), error);
+  EXPECT_TRUE(published) << error;
+  return published;
+}
+
 Pose<double> to_pose(const UpdateMessage::Pose& pose) {
   const auto& q = pose.rotation_wxyz;
   return Pose<double>::from_quaternion(
@@ -365,14 +378,7 @@ TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
   ASSERT_TRUE(held.held());
 
   constexpr std::uint64_t kUpdates = 30;
-  std::string error;
-  for (std::uint64_t s = 1; s <= kUpdates; ++s) {
-    UpdateMessage update;
-    update.scene_id = scene.scene_id;
-    update.sequence = s;
-    update.poses = path_poses(scene, int(s));
-    ASSERT_TRUE(client->publish(update.sample(), error)) << error;
-  }
+  for (std::uint64_t s = 1; s <= kUpdates; ++s) ASSERT_TRUE(publish_path_step(*client, scene, s));
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (server.bridge->stats().updates_taken < kUpdates &&
          std::chrono::steady_clock::now() < deadline)
@@ -423,14 +429,9 @@ TEST(DdsBridge, SmallUpdatesAreAnsweredByTheBridgeThreadWhileThePoolIsBusy) {
   ASSERT_TRUE(held.held());
 
   constexpr std::uint64_t kUpdates = 12;
-  std::string error;
   std::vector<ReceivedReport> reports;
   for (std::uint64_t s = 1; s <= kUpdates; ++s) {
-    UpdateMessage update;
-    update.scene_id = scene.scene_id;
-    update.sequence = s;
-    update.poses = path_poses(scene, int(s));
-    ASSERT_TRUE(client->publish(update.sample(), error)) << error;
+    ASSERT_TRUE(publish_path_step(*client, scene, s));
     if (s % 3 == 0) {  // a window of three in flight
       while (reports.size() < s) {
         std::vector<ReceivedReport> got = collect_reports(*client, 1, std::chrono::seconds(10));
