@@ -38,6 +38,10 @@ constexpr std::uint32_t kMaxDomainId = 230;
 constexpr std::int32_t kMaxHistoryDepth = 100000;
 /// Samples taken per dds_take call.
 constexpr std::int32_t kTakeBatch = 32;
+/// How long the bridge thread evaluates small updates (and takes the samples that arrive
+/// meanwhile) before it turns to its other duties again: writers gone, streams whose reader wait
+/// is over, shutdown. A steady stream of updates must not keep them waiting.
+constexpr auto kInlineSlice = std::chrono::milliseconds(2);
 /// How long a new stream's first evaluation waits for the report writer to discover a reader of
 /// the client's participant (see StreamState::ready).
 constexpr auto kReaderMatchWait = std::chrono::seconds(2);
@@ -251,9 +255,10 @@ struct DdsBridge::Impl {
 
   void run() {
     std::array<dds_attach_t, 4> triggered{};
+    bool inline_left = false;  // evaluations still due: look at the waitset without waiting
     for (;;) {
-      const dds_return_t woken =
-          dds_waitset_wait(waitset, triggered.data(), triggered.size(), time_until_next_deadline());
+      const dds_return_t woken = dds_waitset_wait(waitset, triggered.data(), triggered.size(),
+                                                  inline_left ? 0 : time_until_next_deadline());
       if (woken < 0) {
         log_error("dds_waitset_failed").kv("message", dds::describe("dds_waitset_wait", woken));
         return;
@@ -270,7 +275,7 @@ struct DdsBridge::Impl {
       dds_publication_matched_status_t publication{};
       dds_get_publication_matched_status(writer, &publication);
       check_readiness();
-      evaluate_inline();
+      inline_left = evaluate_inline();
     }
   }
 
@@ -283,15 +288,19 @@ struct DdsBridge::Impl {
   /// Runs the evaluations pump() left for the bridge thread, one at a time with the lock
   /// released, and takes the samples that arrived meanwhile after each: the readers' keep-last
   /// history is shared by every writer of a topic, so the bridge thread never leaves it for
-  /// longer than one (small) evaluation.
-  void evaluate_inline() {
+  /// longer than one (small) evaluation. Returns after kInlineSlice at most; true when
+  /// evaluations are still due.
+  bool evaluate_inline() {
+    const Clock::time_point until = Clock::now() + kInlineSlice;
     std::unique_lock lock(mutex);
     while (!inline_due.empty() && !stopping) {
       run_inline_evaluation(lock);
       lock.unlock();
       take_samples();
       lock.lock();
+      if (Clock::now() >= until) break;
     }
+    return !inline_due.empty();
   }
 
   /// Runs the first evaluation of `inline_due` on this thread with `lock` (on `mutex`) released,
