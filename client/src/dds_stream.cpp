@@ -252,78 +252,67 @@ int DdsPoseClient::take(std::chrono::milliseconds timeout, bool own_only,
   }
 }
 
+// ---- StepPublisher ----
+
+StepPublisher::StepPublisher(const Trajectory& trajectory, const DdsStreamOptions& options)
+    : trajectory_(trajectory),
+      options_(options),
+      client_id_(options.client_id.empty() ? "nearpoint-cli-" + std::to_string(getpid())
+                                           : options.client_id) {
+  for (const model::ThresholdInput& t : options.thresholds)
+    thresholds_.push_back({const_cast<char*>(t.name.c_str()), t.distance, t.hysteresis,
+                           const_cast<char*>(t.object_a.c_str()),
+                           const_cast<char*>(t.object_b.c_str()), t.groups});
+}
+
+PoseUpdateSample StepPublisher::sample(std::uint64_t index) {
+  const TrajectoryStep& step = trajectory_.steps[index % trajectory_.steps.size()];
+  poses_.assign(step.poses.size(), {});
+  for (std::size_t i = 0; i < step.poses.size(); ++i) {
+    const ObjectPose& in = step.poses[i];
+    nearpoint_msgs_msg_dds__ObjectPose_& pose = poses_[i];
+    pose.object_id = const_cast<char*>(in.object_id.c_str());
+    pose.pose.position = {in.translation[0], in.translation[1], in.translation[2]};
+    pose.pose.orientation = {in.rotation_wxyz[1], in.rotation_wxyz[2], in.rotation_wxyz[3],
+                             in.rotation_wxyz[0]};
+  }
+  PoseUpdateSample update{};
+  update.scene_id = const_cast<char*>(options_.scene_id.c_str());
+  update.client_id = const_cast<char*>(client_id_.c_str());
+  update.sequence_number = index + 1;
+  update.poses._buffer = poses_.data();
+  update.poses._length = update.poses._maximum = std::uint32_t(poses_.size());
+  update.poses._release = false;
+  if (options_.near_points) {
+    update.options.has_near_points = true;
+    update.options.near_points = true;
+  }
+  update.options.penetration = model::to_dds(options_.penetration);
+  update.options.report_mode = model::to_dds(options_.report_mode);
+  if (!std::isnan(options_.cutoff)) {
+    update.options.has_distance_cutoff = true;
+    update.options.distance_cutoff = options_.cutoff;
+  }
+  if (!std::isnan(options_.change_tolerance)) {
+    update.options.has_change_tolerance = true;
+    update.options.change_tolerance = options_.change_tolerance;
+  }
+  if (index == 0) {
+    update.thresholds._buffer = thresholds_.data();
+    update.thresholds._length = update.thresholds._maximum = std::uint32_t(thresholds_.size());
+  }
+  update.thresholds._release = false;
+  update.flow_control = options_.flow_control == model::FlowControl::coalesce
+                            ? model::to_dds(model::FlowControl::coalesce)
+                            : 0;  // unspecified: block
+  return update;
+}
+
 // ---- nearpoint stream --dds: parse → run → print ----
 
 namespace {
 
 constexpr const char* kPrefix = "nearpoint stream --dds: ";
-
-/// Builds each step's PoseUpdate_ from the trajectory and the options. The sample borrows the
-/// publisher's buffers: valid until the next call.
-class StepPublisher {
- public:
-  StepPublisher(const Trajectory& trajectory, const DdsStreamOptions& options)
-      : trajectory_(trajectory),
-        options_(options),
-        client_id_(options.client_id.empty() ? "nearpoint-cli-" + std::to_string(getpid())
-                                             : options.client_id) {
-    for (const model::ThresholdInput& t : options.thresholds)
-      thresholds_.push_back({const_cast<char*>(t.name.c_str()), t.distance, t.hysteresis,
-                             const_cast<char*>(t.object_a.c_str()),
-                             const_cast<char*>(t.object_b.c_str()), t.groups});
-  }
-
-  /// The update of step `index` (sequence number index + 1; thresholds with the first).
-  PoseUpdateSample sample(std::uint64_t index) {
-    const TrajectoryStep& step = trajectory_.steps[index];
-    poses_.assign(step.poses.size(), {});
-    for (std::size_t i = 0; i < step.poses.size(); ++i) {
-      const ObjectPose& in = step.poses[i];
-      nearpoint_msgs_msg_dds__ObjectPose_& pose = poses_[i];
-      pose.object_id = const_cast<char*>(in.object_id.c_str());
-      pose.pose.position = {in.translation[0], in.translation[1], in.translation[2]};
-      pose.pose.orientation = {in.rotation_wxyz[1], in.rotation_wxyz[2], in.rotation_wxyz[3],
-                               in.rotation_wxyz[0]};
-    }
-    PoseUpdateSample update{};
-    update.scene_id = const_cast<char*>(options_.scene_id.c_str());
-    update.client_id = const_cast<char*>(client_id_.c_str());
-    update.sequence_number = index + 1;
-    update.poses._buffer = poses_.data();
-    update.poses._length = update.poses._maximum = std::uint32_t(poses_.size());
-    update.poses._release = false;
-    if (options_.near_points) {
-      update.options.has_near_points = true;
-      update.options.near_points = true;
-    }
-    update.options.penetration = model::to_dds(options_.penetration);
-    update.options.report_mode = model::to_dds(options_.report_mode);
-    if (!std::isnan(options_.cutoff)) {
-      update.options.has_distance_cutoff = true;
-      update.options.distance_cutoff = options_.cutoff;
-    }
-    if (!std::isnan(options_.change_tolerance)) {
-      update.options.has_change_tolerance = true;
-      update.options.change_tolerance = options_.change_tolerance;
-    }
-    if (index == 0) {
-      update.thresholds._buffer = thresholds_.data();
-      update.thresholds._length = update.thresholds._maximum = std::uint32_t(thresholds_.size());
-    }
-    update.thresholds._release = false;
-    update.flow_control = options_.flow_control == model::FlowControl::coalesce
-                              ? model::to_dds(model::FlowControl::coalesce)
-                              : 0;  // unspecified: block
-    return update;
-  }
-
- private:
-  const Trajectory& trajectory_;
-  const DdsStreamOptions& options_;
-  const std::string client_id_;
-  std::vector<nearpoint_msgs_msg_dds__ObjectPose_> poses_;
-  std::vector<nearpoint_msgs_msg_dds__Threshold_> thresholds_;
-};
 
 /// The updates in flight and what their reports showed: every report is checked against them
 /// (answers only what is awaited, in order, merged updates accounted for) and printed as a line.

@@ -107,6 +107,24 @@ struct DdsStreamOptions {
   std::chrono::milliseconds report_timeout{10000};
 };
 
+/// Builds each step's PoseUpdate_ from a trajectory and the stream's options (`nearpoint stream
+/// --dds`, `nearpoint dds load`). The sample borrows the publisher's buffers: valid until the next
+/// call.
+class StepPublisher {
+ public:
+  StepPublisher(const Trajectory& trajectory, const DdsStreamOptions& options);
+  /// The update of step `index` modulo the trajectory's length, so that a load replays it in a
+  /// loop (sequence number index + 1; the thresholds with index 0). The trajectory is not empty.
+  PoseUpdateSample sample(std::uint64_t index);
+
+ private:
+  const Trajectory& trajectory_;
+  const DdsStreamOptions& options_;
+  const std::string client_id_;
+  std::vector<nearpoint_msgs_msg_dds__ObjectPose_> poses_;
+  std::vector<nearpoint_msgs_msg_dds__Threshold_> thresholds_;
+};
+
 /// Exit codes of `nearpoint stream --dds` (the table of model/exit_codes.hpp).
 inline constexpr int kStreamOk =
     model::kExitOk;  ///< every update answered, in order, none rejected

@@ -28,6 +28,7 @@
 #include "nearpoint/options.hpp"
 #include "nearpoint/version.hpp"
 #if NEARPOINT_HAVE_DDS
+#include "dds_load.hpp"
 #include "dds_stream.hpp"
 #include "dds_topics.hpp"
 #endif
@@ -665,6 +666,77 @@ void add_stream_subcommand(CLI::App& app, int& exit_code) {
 #endif
 
 #if NEARPOINT_HAVE_DDS
+// `nearpoint dds load`: `nearpoint load` over DDS (bench/service/capacity.sh TRANSPORT=dds).
+void add_dds_load_subcommand(CLI::App& dds, int& exit_code) {
+  struct Arguments {
+    nearpoint::cli::DdsLoadOptions load;
+    std::string trajectory;
+  };
+  auto args = std::make_shared<Arguments>();
+  CLI::App* command = dds.add_subcommand(
+      "load", "Concurrent DDS pose streams for a bounded time: latency, throughput, server time");
+  command->add_option("SCENE", args->load.scene_id, "Scene id on the server")->required();
+#ifdef NEARPOINT_WITH_REMOTE
+  command->add_option("TRAJECTORY", args->trajectory,
+                      "Poses replayed in a loop (default: the demo path of `nearpoint load`, for "
+                      "the demo scene it creates with --keep-scene)");
+#else
+  command->add_option("TRAJECTORY", args->trajectory, "Poses replayed in a loop")->required();
+#endif
+  command->add_option("--streams", args->load.streams, "Concurrent streams (DDS participants)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  command->add_option("--duration", args->load.duration_s, "Seconds")
+      ->capture_default_str()
+      ->check(CLI::Range(0.01, 600.0));
+  command
+      ->add_option("--window", args->load.window,
+                   "Updates in flight per stream (within nearpointd's --max-in-flight)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 4096));
+  command->add_option("--dds-domain", args->load.dds.domain_id, "DDS domain id")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 230));
+  command->add_option("--dds-prefix", args->load.dds.topic_prefix, "Topic prefix, as nearpointd's")
+      ->capture_default_str();
+  command->add_flag("--json", args->load.json, "One JSON object (as `nearpoint load --json`)");
+  command->add_flag("--dds-allow-default-config", args->load.dds.allow_default_config,
+                    "Run without CYCLONEDDS_URI (Cyclone's defaults: external interface, "
+                    "multicast)");
+  command->footer(R"(
+Each stream is its own DDS participant; the report topic is keyless, so every stream's reader
+also receives the other streams' reports. Prints the reports (answered updates), updates/s,
+the publish-to-report latency and the reports' server and geometry time.
+  nearpoint dds load cell45 cell45.jsonl --duration 5 --window 4
+)");
+  command->callback([args, &exit_code] {
+    nearpoint::cli::Trajectory trajectory;
+    if (!args->trajectory.empty()) {
+      if (std::string error;
+          !nearpoint::cli::load_trajectory(args->trajectory, trajectory, error)) {
+        std::cerr << "nearpoint dds load: " << error << "\n";
+        exit_code = nearpoint::cli::kStreamBadConfiguration;
+        return;
+      }
+    }
+#ifdef NEARPOINT_WITH_REMOTE
+    else {
+      constexpr int kSteps = 1000;  // the demo path of `nearpoint load`
+      for (int t = 0; t <= kSteps; ++t) {
+        const nearpoint::client::ObjectPose pose = nearpoint::cli::demo_pose(double(t) / kSteps);
+        const Eigen::Quaterniond& q = pose.rotation;
+        nearpoint::cli::TrajectoryStep& step = trajectory.steps.emplace_back();
+        step.time = double(t);
+        step.poses.push_back({pose.object_id,
+                              {q.w(), q.x(), q.y(), q.z()},
+                              {pose.translation.x(), pose.translation.y(), pose.translation.z()}});
+      }
+    }
+#endif
+    exit_code = nearpoint::cli::run_dds_load(trajectory, args->load, std::cout, std::cerr);
+  });
+}
+
 // `nearpoint dds topics|echo`: the ROS 2 view of the DDS domain.
 void add_dds_subcommand(CLI::App& app, int& exit_code) {
   CLI::App* dds = app.add_subcommand(
@@ -706,6 +778,7 @@ void add_dds_subcommand(CLI::App& app, int& exit_code) {
     echo->timeout = std::chrono::milliseconds(*timeout_ms);
     exit_code = nearpoint::cli::run_dds_echo(*echo, std::cout, std::cerr);
   });
+  add_dds_load_subcommand(*dds, exit_code);
 }
 #endif
 

@@ -38,6 +38,10 @@ constexpr std::uint32_t kMaxDomainId = 230;
 constexpr std::int32_t kMaxHistoryDepth = 100000;
 /// Samples taken per dds_take call.
 constexpr std::int32_t kTakeBatch = 32;
+/// How long the bridge thread evaluates small updates (and takes the samples that arrive
+/// meanwhile) before it turns to its other duties again: writers gone, streams whose reader wait
+/// is over, shutdown. A steady stream of updates must not keep them waiting.
+constexpr auto kInlineSlice = std::chrono::milliseconds(2);
 /// How long a new stream's first evaluation waits for the report writer to discover a reader of
 /// the client's participant (see StreamState::ready).
 constexpr auto kReaderMatchWait = std::chrono::seconds(2);
@@ -81,23 +85,27 @@ std_msgs_msg_dds__Header_ borrow(const Header& header) {
   return {{header.sec, header.nanosec}, borrow(header.frame_id)};
 }
 
-/// The sample as the scene API's input. Mechanical, like proto_convert: the scene API validates,
-/// so both transports reject the same inputs with the same messages.
-model::PoseUpdateInput to_input(const UpdateSample& sample) {
-  model::PoseUpdateInput out;
-  out.scene_id = own(sample.scene_id);
+/// The sample as the scene API's input, written over `out` (the bridge thread reuses one, so
+/// that its strings and vectors keep their capacity from update to update). Mechanical, like
+/// proto_convert: the scene API validates, so both transports reject the same inputs with the
+/// same messages.
+void to_input(const UpdateSample& sample, model::PoseUpdateInput& out) {
+  out.scene_id.assign(borrow(sample.scene_id));
   out.sequence = sample.sequence_number;
-  out.poses.reserve(sample.poses._length);
+  out.poses.resize(sample.poses._length);
   for (std::uint32_t i = 0; i < sample.poses._length; ++i) {
     const nearpoint_msgs_msg_dds__ObjectPose_& in = sample.poses._buffer[i];
-    model::ObjectPoseInput& pose = out.poses.emplace_back();
-    pose.object_id = own(in.object_id);
+    model::ObjectPoseInput& pose = out.poses[i];
+    pose.object_id.assign(borrow(in.object_id));
     const geometry_msgs_msg_dds__Quaternion_& q = in.pose.orientation;
     pose.pose.rotation_wxyz = {q.w, q.x, q.y, q.z};
     const geometry_msgs_msg_dds__Point_& t = in.pose.position;
     pose.pose.translation = model::Vec3d(t.x, t.y, t.z);
   }
   const nearpoint_msgs_msg_dds__QueryOptions_& options = sample.options;
+  out.options = {};
+  out.thresholds.clear();
+  out.joints = {};
   if (options.has_epsilon) out.options.epsilon = options.epsilon;
   if (options.has_near_points) out.options.near_points = options.near_points;
   out.options.penetration = model::from_dds<model::PenetrationMode>(options.penetration);
@@ -114,7 +122,6 @@ model::PoseUpdateInput to_input(const UpdateSample& sample) {
     out.thresholds.push_back(model::ThresholdInput{own(in.name), in.distance, in.hysteresis,
                                                    own(in.object_a), own(in.object_b), in.groups});
   }
-  return out;
 }
 
 /// Who a report goes to: the update's scene, its client id and writer (and its header, echoed).
@@ -176,6 +183,13 @@ struct StreamState {
   bool ready = false;
   Clock::time_point ready_deadline;
   bool evaluating = false;
+  /// An evaluation small enough for the bridge thread (PoseStream::evaluates_inline): taken by
+  /// pump() under the lock, run by evaluate_inline() without it.
+  std::shared_ptr<EvaluationJob> inline_job;
+  /// The report's samples, reused from report to report (the stream's evaluations never
+  /// overlap, so neither do its writes).
+  std::vector<PairSample> pair_samples;
+  std::vector<EventSample> event_samples;
   bool announced = false;
   /// The writer is no longer matched: erase once everything taken has been answered.
   bool closing = false;
@@ -223,6 +237,11 @@ struct DdsBridge::Impl {
   using Streams = std::map<StreamKey, std::unique_ptr<StreamState>>;
   Streams streams;
   std::size_t evaluating = 0;
+  /// Streams whose `inline_job` waits for the bridge thread (or, once it has stopped, for
+  /// shutdown()), in the order pump() took them.
+  std::deque<StreamState*> inline_due;
+  /// The bridge thread's PoseUpdate_ in the scene API's terms (to_input), reused.
+  model::PoseUpdateInput update_scratch;
   std::uint64_t next_stream_number = 1;
   bool stopping = false;
   bool shut_down = false;
@@ -236,9 +255,10 @@ struct DdsBridge::Impl {
 
   void run() {
     std::array<dds_attach_t, 4> triggered{};
+    bool inline_left = false;  // evaluations still due: look at the waitset without waiting
     for (;;) {
-      const dds_return_t woken =
-          dds_waitset_wait(waitset, triggered.data(), triggered.size(), time_until_next_deadline());
+      const dds_return_t woken = dds_waitset_wait(waitset, triggered.data(), triggered.size(),
+                                                  inline_left ? 0 : time_until_next_deadline());
       if (woken < 0) {
         log_error("dds_waitset_failed").kv("message", dds::describe("dds_waitset_wait", woken));
         return;
@@ -248,15 +268,53 @@ struct DdsBridge::Impl {
         if (stopping) return;
       }
       reconcile_writers();
-      take_updates();
-      for (JointReader& joints : joint_readers) take_joint_states(joints);
+      take_samples();
       check_types(publications, /*publication=*/true);
       check_types(subscriptions, /*publication=*/false);
       // Reading the writer's matched status resets it, so that its condition stops triggering.
       dds_publication_matched_status_t publication{};
       dds_get_publication_matched_status(writer, &publication);
       check_readiness();
+      inline_left = evaluate_inline();
     }
+  }
+
+  /// Takes every update and joint state waiting in the readers.
+  void take_samples() {
+    take_updates();
+    for (JointReader& joints : joint_readers) take_joint_states(joints);
+  }
+
+  /// Runs the evaluations pump() left for the bridge thread, one at a time with the lock
+  /// released, and takes the samples that arrived meanwhile after each: the readers' keep-last
+  /// history is shared by every writer of a topic, so the bridge thread never leaves it for
+  /// longer than one (small) evaluation. Returns after kInlineSlice at most; true when
+  /// evaluations are still due.
+  bool evaluate_inline() {
+    const Clock::time_point until = Clock::now() + kInlineSlice;
+    std::unique_lock lock(mutex);
+    while (!inline_due.empty() && !stopping) {
+      run_inline_evaluation(lock);
+      lock.unlock();
+      take_samples();
+      lock.lock();
+      if (Clock::now() >= until) break;
+    }
+    return !inline_due.empty();
+  }
+
+  /// Runs the first evaluation of `inline_due` on this thread with `lock` (on `mutex`) released,
+  /// writes its report and starts the stream's next update.
+  void run_inline_evaluation(std::unique_lock<std::mutex>& lock) {
+    StreamState& stream = *inline_due.front();
+    inline_due.pop_front();
+    std::shared_ptr<EvaluationJob> job = std::move(stream.inline_job);
+    lock.unlock();
+    const Report report = stream.stream->run_evaluation(*job);
+    job.reset();
+    const Written written = write_report(stream, report);
+    lock.lock();
+    evaluated(stream, report.sequence, written);
   }
 
   /// The waitset's timeout: until the earliest deadline of a stream not yet ready.
@@ -513,12 +571,13 @@ struct DdsBridge::Impl {
   /// it is rejected. Cheap: no geometry.
   std::optional<PendingError> accept(const UpdateSample& sample,
                                      dds_instance_handle_t publication) {
-    return accept(to_input(sample), own(sample.client_id), own(sample.header), reader, publication);
+    to_input(sample, update_scratch);
+    return accept(update_scratch, own(sample.client_id), own(sample.header), reader, publication);
   }
 
   /// As above for an update already in the scene API's terms (from a PoseUpdate or, for a robot
   /// scene, a JointState), taken by `source` (the reader that matched its writer).
-  std::optional<PendingError> accept(model::PoseUpdateInput input, std::string client_id,
+  std::optional<PendingError> accept(const model::PoseUpdateInput& input, std::string client_id,
                                      Header header, dds_entity_t source,
                                      dds_instance_handle_t publication) {
     const Clock::time_point received = Clock::now();
@@ -658,19 +717,42 @@ struct DdsBridge::Impl {
     stream.to.client_id = std::move(next.client_id);
     stream.to.header = std::move(next.header);
     ++evaluating;
+    if (stream.stream->evaluates_inline()) {
+      // Small enough that a worker's wake-up and the hand-back would cost more than the
+      // evaluation: the bridge thread runs it once the lock is released (evaluate_inline).
+      stream.inline_job = stream.stream->take_evaluation(std::move(next.update));
+      inline_due.push_back(&stream);
+      return;
+    }
     stream.stream->evaluate(std::move(next.update),
                             [this, &stream](Report report) { on_report(stream, report); });
   }
 
-  // ---- the worker pool's side ----
+  // ---- the report's way out: the worker pool's side, or the bridge thread's ----
 
-  /// An evaluation's report, on a pool thread: written from here (the sample borrows the
-  /// report's strings), then the stream's next update starts.
+  /// An evaluation's report, on a pool thread: written from here, then the stream's next update
+  /// starts.
   void on_report(StreamState& stream, const Report& report) {
-    std::vector<PairSample> pairs(report.pairs.size());
+    const Written written = write_report(stream, report);
+    std::lock_guard lock(mutex);
+    evaluated(stream, report.sequence, written);
+  }
+
+  /// dds_write's result for a report, and how many of its events failed to be written.
+  struct Written {
+    dds_return_t report = 0;
+    std::uint64_t event_failures = 0;
+  };
+
+  /// Writes an evaluation's report and its events, without the lock: the samples borrow the
+  /// report's strings and live in the stream's reused buffers.
+  Written write_report(StreamState& stream, const Report& report) {
+    std::vector<PairSample>& pairs = stream.pair_samples;
+    pairs.resize(report.pairs.size());
     for (std::size_t i = 0; i < report.pairs.size(); ++i) {
       const model::PairReport& in = report.pairs[i];
       PairSample& out = pairs[i];
+      out = PairSample{};  // no field left from the previous report
       out.object_a = borrow(report.scene->objects[in.object_a].id);
       out.object_b = borrow(report.scene->objects[in.object_b].id);
       out.status = model::to_dds(in.status);
@@ -722,10 +804,12 @@ struct DdsBridge::Impl {
     sample.counts = {report.counts.pairs_evaluated, report.counts.pairs_pruned,
                      report.counts.pairs_unmoved};
     sample.report_mode = model::to_dds(report.mode);
-    std::vector<EventSample> events(report.events.size());
+    std::vector<EventSample>& events = stream.event_samples;
+    events.resize(report.events.size());
     for (std::size_t i = 0; i < report.events.size(); ++i) {
       const model::ThresholdEvent& in = report.events[i];
       EventSample& out = events[i];
+      out = EventSample{};
       out.header = sample.header;
       out.scene_id = sample.scene_id;
       out.client_id = sample.client_id;
@@ -741,17 +825,24 @@ struct DdsBridge::Impl {
     sample.events._buffer = events.data();
     sample.events._length = sample.events._maximum = std::uint32_t(events.size());
     sample.events._release = false;
-    const dds_return_t written = dds_write(writer, &sample);
+    Written written;
+    written.report = dds_write(writer, &sample);
     // Each crossing also on its own topic, for subscribers that want the events alone.
-    std::uint64_t event_failures = 0;
     for (const EventSample& event : events)
-      if (dds_write(event_writer, &event) < 0) ++event_failures;
+      if (dds_write(event_writer, &event) < 0) ++written.event_failures;
+    return written;
+  }
 
-    std::lock_guard lock(mutex);
-    if (count_write(written, report.sequence, &stream)) ++stream.reports;
-    if (event_failures > 0) {
-      stats.write_failures += event_failures;
-      log_warn("dds_event_write_failed").kv("stream", stream.number).kv("events", event_failures);
+  /// The stream's evaluation of `sequence` is over and its report `written`: counts it and
+  /// starts the stream's next update (or erases a closing stream with nothing left). Requires
+  /// `mutex`.
+  void evaluated(StreamState& stream, std::uint64_t sequence, const Written& written) {
+    if (count_write(written.report, sequence, &stream)) ++stream.reports;
+    if (written.event_failures > 0) {
+      stats.write_failures += written.event_failures;
+      log_warn("dds_event_write_failed")
+          .kv("stream", stream.number)
+          .kv("events", written.event_failures);
     }
     stream.evaluating = false;
     --evaluating;
@@ -983,6 +1074,8 @@ void DdsBridge::shutdown() {
     stream->ready = true;
     impl.pump(*stream);
   }
+  // The bridge thread has stopped: the small evaluations are this thread's to run now.
+  while (!impl.inline_due.empty()) impl.run_inline_evaluation(lock);
   impl.idle.wait(lock, [&] { return impl.evaluating == 0; });
   for (const auto& [key, stream] : impl.streams) impl.log_closed(*stream);
   impl.streams.clear();

@@ -26,8 +26,13 @@
 // stream is busy is merged. Nothing is dropped silently by the bridge.
 //
 // Threads. One bridge thread waits on a waitset (data available, writers matched/unmatched,
-// shutdown), takes samples, validates them (PoseStream::prepare: no geometry) and queues them;
-// evaluations run on the SceneService's worker pool, whose thread writes the report.
+// shutdown), takes samples, validates them (PoseStream::prepare: no geometry) and queues them.
+// A stream's update whose evaluation is small (PoseStream::evaluates_inline: one task's worth of
+// pairs) is evaluated on the bridge thread, which then writes its report, as the gRPC service
+// evaluates on the thread that read the update: a worker's wake-up and the hand-back would cost
+// more than the geometry. Between two such evaluations the bridge thread takes the samples that
+// arrived meanwhile. Larger evaluations run on the SceneService's worker pool, whose thread
+// writes the report; so do all with --no-inline-evaluation.
 #pragma once
 
 #include <cstdint>
@@ -60,7 +65,7 @@ struct DdsConfig {
   std::string topic_prefix = "rt/nearpoint/";
   /// Keep-last depth of every reader and writer (ROS 2's default profile: 10). The topics are
   /// keyless, so it is shared by every client of a topic; the bridge thread takes updates as they
-  /// arrive (no geometry on it), so it matters only if that thread is starved.
+  /// arrive (between small evaluations at most), so it matters only if that thread is starved.
   std::int32_t history_depth = 10;
   /// Best-effort instead of reliable (ROS 2's sensor data profile): lost updates are not
   /// resent. A reliable ROS 2 reader does not match a best-effort writer.

@@ -375,25 +375,31 @@ Expected<std::vector<Pose<double>>> SceneService::apply_poses(
     const std::vector<model::ObjectPoseInput>& updates, const char* field) const {
   std::vector<char> seen(scene.objects.size(), 0);
   for (std::size_t j = 0; j < updates.size(); ++j) {
-    const std::string entry = text(field, '[', j, ']');
-    if (auto error = check_id(updates[j].object_id, entry + ".object_id")) return *error;
+    // The entry's field path ("poses[3].object_id") is spelled only when the entry is refused:
+    // accepting an update builds no strings (a formatted name per pose was a stream's largest
+    // allocation cost).
+    const auto refused = [&](Error error) {
+      error.field = text(field, '[', j, "].", error.field);
+      return error;
+    };
+    if (auto error = check_id(updates[j].object_id, "object_id")) return refused(*error);
     const std::int64_t index = scene.find_object(updates[j].object_id);
     if (index < 0)
-      return not_found(entry + ".object_id", text("no object ", quoted(updates[j].object_id),
-                                                  " in scene ", quoted(scene.id)));
+      return refused(not_found("object_id", text("no object ", quoted(updates[j].object_id),
+                                                 " in scene ", quoted(scene.id))));
     if (seen[std::size_t(index)]++)
-      return invalid_argument(entry + ".object_id",
-                              text("object ", quoted(updates[j].object_id), " is listed twice"));
+      return refused(invalid_argument(
+          "object_id", text("object ", quoted(updates[j].object_id), " is listed twice")));
     if (scene.robot && scene.robot->object_link[std::size_t(index)] >= 0)
-      return invalid_argument(
-          entry + ".object_id",
+      return refused(invalid_argument(
+          "object_id",
           text("object ", quoted(updates[j].object_id), " rides on link ",
                quoted(scene.robot->tree
                           .links[std::size_t(scene.robot->object_link[std::size_t(index)])]
                           .name),
-               " of the robot: send joint positions (joints) instead of its pose"));
-    Expected<Pose<double>> pose = check_pose(updates[j].pose, entry + ".pose");
-    if (!pose) return pose.error();
+               " of the robot: send joint positions (joints) instead of its pose")));
+    Expected<Pose<double>> pose = check_pose(updates[j].pose, "pose");
+    if (!pose) return refused(pose.error());
     poses[std::size_t(index)] = pose.value();
   }
   return poses;

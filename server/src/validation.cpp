@@ -174,7 +174,10 @@ Expected<Pose<double>> check_pose(const model::PoseInput& pose, const std::strin
         field + ".rotation",
         text("quaternion is not of unit length: |q| = ", norm, " (accepted: 1 +- ",
              kQuaternionNormTolerance, "; omit the rotation for the identity)"));
-  if (auto error = check_vector(pose.translation, field + ".translation")) return *error;
+  if (auto error = check_vector(pose.translation, "translation")) {
+    error->field = field + "." + error->field;  // spelled only for a refused pose
+    return *error;
+  }
   Pose<double> out;
   if (const char* why = pose_from_quaternion_checked(q[0], q[1], q[2], q[3], pose.translation, out))
     return invalid_argument(field, why);

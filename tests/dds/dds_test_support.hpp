@@ -29,6 +29,7 @@ inline constexpr std::uint32_t kDomainSharedScene = 104;
 inline constexpr std::uint32_t kDomainNoConfiguration = 105;
 inline constexpr std::uint32_t kDomainEvents = 106;
 inline constexpr std::uint32_t kDomainDepth = 107;
+inline constexpr std::uint32_t kDomainInline = 108;
 inline constexpr std::uint32_t kDomainEndToEnd = 111;
 inline constexpr std::uint32_t kDomainPreloaded = 112;
 // 121: tests/cli/check_scene_lifecycle.py (cli.report_schema).

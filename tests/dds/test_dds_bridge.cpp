@@ -135,6 +135,19 @@ std::vector<UpdateMessage::Pose> path_poses(const TestScene& scene, int k) {
   return poses;
 }
 
+/// Publishes update `sequence` of the scene's path (path_poses at step `sequence`); false (and
+/// a test failure) when DDS refuses it.
+bool publish_path_step(cli::DdsPoseClient& client, const TestScene& scene, std::uint64_t sequence) {
+  UpdateMessage update;
+  update.scene_id = scene.scene_id;
+  update.sequence = sequence;
+  update.poses = path_poses(scene, int(sequence));
+  std::string error;
+  const bool published = client.publish(update.sample(), error);
+  EXPECT_TRUE(published) << error;
+  return published;
+}
+
 Pose<double> to_pose(const UpdateMessage::Pose& pose) {
   const auto& q = pose.rotation_wxyz;
   return Pose<double>::from_quaternion(
@@ -347,6 +360,9 @@ TEST(DdsBridge, DepthModeReportsCarryTheSignedDistanceAndTheDepth) {
 TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
   ServiceLimits limits;
   limits.max_in_flight_per_stream = 2;
+  // Every evaluation on the pool (--no-inline-evaluation), which the test holds: small ones
+  // would otherwise run on the bridge thread, which nothing holds.
+  limits.inline_evaluation = false;
   Server server = start(kDomainOverload, "overload", limits, /*workers=*/1);
   ASSERT_TRUE(server.bridge);
   const TestScene scene =
@@ -362,14 +378,7 @@ TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
   ASSERT_TRUE(held.held());
 
   constexpr std::uint64_t kUpdates = 30;
-  std::string error;
-  for (std::uint64_t s = 1; s <= kUpdates; ++s) {
-    UpdateMessage update;
-    update.scene_id = scene.scene_id;
-    update.sequence = s;
-    update.poses = path_poses(scene, int(s));
-    ASSERT_TRUE(client->publish(update.sample(), error)) << error;
-  }
+  for (std::uint64_t s = 1; s <= kUpdates; ++s) ASSERT_TRUE(publish_path_step(*client, scene, s));
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (server.bridge->stats().updates_taken < kUpdates &&
          std::chrono::steady_clock::now() < deadline)
@@ -404,6 +413,46 @@ TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
   EXPECT_EQ(server.bridge->stats().reports_written, 3u);
 }
 
+// A small scene's updates are evaluated on the bridge thread, which then writes their reports
+// (PoseStream::evaluates_inline, as on gRPC): no worker wake-up and hand-back per update. With
+// every worker of the pool held, a stream is still answered, in order and without merges; were
+// its evaluations handed to the pool, no report would come until the workers are released.
+TEST(DdsBridge, SmallUpdatesAreAnsweredByTheBridgeThreadWhileThePoolIsBusy) {
+  Server server = start(kDomainInline, "inline", {}, /*workers=*/1);
+  ASSERT_TRUE(server.bridge);
+  const TestScene scene =
+      create_scene(*server.scenes, {polytope(random_hull_vertices(9, 30, 0.7)), arm()});
+  ASSERT_FALSE(scene.scene_id.empty());
+  auto client = connect(kDomainInline, server.prefix);
+  ASSERT_TRUE(client);
+  testkit::HeldWorkers held(*server.scenes, scene.scene_id);
+  ASSERT_TRUE(held.held());
+
+  constexpr std::uint64_t kUpdates = 12;
+  std::vector<ReceivedReport> reports;
+  for (std::uint64_t s = 1; s <= kUpdates; ++s) {
+    ASSERT_TRUE(publish_path_step(*client, scene, s));
+    if (s % 3 == 0) {  // a window of three in flight
+      while (reports.size() < s) {
+        std::vector<ReceivedReport> got = collect_reports(*client, 1, std::chrono::seconds(10));
+        ASSERT_FALSE(got.empty()) << "no report for sequence " << reports.size() + 1
+                                  << " while the pool is held";
+        for (ReceivedReport& report : got) reports.push_back(std::move(report));
+      }
+    }
+  }
+  ASSERT_EQ(reports.size(), kUpdates);
+  for (std::size_t k = 0; k < reports.size(); ++k) {
+    EXPECT_EQ(reports[k].sequence, k + 1);
+    EXPECT_EQ(reports[k].status, 0u) << reports[k].message;
+    EXPECT_EQ(reports[k].coalesced_updates, 0u);
+    EXPECT_EQ(reports[k].pairs.size(), 1u);
+  }
+  held.release();
+  server.bridge->shutdown();
+  EXPECT_EQ(server.bridge->stats().reports_written, kUpdates);
+}
+
 // Modes and threshold events over DDS, through merged updates: the same as gRPC. While the only
 // worker is held, a client publishes twelve updates that put object-1 on object-0 and take it
 // away again, naming a threshold on that pair in the first and asking for the global minimum;
@@ -412,6 +461,7 @@ TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
 TEST(DdsBridge, ModesAndThresholdEventsSurviveMergedUpdates) {
   ServiceLimits limits;
   limits.max_in_flight_per_stream = 2;
+  limits.inline_evaluation = false;  // the held pool makes updates wait (see above)
   Server server = start(kDomainEvents, "events", limits, /*workers=*/1);
   ASSERT_TRUE(server.bridge);
   const TestScene scene = create_scene(*server.scenes, {arm(), arm(), arm()});
