@@ -67,7 +67,11 @@ test_packages=(
   podman buildah runc debootstrap uidmap slirp4netns fuse-overlayfs
   # ROS 2 interfaces (ros/, the ros.interfaces_build test): colcon builds nearpoint_msgs with
   # Debian's ament and rosidl generators and introspection type supports
-  colcon python3-colcon-cmake ament-cmake rosidl-cmake rosidl-generator-c-cpp
+  # (Debian's colcon is the core alone: --base-paths, --parallel-workers and ROS package manifests
+  # are the recursive-crawl, parallel-executor and ros extensions, packaged apart; found on a fresh
+  # machine, where ros.interfaces_build failed without them)
+  colcon python3-colcon-cmake python3-colcon-recursive-crawl python3-colcon-parallel-executor
+  python3-colcon-ros python3-colcon-package-selection ament-cmake rosidl-cmake rosidl-generator-c-cpp
   librosidl-typesupport-introspection-c-cpp-dev librosidl-runtime-c-cpp-dev
   # scenes spread over replicas behind a proxy (deploy/haproxy/, deploy/sharded.sh, the
   # server.sharded test)
