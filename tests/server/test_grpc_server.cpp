@@ -584,6 +584,10 @@ TEST(GrpcServerBatches, BlockBackPressureCountsUpdatesNotMessages) {
         stream.write(make_update(scene, std::uint64_t(step) + 1, trajectory(scene.size(), step))));
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   auto shutdown = std::async(std::launch::async, [&] { running.server->shutdown(); });
+  // The workers are released only once the shutdown has had time to stop the stream's reads:
+  // released at once, they answered the first batches and the reactor read more before the drain
+  // began (18 read instead of at most 6, about 1 run in 5 on a loaded machine).
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
   held.release();
   std::vector<v1::DistanceReport> reports;
   const grpc::Status status = stream.read_to_end(reports);
