@@ -183,6 +183,11 @@ class CompoundQuery {
     for (std::size_t n = 0; n < saved_count_; ++n) caches_[saved_[n].index] = saved_[n].cache;
   }
 
+  // The lengths whose ulps composing a piece's pose rounds by: |t_offset| and |z̄| (1-norms).
+  static S placement_size(const Piece<S>& piece) {
+    return piece.offset.translation.cwiseAbs().sum() + core_center(piece.shape).cwiseAbs().sum();
+  }
+
   // Pair (i, j) into `into`, written in place (a returned result was a 400-byte copy per query).
   // Returns whether its near points are in the world (a pair of pieces at their objects' origins,
   // queried on the caller's poses) rather than relative to A's position (composed pieces).
@@ -211,8 +216,7 @@ class CompoundQuery {
       // Among subnormals the composition rounds by an absolute half unit per operation, not by
       // ulps of its terms (float pieces 3e-45 from their origins came out 3.1e-45 off against
       // a bound of 2.8e-45; found by fuzz_engine): denorm_min/ε, whose few ulps cover it.
-      placement += S(2) * (piece.offset.translation.cwiseAbs().sum() +
-                           core_center(piece.shape).cwiseAbs().sum()) +
+      placement += S(2) * placement_size(piece) +
                    std::numeric_limits<S>::denorm_min() / std::numeric_limits<S>::epsilon();
       return &placed;
     };
@@ -322,8 +326,7 @@ class CompoundQuery {
       const auto largest = [](const Compound<S>& c) {
         S size = 0;
         for (std::size_t i = 0; i < c.size(); ++i)
-          size = std::max(size, c.piece(i).offset.translation.cwiseAbs().sum() +
-                                    core_center(c.piece(i).shape).cwiseAbs().sum());
+          size = std::max(size, placement_size(c.piece(i)));
         return size;
       };
       placement_sizes_ =
