@@ -18,6 +18,7 @@
 
 #include <dds/dds.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -47,8 +48,13 @@ inline constexpr const char* kDistanceReportBatchType =
 /// one error report (RESOURCE_EXHAUSTED, field "updates"): the bridge thread accepts a sample's
 /// updates in one go, and this bounds how long one client's sample holds it from the others.
 inline constexpr std::uint32_t kMaxUpdatesPerBatch = 1024;
-/// The most reports the server puts in one DistanceReportBatch_ sample.
+/// The most reports the server puts in one DistanceReportBatch_ sample, and about the most bytes
+/// (estimated from the reports' pairs, at least one report each): a DDS sample is cut into
+/// fragments of about 1.3 kB, all of which must arrive (or be resent) before the reader sees any
+/// report, so a few large reports (45 pairs: ~17 kB each) gain nothing from one sample while the
+/// burst's latency grows with it.
 inline constexpr std::uint32_t kMaxReportsPerBatch = 64;
+inline constexpr std::size_t kMaxReportBatchBytes = 64 * 1024;
 
 /// ROS 2's default QoS profile: KEEP_LAST 10, RELIABLE, VOLATILE (rmw_qos_profile_default).
 /// The types are keyless, so the depth is shared by every writer of a topic: a reader that does

@@ -175,7 +175,20 @@ struct HeldReport {
   std::optional<Report> report;
   Addressee to;
   std::optional<PendingError> error;
+  /// About its size in a DistanceReportBatch_ (estimated_bytes).
+  std::size_t bytes = 0;
 };
+
+/// About the XCDR1 size of a report: its fixed fields and strings, each PairDistance_ (~330 bytes
+/// of fields and two object ids) and each event. Only to keep report batches near
+/// dds::kMaxReportBatchBytes: an estimate, not a bound.
+constexpr std::size_t kReportFixedBytes = 400;
+constexpr std::size_t kPairSampleBytes = 400;
+constexpr std::size_t kEventSampleBytes = 200;
+std::size_t estimated_bytes(const Report& report) {
+  return kReportFixedBytes + kPairSampleBytes * report.pairs.size() +
+         kEventSampleBytes * report.events.size();
+}
 
 /// One writer's stream on one scene. Lives in Impl::streams; erased only while no evaluation
 /// references it.
@@ -211,6 +224,7 @@ struct StreamState {
   /// the order the updates were taken. The samples' buffers, one per held answer, are reused.
   bool batched = false;
   std::vector<HeldReport> held;
+  std::size_t held_bytes = 0;
   Clock::time_point held_since;
   std::vector<ReportSample> batch_samples;
   std::vector<std::vector<PairSample>> batch_pair_samples;
@@ -872,36 +886,44 @@ struct DdsBridge::Impl {
   /// next DistanceReportBatch_. Requires `mutex`.
   void hold(StreamState& stream, Report report) {
     if (stream.held.empty()) stream.held_since = Clock::now();
-    stream.held.push_back(HeldReport{std::move(report), stream.to, std::nullopt});
+    const std::size_t bytes = estimated_bytes(report);
+    stream.held_bytes += bytes;
+    stream.held.push_back(HeldReport{std::move(report), stream.to, std::nullopt, bytes});
   }
 
   /// Keeps an error report for the stream's next DistanceReportBatch_. Requires `mutex`.
   void hold(StreamState& stream, PendingError error) {
     if (stream.held.empty()) stream.held_since = Clock::now();
-    stream.held.push_back(HeldReport{std::nullopt, {}, std::move(error)});
+    stream.held_bytes += kReportFixedBytes;
+    stream.held.push_back(HeldReport{std::nullopt, {}, std::move(error), kReportFixedBytes});
   }
 
   /// Writes a batched stream's held answers when nothing more of the stream is about to be
   /// answered (no evaluation running or due), when the oldest has waited kReportHold, or when
-  /// dds::kMaxReportsPerBatch are held. A stream that is kept busy thus still sees its reports
-  /// every few milliseconds, and an idle one at once: nothing waits for a batch to fill.
-  /// Requires `mutex` (the stream's answers are written under it, in order).
+  /// they would fill a sample (dds::kMaxReportsPerBatch, dds::kMaxReportBatchBytes). A stream that
+  /// is kept busy thus still sees its reports every few milliseconds, and an idle one at once:
+  /// nothing waits for a batch to fill. Requires `mutex` (the stream's answers are written under
+  /// it, in order).
   void flush_if_due(StreamState& stream) {
     if (stream.held.empty()) return;
     const bool busy = stream.evaluating;
     if (busy && stream.held.size() < dds::kMaxReportsPerBatch &&
+        stream.held_bytes < dds::kMaxReportBatchBytes &&
         Clock::now() - stream.held_since < kReportHold)
       return;
     write_held(stream);
   }
 
-  /// Writes every held answer of the stream, in order, kMaxReportsPerBatch per sample, then each
+  /// Writes every held answer of the stream, in order, as few samples as the limits of one allow
+  /// (dds::kMaxReportsPerBatch, dds::kMaxReportBatchBytes; at least one report each), then each
   /// report's threshold crossings on their own topic too. Requires `mutex`.
   void write_held(StreamState& stream) {
     std::size_t begin = 0;
     while (begin < stream.held.size()) {
-      const std::size_t count =
-          std::min<std::size_t>(stream.held.size() - begin, dds::kMaxReportsPerBatch);
+      std::size_t count = 1, bytes = stream.held[begin].bytes;
+      while (begin + count < stream.held.size() && count < dds::kMaxReportsPerBatch &&
+             bytes + stream.held[begin + count].bytes <= dds::kMaxReportBatchBytes)
+        bytes += stream.held[begin + count++].bytes;
       if (stream.batch_samples.size() < count) {
         stream.batch_samples.resize(count);
         stream.batch_pair_samples.resize(count);
@@ -936,6 +958,7 @@ struct DdsBridge::Impl {
       begin += count;
     }
     stream.held.clear();
+    stream.held_bytes = 0;
   }
 
   // ---- the report's way out: the worker pool's side, or the bridge thread's ----

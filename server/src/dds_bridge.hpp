@@ -13,7 +13,8 @@
 // under overload counted in updates, thresholds); a batch of more than dds::kMaxUpdatesPerBatch
 // updates is refused whole with one error report. A batch writer's stream holds its answers
 // (reports and error reports, in order) and writes them together once it has nothing more to
-// evaluate, 2 ms after the oldest was ready, or when dds::kMaxReportsPerBatch are held.
+// evaluate, 2 ms after the oldest was ready, or when they fill a sample
+// (dds::kMaxReportsPerBatch, dds::kMaxReportBatchBytes).
 //
 // Streams. A stream is one DDS writer (its publication handle) publishing for one scene id:
 // each such pair owns a PoseStream, so warm-start caches, sequence numbers and "objects not
