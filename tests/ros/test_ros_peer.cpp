@@ -65,30 +65,6 @@ double axis_to_cube(double ax, double ay, double cx, double cy, double theta, do
   return std::max(gap - r, 0.0);
 }
 
-/// The peer's report lines for `poses` (examples/dds_scene.json's mover at each): one per update,
-/// in order, each answered with the update's header and the distances of the scene's geometry.
-void expect_mover_reports(const std::vector<std::string>& lines,
-                          const std::vector<std::array<double, 3>>& poses) {
-  ASSERT_GE(lines.size(), poses.size());
-  for (std::size_t k = 0; k < poses.size(); ++k) {
-    SCOPED_TRACE(lines[k]);
-    const Json report = Json::parse(lines[k]);
-    ASSERT_EQ(report.at("sequence"), k + 1);
-    ASSERT_EQ(report.at("status"), 0);
-    EXPECT_EQ(report.at("stamp_sec"), 1000 + int(k)) << "the update's header is echoed";
-    const auto [x, y, theta] = poses[k];
-    const Json& pairs = report.at("pairs");
-    ASSERT_EQ(pairs.size(), 3u);
-    const double post = axis_to_cube(0, 0, x, y, theta, 0.2);
-    const double drum = axis_to_cube(3, 0, x, y, theta, 0.3);
-    EXPECT_NEAR(pairs.at("mover/post")[0].get<double>(), post,
-                pairs.at("mover/post")[1].get<double>() + 1e-12);
-    EXPECT_NEAR(pairs.at("mover/drum")[0].get<double>(), drum,
-                pairs.at("mover/drum")[1].get<double>() + 1e-12);
-    EXPECT_NEAR(pairs.at("post/drum")[0].get<double>(), 2.5, 1e-9);
-  }
-}
-
 TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
   ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "2", "--dds",
                        "--dds-domain", std::to_string(kDomain), "--scene",
@@ -116,7 +92,24 @@ TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
                                                          << server.stderr_text();
 
   const std::vector<std::string> lines = peer.stdout_lines();
-  expect_mover_reports(lines, poses);
+  ASSERT_GE(lines.size(), poses.size());
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    SCOPED_TRACE(lines[k]);
+    const Json report = Json::parse(lines[k]);
+    ASSERT_EQ(report.at("sequence"), k + 1);
+    ASSERT_EQ(report.at("status"), 0);
+    EXPECT_EQ(report.at("stamp_sec"), 1000 + int(k)) << "the update's header is echoed";
+    const auto [x, y, theta] = poses[k];
+    const Json& pairs = report.at("pairs");
+    ASSERT_EQ(pairs.size(), 3u);
+    const double post = axis_to_cube(0, 0, x, y, theta, 0.2);
+    const double drum = axis_to_cube(3, 0, x, y, theta, 0.3);
+    EXPECT_NEAR(pairs.at("mover/post")[0].get<double>(), post,
+                pairs.at("mover/post")[1].get<double>() + 1e-12);
+    EXPECT_NEAR(pairs.at("mover/drum")[0].get<double>(), drum,
+                pairs.at("mover/drum")[1].get<double>() + 1e-12);
+    EXPECT_NEAR(pairs.at("post/drum")[0].get<double>(), 2.5, 1e-9);
+  }
 
   std::set<std::string> endpoints;
   for (std::size_t k = poses.size(); k < lines.size(); ++k) {
@@ -174,37 +167,6 @@ TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
   EXPECT_TRUE(has("/nearpoint/distance_report_batches [nearpoint_msgs/msg/DistanceReportBatch]"))
       << all;
 
-  server.signal(SIGTERM);
-  EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
-}
-
-// The batched pair as a ROS 2 node makes it: the peer's PoseUpdateBatch and DistanceReportBatch
-// come from rosidl's own IDL of the .msg files, one batch carries six updates, and every update
-// is answered on rt/nearpoint/distance_report_batches with its own sequence number, its header
-// and the distances of the scene's geometry, in fewer report samples than updates.
-TEST(RosPeer, RosidlTypedPeerStreamsBatchesToNearpointd) {
-  ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "2", "--dds",
-                       "--dds-domain", std::to_string(kDomain + 6), "--scene",
-                       NEARPOINT_SOURCE_DIR "/examples/dds_scene.json"});
-  ASSERT_TRUE(server.started());
-  ASSERT_NE(server.wait_for_stderr("event=dds_ready", std::chrono::seconds(20)), "")
-      << server.stderr_text();
-  const std::vector<std::array<double, 3>> poses = {
-      {0, -2, 0}, {0, -1.2, 0.3}, {0.6, -0.4, 0.8}, {1.5, 0, 0.2}, {2.2, 0.1, 1.0}, {3, 1.4, 0}};
-  std::vector<std::string> argv = {ROS_PEER_PATH, std::to_string(kDomain + 6), "dds-demo",
-                                   "--batch"};
-  for (const auto& [x, y, t] : poses)
-    argv.push_back(std::to_string(x) + "," + std::to_string(y) + "," + std::to_string(t));
-  ChildProcess peer(argv);
-  ASSERT_TRUE(peer.started());
-  ASSERT_EQ(peer.wait_exit(std::chrono::seconds(90)), 0) << peer.stderr_text() << "\nserver:\n"
-                                                         << server.stderr_text();
-  const std::vector<std::string> lines = peer.stdout_lines();
-  ASSERT_EQ(lines.size(), poses.size() + 1);
-  expect_mover_reports(lines, poses);
-  const Json samples = Json::parse(lines.back());
-  EXPECT_LT(samples.at("samples").get<int>(), int(poses.size()))
-      << "reports travel several to a sample";
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
 }

@@ -28,12 +28,6 @@
 // names and one position) and prints the reports addressed to it in the order they arrive:
 //   {"sequence": N, "status": S, "error_field": "..."}
 //
-//   ros_peer DOMAIN SCENE --batch X,Y,THETA...
-// as the pose mode, but all the updates in one nearpoint_msgs/PoseUpdateBatch on
-// rt/nearpoint/pose_update_batches, the reports taken from the DistanceReportBatch samples on
-// rt/nearpoint/distance_report_batches; prints the report lines, then {"samples": N}: how many
-// report samples carried them.
-//
 //   ros_peer DOMAIN SCENE --wrong-type
 // publishes a sensor_msgs/JointState on rt/nearpoint/pose_updates (a peer built from other
 // message definitions), waits 3 s and prints {"reports": N}: the reports addressed to it.
@@ -47,15 +41,13 @@
 #include <cstring>
 #include <set>
 #include <string>
+#include <utility>
 #include <thread>
 #include <tuple>
-#include <utility>
 #include <vector>
 
 #include "nearpoint_msgs/msg/DistanceReport.h"
-#include "nearpoint_msgs/msg/DistanceReportBatch.h"
 #include "nearpoint_msgs/msg/PoseUpdate.h"
-#include "nearpoint_msgs/msg/PoseUpdateBatch.h"
 #include "sensor_msgs/msg/JointState.h"
 
 namespace {
@@ -80,42 +72,6 @@ std::string json_string(const char* s) {
     out += *p;
   }
   return out + "\"";
-}
-
-/// A report as the pose modes print it: {"sequence", "status", "stamp_sec", "message", "pairs"}.
-void print_report(const nearpoint_msgs_msg_dds__DistanceReport_& report) {
-  std::string line = "{\"sequence\": " + std::to_string(report.sequence_number) +
-                     ", \"status\": " + std::to_string(report.status) +
-                     ", \"stamp_sec\": " + std::to_string(report.header.stamp.sec) +
-                     ", \"message\": " + json_string(report.message) + ", \"pairs\": {";
-  for (uint32_t i = 0; i < report.pairs._length; ++i) {
-    const auto& p = report.pairs._buffer[i];
-    char numbers[80];
-    std::snprintf(numbers, sizeof numbers, "[%.17g, %.17g]", p.distance, p.error_bound);
-    line += (i ? ", " : "") + json_string((std::string(p.object_a) + "/" + p.object_b).c_str()) +
-            ": " + numbers;
-  }
-  std::printf("%s}}\n", line.c_str());
-}
-
-/// The update of the object "mover" at (x, y, 0) turned by theta about z, stamped 1000 + k, as
-/// sequence k + 1; it points into `pose` and `scene`.
-nearpoint_msgs_msg_dds__PoseUpdate_ mover_update(std::size_t k, double x, double y, double theta,
-                                                 std::string& scene,
-                                                 nearpoint_msgs_msg_dds__ObjectPose_& pose) {
-  pose = {};
-  pose.object_id = const_cast<char*>("mover");
-  pose.pose.position = {x, y, 0};
-  pose.pose.orientation = {0, 0, std::sin(theta / 2), std::cos(theta / 2)};
-  nearpoint_msgs_msg_dds__PoseUpdate_ update{};
-  update.header.stamp = {int32_t(1000 + k), 0};
-  update.header.frame_id = const_cast<char*>("world");
-  update.scene_id = scene.data();
-  update.client_id = const_cast<char*>("ros_peer");
-  update.sequence_number = k + 1;
-  update.poses = {1, 1, &pose, false};
-  update.thresholds = {0, 0, nullptr, false};
-  return update;
 }
 
 /// Joint names and their positions, one JointState.
@@ -169,7 +125,6 @@ int main(int argc, char** argv) {
   const bool wrong_type = std::string(argv[3]) == "--wrong-type";
   const bool joint_pipeline = std::string(argv[3]) == "--joint-pipeline";
   const bool joint_steps = std::string(argv[3]) == "--joint-steps" || joint_pipeline;
-  const bool batch = std::string(argv[3]) == "--batch";
   std::vector<JointStep> steps;
   for (int i = 4; joint_steps && i < argc; ++i) {
     auto& [names, values] = steps.emplace_back();
@@ -191,7 +146,7 @@ int main(int argc, char** argv) {
     }
   }
   std::vector<std::tuple<double, double, double>> poses;
-  for (int i = batch ? 4 : 3; i < argc && !joint_states && !wrong_type && !joint_steps; ++i) {
+  for (int i = 3; i < argc && !joint_states && !wrong_type && !joint_steps; ++i) {
     double x, y, theta;
     if (std::sscanf(argv[i], "%lf,%lf,%lf", &x, &y, &theta) != 3)
       return fail(std::string("not X,Y,THETA: ") + argv[i]);
@@ -211,22 +166,11 @@ int main(int argc, char** argv) {
                        "rt/nearpoint/distance_reports", qos, nullptr);
   const dds_entity_t joint_topic = dds_create_topic(
       participant, &sensor_msgs_msg_dds__JointState__desc, "rt/joint_states", qos, nullptr);
-  const dds_entity_t update_batch_topic =
-      dds_create_topic(participant, &nearpoint_msgs_msg_dds__PoseUpdateBatch__desc,
-                       "rt/nearpoint/pose_update_batches", qos, nullptr);
-  const dds_entity_t report_batch_topic =
-      dds_create_topic(participant, &nearpoint_msgs_msg_dds__DistanceReportBatch__desc,
-                       "rt/nearpoint/distance_report_batches", qos, nullptr);
-  if (update_topic < 0 || report_topic < 0 || joint_topic < 0 || update_batch_topic < 0 ||
-      report_batch_topic < 0)
+  if (update_topic < 0 || report_topic < 0 || joint_topic < 0)
     return fail("dds_create_topic failed");
-  const dds_entity_t writer = dds_create_writer(participant,
-                                                batch                         ? update_batch_topic
-                                                : joint_states || joint_steps ? joint_topic
-                                                                              : update_topic,
-                                                qos, nullptr);
-  const dds_entity_t reader =
-      dds_create_reader(participant, batch ? report_batch_topic : report_topic, qos, nullptr);
+  const dds_entity_t writer = dds_create_writer(
+      participant, joint_states || joint_steps ? joint_topic : update_topic, qos, nullptr);
+  const dds_entity_t reader = dds_create_reader(participant, report_topic, qos, nullptr);
   dds_delete_qos(qos);
   if (writer < 0 || reader < 0) return fail("dds_create_writer/reader failed");
   const dds_entity_t publications =
@@ -295,43 +239,6 @@ int main(int argc, char** argv) {
     return answered == 3 ? 0 : fail("reports missing for the joint states");
   }
 
-  if (batch) {
-    std::vector<nearpoint_msgs_msg_dds__ObjectPose_> pose_storage(poses.size());
-    std::vector<nearpoint_msgs_msg_dds__PoseUpdate_> updates;
-    for (std::size_t k = 0; k < poses.size(); ++k) {
-      const auto [x, y, theta] = poses[k];
-      updates.push_back(mover_update(k, x, y, theta, scene, pose_storage[k]));
-    }
-    nearpoint_msgs_msg_dds__PoseUpdateBatch_ sample{};
-    sample.updates = {uint32_t(updates.size()), uint32_t(updates.size()), updates.data(), false};
-    if (const dds_return_t rc = dds_write(writer, &sample); rc < 0)
-      return fail(std::string("dds_write: ") + dds_strretcode(rc));
-    std::size_t answered = 0, samples_taken = 0;
-    const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-    while (answered < poses.size() && std::chrono::steady_clock::now() < wait_until) {
-      void* samples[1] = {nullptr};
-      dds_sample_info_t info;
-      if (dds_take(reader, samples, &info, 1, 1) != 1) {
-        std::this_thread::sleep_for(std::chrono::milliseconds(2));
-        continue;
-      }
-      const auto& reports =
-          static_cast<const nearpoint_msgs_msg_dds__DistanceReportBatch_*>(samples[0])->reports;
-      bool ours = false;
-      for (uint32_t i = 0; info.valid_data && i < reports._length; ++i) {
-        if (std::memcmp(reports._buffer[i].writer_guid, own.v, 16) != 0) continue;
-        print_report(reports._buffer[i]);
-        ++answered;
-        ours = true;
-      }
-      samples_taken += ours;
-      dds_return_loan(reader, samples, 1);
-    }
-    std::printf("{\"samples\": %zu}\n", samples_taken);
-    dds_delete(participant);
-    return answered == poses.size() ? 0 : fail("reports missing for the batch");
-  }
-
   if (joint_pipeline) {
     for (std::size_t k = 0; k < steps.size(); ++k)
       if (const dds_return_t rc = write_joint_state(writer, steps[k], int32_t(1000 + k)); rc < 0)
@@ -353,7 +260,17 @@ int main(int argc, char** argv) {
     } else {
       const auto [x, y, theta] = poses[k];
       nearpoint_msgs_msg_dds__ObjectPose_ pose{};
-      const nearpoint_msgs_msg_dds__PoseUpdate_ update = mover_update(k, x, y, theta, scene, pose);
+      pose.object_id = const_cast<char*>("mover");
+      pose.pose.position = {x, y, 0};
+      pose.pose.orientation = {0, 0, std::sin(theta / 2), std::cos(theta / 2)};
+      nearpoint_msgs_msg_dds__PoseUpdate_ update{};
+      update.header.stamp = {int32_t(1000 + k), 0};
+      update.header.frame_id = const_cast<char*>("world");
+      update.scene_id = scene.data();
+      update.client_id = const_cast<char*>("ros_peer");
+      update.sequence_number = k + 1;
+      update.poses = {1, 1, &pose, false};
+      update.thresholds = {0, 0, nullptr, false};
       written = dds_write(writer, &update);
     }
     if (written < 0) return fail(std::string("dds_write: ") + dds_strretcode(written));
@@ -370,7 +287,19 @@ int main(int argc, char** argv) {
       if (info.valid_data && std::memcmp(report.writer_guid, own.v, 16) == 0 &&
           report.sequence_number == k + 1) {
         answered = true;
-        print_report(report);
+        std::string line = "{\"sequence\": " + std::to_string(report.sequence_number) +
+                           ", \"status\": " + std::to_string(report.status) +
+                           ", \"stamp_sec\": " + std::to_string(report.header.stamp.sec) +
+                           ", \"message\": " + json_string(report.message) + ", \"pairs\": {";
+        for (uint32_t i = 0; i < report.pairs._length; ++i) {
+          const auto& p = report.pairs._buffer[i];
+          char numbers[80];
+          std::snprintf(numbers, sizeof numbers, "[%.17g, %.17g]", p.distance, p.error_bound);
+          line += (i ? ", " : "") +
+                  json_string((std::string(p.object_a) + "/" + p.object_b).c_str()) + ": " +
+                  numbers;
+        }
+        std::printf("%s}}\n", line.c_str());
       }
       dds_return_loan(reader, samples, 1);
     }
