@@ -14,9 +14,11 @@
 #          vertices (about 550 in all), all 45 pairs, every object moving every update along a
 #          smooth path (period 1000 updates), no cutoff
 #   bench/service/capacity.sh [demo|cell45] [STREAMS] [SECONDS]     (defaults cell45, 4, 5)
-# gRPC environment: BATCH (pose sets per message, default 1: StreamPoses;
-# more: StreamPoseBatches), WINDOW (updates in flight per stream, default 4, with BATCH > 1 two
-# batches).
+# BATCH (pose sets per message, default 1: StreamPoses; more: StreamPoseBatches, or over DDS
+# PoseUpdateBatch samples on pose_update_batches), WINDOW (updates in flight per stream,
+# default 4, with BATCH > 1 two batches). DDS cannot hold a publisher back, so with BATCH > 1
+# nearpointd runs with --max-in-flight WINDOW (at least its default 8): a window beyond it would
+# make the server merge updates instead of answering each.
 # Also prints the geometry share: the reports' geometry_us (time in the engine) over nearpointd's
 # CPU time per update. Over DDS the report topic is keyless, so nearpointd sends every report to
 # every stream's reader: STREAMS 1 with a WINDOW measures one update's cost without that fan-out.
@@ -45,6 +47,7 @@ case "$reference" in
   *) echo "usage: capacity.sh [demo|cell45] [STREAMS] [SECONDS]" >&2; exit 2 ;;
 esac
 server_args=(--listen 127.0.0.1:0 --port-file "$work/port" --workers 1)
+source "$root/bench/service/load_flags.sh"  # BATCH, WINDOW: load_flags, batch, window
 case "$transport" in
   grpc) ;;
   dds)
@@ -53,7 +56,9 @@ case "$transport" in
     domain="${DDS_DOMAIN:-$((100 + RANDOM % 100))}"
     server_args+=(--dds --dds-domain "$domain")
     # cell45 is preloaded (its id is "cell45"); the demo scene is created over gRPC below.
-    [ "$reference" = cell45 ] && server_args+=(--scene "$work/cell45.json") ;;
+    [ "$reference" = cell45 ] && server_args+=(--scene "$work/cell45.json")
+    [ "$batch" -gt 1 ] && server_args+=(--max-in-flight "$((window > 8 ? window : 8))")
+    ;;
   *) echo "capacity.sh: TRANSPORT is grpc or dds" >&2; exit 2 ;;
 esac
 # shellcheck disable=SC2086 # SERVER_ARGS is a list of flags
@@ -62,7 +67,6 @@ server=$!
 trap 'kill $server 2>/dev/null || true; wait $server 2>/dev/null || true; rm -rf "$work"' EXIT
 for _ in $(seq 200); do [ -s "$work/port" ] && break; sleep 0.05; done
 target="127.0.0.1:$(cat "$work/port")"
-source "$root/bench/service/load_flags.sh"  # BATCH, WINDOW
 load=("$build/client/nearpoint" load --target "$target" --streams "$streams" --duration "$seconds"
       "${load_flags[@]}" --json "${scene_args[@]}")
 if [ "$transport" = dds ]; then
@@ -77,7 +81,7 @@ if [ "$transport" = dds ]; then
     load=("$build/client/nearpoint" dds load cell45 "$work/cell45.jsonl")
   fi
   load+=(--dds-domain "$domain" --streams "$streams" --duration "$seconds"
-         --window "${WINDOW:-4}" --json)
+         "${load_flags[@]}" --json)
 fi
 ticks() { awk '{print $14 + $15}' "/proc/$server/stat"; }  # utime + stime, clock ticks
 hz="$(getconf CLK_TCK)"

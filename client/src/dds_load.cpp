@@ -78,17 +78,17 @@ StreamTally run_stream(DdsPoseClient& client, const Trajectory& trajectory,
   };
   std::uint64_t next = first_step;
   std::string error;
+  const std::size_t batch = std::max<std::size_t>(1, stream.batch);
   for (;;) {
     const bool publishing = Clock::now() < stop_at;
     if (!publishing && outstanding.empty()) break;
-    while (publishing && outstanding.size() < stream.window) {
-      const PoseUpdateSample update = publisher.sample(next++);
-      outstanding.emplace(update.sequence_number, Clock::now());
-      if (!client.publish(update, error)) {
+    while (publishing && outstanding.size() + batch <= stream.window) {
+      if (!publish_steps(client, publisher, next, batch, batch > 1, outstanding, error)) {
         tally.first_problem = error;
         tally.missing += outstanding.size();
         return tally;
       }
+      next += batch;
     }
     const int got = client.take_reports(report_timeout, on_report, error);
     if (got <= 0) {
@@ -116,11 +116,20 @@ int run_dds_load(const Trajectory& trajectory, const DdsLoadOptions& options, st
     err << kPrefix << error << '\n';
     return kStreamBadConfiguration;
   }
+  const std::size_t batch = std::max<std::size_t>(1, options.batch);
+  if (batch > dds::kMaxUpdatesPerBatch || options.window < batch) {
+    err << kPrefix << "--batch is 1-" << dds::kMaxUpdatesPerBatch
+        << " and --window at least one batch (got --batch " << batch << ", --window "
+        << options.window << ")\n";
+    return kStreamBadConfiguration;
+  }
+  DdsPoseClient::Config config = options.dds;
+  config.batched = batch > 1;
   // Every stream's endpoints matched before any publishes, so that discovery is not measured.
   std::vector<std::unique_ptr<DdsPoseClient>> clients;
   std::vector<DdsStreamOptions> streams(std::size_t(options.streams));
   for (int k = 0; k < options.streams; ++k) {
-    std::unique_ptr<DdsPoseClient> client = DdsPoseClient::create(options.dds, error);
+    std::unique_ptr<DdsPoseClient> client = DdsPoseClient::create(config, error);
     if (!client || !client->wait_matched(options.match_timeout, error)) {
       err << kPrefix << error << '\n';
       return kStreamCannotRun;
@@ -131,6 +140,7 @@ int run_dds_load(const Trajectory& trajectory, const DdsLoadOptions& options, st
     stream.scene_id = options.scene_id;
     stream.client_id = "nearpoint-load-" + std::to_string(getpid()) + "-" + std::to_string(k);
     stream.window = std::max<std::size_t>(1, options.window);
+    stream.batch = batch;
   }
   const Clock::time_point start = Clock::now();
   const Clock::time_point stop_at = start + std::chrono::duration_cast<Clock::duration>(
@@ -162,6 +172,7 @@ int run_dds_load(const Trajectory& trajectory, const DdsLoadOptions& options, st
                                   {"transport", "dds"},
                                   {"streams", options.streams},
                                   {"window", options.window},
+                                  {"batch", batch},
                                   {"duration_s", elapsed_s},
                                   {"reports", total.reports},
                                   {"merged", total.merged},
@@ -175,8 +186,9 @@ int run_dds_load(const Trajectory& trajectory, const DdsLoadOptions& options, st
         << '\n';
   } else {
     out << "scene " << options.scene_id << " over DDS: " << options.streams << " stream(s) x "
-        << options.window << " in flight for " << elapsed_s << " s: " << total.reports
-        << " reports (" << total.merged << " merged updates), " << rate << " updates/s\n"
+        << options.window << " in flight (" << batch << " per sample) for " << elapsed_s
+        << " s: " << total.reports << " reports (" << total.merged << " merged updates), " << rate
+        << " updates/s\n"
         << "round-trip latency (publish to report): p50 " << p50 << " us, p90 " << p90
         << " us, p99 " << p99 << " us, max " << max << " us\n"
         << "per report: server "

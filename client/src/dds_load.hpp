@@ -8,7 +8,8 @@
 // Each stream is its own DDS participant with one PoseUpdate_ writer and one DistanceReport_
 // reader, as separate robot processes would be. The report topic is keyless, so every stream's
 // reader receives every stream's reports (and nearpointd sends each report to each of them):
-// measure the server's per-update cost with one stream and a window.
+// measure the server's per-update cost with one stream and a window. With a batch size each
+// stream publishes that many consecutive updates per PoseUpdateBatch_ sample.
 #pragma once
 
 #include <chrono>
@@ -30,6 +31,9 @@ struct DdsLoadOptions {
   /// Updates in flight per stream. Keep it within nearpointd's --max-in-flight (default 8), or
   /// the server merges updates (the summary counts them).
   std::size_t window = 4;
+  /// Consecutive updates per sample (more than 1: the batch topics, PoseUpdateBatch_ in and
+  /// DistanceReportBatch_ out); the window counts updates and holds at least one batch.
+  std::size_t batch = 1;
   /// One JSON object instead of text.
   bool json = false;
   std::chrono::milliseconds match_timeout{10000};

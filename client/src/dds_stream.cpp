@@ -142,14 +142,25 @@ std::unique_ptr<DdsPoseClient> DdsPoseClient::create(const Config& config, std::
   }
   const dds::QosPtr qos = dds::stream_qos(config.history_depth, config.best_effort);
   const dds::QosPtr read_qos = dds::reader_qos(config.history_depth, config.best_effort);
+  self->batched_ = config.batched;
+  const std::string update_topic_name = config.batched
+                                            ? dds::pose_update_batches_topic(config.topic_prefix)
+                                            : dds::pose_updates_topic(config.topic_prefix);
+  const std::string report_topic_name =
+      config.batched ? dds::distance_report_batches_topic(config.topic_prefix)
+                     : dds::distance_reports_topic(config.topic_prefix);
   const dds_entity_t update_topic =
-      dds_create_topic(self->participant_, &nearpoint_msgs_msg_dds__PoseUpdate__desc,
-                       dds::pose_updates_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
-  if (update_topic < 0) return fail("dds_create_topic(pose_updates)", update_topic);
-  const dds_entity_t report_topic = dds_create_topic(
-      self->participant_, &nearpoint_msgs_msg_dds__DistanceReport__desc,
-      dds::distance_reports_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
-  if (report_topic < 0) return fail("dds_create_topic(distance_reports)", report_topic);
+      dds_create_topic(self->participant_,
+                       config.batched ? &nearpoint_msgs_msg_dds__PoseUpdateBatch__desc
+                                      : &nearpoint_msgs_msg_dds__PoseUpdate__desc,
+                       update_topic_name.c_str(), qos.get(), nullptr);
+  if (update_topic < 0) return fail("dds_create_topic(updates)", update_topic);
+  const dds_entity_t report_topic =
+      dds_create_topic(self->participant_,
+                       config.batched ? &nearpoint_msgs_msg_dds__DistanceReportBatch__desc
+                                      : &nearpoint_msgs_msg_dds__DistanceReport__desc,
+                       report_topic_name.c_str(), qos.get(), nullptr);
+  if (report_topic < 0) return fail("dds_create_topic(reports)", report_topic);
   self->writer_ = dds_create_writer(self->participant_, update_topic, qos.get(), nullptr);
   if (self->writer_ < 0) return fail("dds_create_writer", self->writer_);
   self->reader_ = dds_create_reader(self->participant_, report_topic, read_qos.get(), nullptr);
@@ -196,7 +207,23 @@ bool DdsPoseClient::wait_matched(std::chrono::milliseconds timeout, std::string&
 }
 
 bool DdsPoseClient::publish(const PoseUpdateSample& update, std::string& error) {
+  if (batched_) {
+    error = "a batched client publishes PoseUpdateBatch samples (publish_batch)";
+    return false;
+  }
   if (const dds_return_t rc = dds_write(writer_, &update); rc < 0) {
+    error = dds::describe("dds_write", rc);
+    return false;
+  }
+  return true;
+}
+
+bool DdsPoseClient::publish_batch(const PoseUpdateBatchSample& batch, std::string& error) {
+  if (!batched_) {
+    error = "an unbatched client publishes PoseUpdate samples (publish)";
+    return false;
+  }
+  if (const dds_return_t rc = dds_write(writer_, &batch); rc < 0) {
     error = dds::describe("dds_write", rc);
     return false;
   }
@@ -231,13 +258,28 @@ int DdsPoseClient::take(std::chrono::milliseconds timeout, bool own_only,
     }
     for (dds_return_t i = 0; i < taken; ++i) {
       if (!infos[std::size_t(i)].valid_data) continue;
-      const auto& report = *static_cast<const DistanceReportSample*>(samples[std::size_t(i)]);
-      // Reports for other clients of the same scene share the topic.
-      if (own_only &&
-          std::memcmp(report.writer_guid, writer_guid_.data(), writer_guid_.size()) != 0)
-        continue;
-      on_report(report);
-      ++delivered;
+      // One report, or a batch of them: each in turn.
+      const DistanceReportSample* reports =
+          static_cast<const DistanceReportSample*>(samples[std::size_t(i)]);
+      std::uint32_t count = 1;
+      if (batched_) {
+        const auto& batch = *static_cast<const nearpoint_msgs_msg_dds__DistanceReportBatch_*>(
+            samples[std::size_t(i)]);
+        reports = batch.reports._buffer;
+        count = batch.reports._length;
+      }
+      bool ours = false;
+      for (std::uint32_t k = 0; k < count; ++k) {
+        const DistanceReportSample& report = reports[k];
+        // Reports for other clients of the same scene share the topic.
+        if (own_only &&
+            std::memcmp(report.writer_guid, writer_guid_.data(), writer_guid_.size()) != 0)
+          continue;
+        on_report(report);
+        ++delivered;
+        ours = true;
+      }
+      if (ours) ++report_samples_;
     }
     if (taken > 0) dds_return_loan(reader_, samples.data(), taken);
     if (taken == dds_return_t(kBatch)) continue;  // more may be waiting
@@ -266,11 +308,27 @@ StepPublisher::StepPublisher(const Trajectory& trajectory, const DdsStreamOption
 }
 
 PoseUpdateSample StepPublisher::sample(std::uint64_t index) {
+  return fill(index, poses_);
+}
+
+PoseUpdateBatchSample StepPublisher::batch(std::uint64_t first, std::size_t count) {
+  if (batch_poses_.size() < count) batch_poses_.resize(count);
+  batch_updates_.resize(count);
+  for (std::size_t k = 0; k < count; ++k) batch_updates_[k] = fill(first + k, batch_poses_[k]);
+  PoseUpdateBatchSample out{};
+  out.updates._buffer = batch_updates_.data();
+  out.updates._length = out.updates._maximum = std::uint32_t(count);
+  out.updates._release = false;
+  return out;
+}
+
+PoseUpdateSample StepPublisher::fill(std::uint64_t index,
+                                     std::vector<nearpoint_msgs_msg_dds__ObjectPose_>& poses) {
   const TrajectoryStep& step = trajectory_.steps[index % trajectory_.steps.size()];
-  poses_.assign(step.poses.size(), {});
+  poses.assign(step.poses.size(), {});
   for (std::size_t i = 0; i < step.poses.size(); ++i) {
     const ObjectPose& in = step.poses[i];
-    nearpoint_msgs_msg_dds__ObjectPose_& pose = poses_[i];
+    nearpoint_msgs_msg_dds__ObjectPose_& pose = poses[i];
     pose.object_id = const_cast<char*>(in.object_id.c_str());
     pose.pose.position = {in.translation[0], in.translation[1], in.translation[2]};
     pose.pose.orientation = {in.rotation_wxyz[1], in.rotation_wxyz[2], in.rotation_wxyz[3],
@@ -280,8 +338,8 @@ PoseUpdateSample StepPublisher::sample(std::uint64_t index) {
   update.scene_id = const_cast<char*>(options_.scene_id.c_str());
   update.client_id = const_cast<char*>(client_id_.c_str());
   update.sequence_number = index + 1;
-  update.poses._buffer = poses_.data();
-  update.poses._length = update.poses._maximum = std::uint32_t(poses_.size());
+  update.poses._buffer = poses.data();
+  update.poses._length = update.poses._maximum = std::uint32_t(poses.size());
   update.poses._release = false;
   if (options_.near_points) {
     update.options.has_near_points = true;
@@ -306,6 +364,22 @@ PoseUpdateSample StepPublisher::sample(std::uint64_t index) {
                             ? model::to_dds(model::FlowControl::coalesce)
                             : 0;  // unspecified: block
   return update;
+}
+
+bool publish_steps(DdsPoseClient& client, StepPublisher& publisher, std::uint64_t next,
+                   std::size_t count, bool batched,
+                   std::map<std::uint64_t, std::chrono::steady_clock::time_point>& published,
+                   std::string& error) {
+  const Clock::time_point now = Clock::now();
+  if (!batched) {
+    const PoseUpdateSample update = publisher.sample(next);
+    published.emplace(update.sequence_number, now);
+    return client.publish(update, error);
+  }
+  const PoseUpdateBatchSample batch = publisher.batch(next, count);
+  for (std::uint32_t k = 0; k < batch.updates._length; ++k)
+    published.emplace(batch.updates._buffer[k].sequence_number, now);
+  return client.publish_batch(batch, error);
 }
 
 // ---- nearpoint stream --dds: parse → run → print ----
@@ -391,7 +465,14 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
     err << kPrefix << error << '\n';
     return kStreamBadConfiguration;
   }
-  std::unique_ptr<DdsPoseClient> client = DdsPoseClient::create(options.dds, error);
+  const std::size_t batch = std::max<std::size_t>(1, options.batch);
+  if (batch > dds::kMaxUpdatesPerBatch) {
+    err << kPrefix << "--batch is at most " << dds::kMaxUpdatesPerBatch << '\n';
+    return kStreamBadConfiguration;
+  }
+  DdsPoseClient::Config config = options.dds;
+  config.batched = batch > 1;
+  std::unique_ptr<DdsPoseClient> client = DdsPoseClient::create(config, error);
   if (!client) {
     err << kPrefix << error << '\n';
     return kStreamCannotRun;
@@ -400,7 +481,7 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
     err << kPrefix << error << '\n';
     return kStreamCannotRun;
   }
-  const std::size_t window = std::max<std::size_t>(1, options.window);
+  const std::size_t window = std::max(batch, options.window);
   const std::size_t total = trajectory.steps.size();
 
   // Run: publish up to `window` steps ahead of the reports, check each report as it arrives.
@@ -411,14 +492,15 @@ int run_dds_stream(const Trajectory& trajectory, const DdsStreamOptions& options
   };
   std::uint64_t next = 0;  // index of the next step to publish
   while (next < total || !check.outstanding.empty()) {
-    while (next < total && check.outstanding.size() < window) {
-      const PoseUpdateSample update = publisher.sample(next);
-      check.outstanding.emplace(update.sequence_number, Clock::now());
-      if (!client->publish(update, error)) {
+    // A whole batch at a time (the last one may be shorter), within the window.
+    while (next < total && check.outstanding.size() + std::min(batch, total - next) <= window) {
+      const std::size_t count = std::min(batch, total - next);
+      if (!publish_steps(*client, publisher, next, count, config.batched, check.outstanding,
+                         error)) {
         err << kPrefix << error << '\n';
         return kStreamCannotRun;
       }
-      ++next;
+      next += count;
     }
     const int got = client->take_reports(options.report_timeout, on_report, error);
     if (got < 0) {

@@ -5,7 +5,9 @@
 // The client publishes nearpoint_msgs::msg::dds_::PoseUpdate_ on <prefix>pose_updates and takes
 // nearpoint_msgs::msg::dds_::DistanceReport_ from <prefix>distance_reports, keeping only the
 // reports addressed to its own writer (DistanceReport_.writer_guid), with the QoS of
-// proto/dds/nearpoint_dds.hpp. Like the server it refuses to start without CYCLONEDDS_URI.
+// proto/dds/nearpoint_dds.hpp; batched (--batch N), PoseUpdateBatch_ on
+// <prefix>pose_update_batches and DistanceReportBatch_ from <prefix>distance_report_batches
+// instead. Like the server it refuses to start without CYCLONEDDS_URI.
 #pragma once
 
 #include <array>
@@ -14,6 +16,7 @@
 #include <functional>
 #include <iosfwd>
 #include <limits>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -29,8 +32,10 @@ namespace nearpoint::cli {
 
 using PoseUpdateSample = nearpoint_msgs_msg_dds__PoseUpdate_;
 using DistanceReportSample = nearpoint_msgs_msg_dds__DistanceReport_;
+using PoseUpdateBatchSample = nearpoint_msgs_msg_dds__PoseUpdateBatch_;
 
-/// A PoseUpdate_ writer and a DistanceReport_ reader on one participant.
+/// A PoseUpdate_ writer and a DistanceReport_ reader on one participant, or with
+/// Config::batched a PoseUpdateBatch_ writer and a DistanceReportBatch_ reader.
 class DdsPoseClient {
  public:
   struct Config {
@@ -42,6 +47,9 @@ class DdsPoseClient {
     bool best_effort = false;
     /// Start without CYCLONEDDS_URI (Cyclone's defaults: external interface, multicast).
     bool allow_default_config = false;
+    /// The batch topics: publish_batch() instead of publish(), reports taken out of
+    /// DistanceReportBatch_ samples.
+    bool batched = false;
   };
 
   /// The endpoints, or nullptr and `error` saying why not.
@@ -55,6 +63,8 @@ class DdsPoseClient {
   bool wait_matched(std::chrono::milliseconds timeout, std::string& error);
 
   bool publish(const PoseUpdateSample& update, std::string& error);
+  /// Batched clients only.
+  bool publish_batch(const PoseUpdateBatchSample& batch, std::string& error);
 
   /// Waits up to `timeout` for reports addressed to this client's writer and passes each to
   /// `on_report` (the sample is valid during the call only). Returns how many were passed (0 on
@@ -71,6 +81,10 @@ class DdsPoseClient {
   /// This client's writer GUID, as the server echoes it in DistanceReport_.writer_guid.
   const std::array<std::uint8_t, 16>& writer_guid() const { return writer_guid_; }
 
+  /// Report samples taken so far that held at least one report for this client (batched: one
+  /// DistanceReportBatch_ may hold several).
+  std::uint64_t report_samples() const { return report_samples_; }
+
  private:
   DdsPoseClient() = default;
   int take(std::chrono::milliseconds timeout, bool own_only,
@@ -79,6 +93,8 @@ class DdsPoseClient {
   dds_entity_t writer_ = 0;
   dds_entity_t reader_ = 0;
   dds_entity_t waitset_ = 0;
+  bool batched_ = false;
+  std::uint64_t report_samples_ = 0;
   std::array<std::uint8_t, 16> writer_guid_{};
 };
 
@@ -90,6 +106,9 @@ struct DdsStreamOptions {
   /// Updates published before their reports arrive; 1 = lock step (each update waits for its
   /// report, so round-trip times are meaningful).
   std::size_t window = 1;
+  /// Consecutive updates per sample (more than 1: the batch topics, dds.batched). The window
+  /// counts updates and is at least one batch.
+  std::size_t batch = 1;
   /// PoseUpdate_.flow_control: block (sent as 0, unspecified, which means block) or coalesce.
   model::FlowControl flow_control = model::FlowControl::block;
   bool near_points = false;
@@ -116,14 +135,29 @@ class StepPublisher {
   /// The update of step `index` modulo the trajectory's length, so that a load replays it in a
   /// loop (sequence number index + 1; the thresholds with index 0). The trajectory is not empty.
   PoseUpdateSample sample(std::uint64_t index);
+  /// The updates of steps first … first + count − 1 as one PoseUpdateBatch_ sample (each as
+  /// sample() makes it); valid until the next call.
+  PoseUpdateBatchSample batch(std::uint64_t first, std::size_t count);
 
  private:
+  PoseUpdateSample fill(std::uint64_t index,
+                        std::vector<nearpoint_msgs_msg_dds__ObjectPose_>& poses);
   const Trajectory& trajectory_;
   const DdsStreamOptions& options_;
   const std::string client_id_;
   std::vector<nearpoint_msgs_msg_dds__ObjectPose_> poses_;
   std::vector<nearpoint_msgs_msg_dds__Threshold_> thresholds_;
+  std::vector<std::vector<nearpoint_msgs_msg_dds__ObjectPose_>> batch_poses_;
+  std::vector<PoseUpdateSample> batch_updates_;
 };
+
+/// Publishes the steps next … next + count − 1 (count ≥ 1): one PoseUpdate_ sample, or with a
+/// batched client one PoseUpdateBatch_; false and `error` when DDS refuses. Each step's
+/// sequence number and publication time go into `published` (sequence → time).
+bool publish_steps(DdsPoseClient& client, StepPublisher& publisher, std::uint64_t next,
+                   std::size_t count, bool batched,
+                   std::map<std::uint64_t, std::chrono::steady_clock::time_point>& published,
+                   std::string& error);
 
 /// Exit codes of `nearpoint stream --dds` (the table of model/exit_codes.hpp).
 inline constexpr int kStreamOk =

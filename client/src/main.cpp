@@ -200,6 +200,13 @@ void add_dds_stream_options(CLI::App& command, DdsStreamArguments& args) {
   command.add_flag("--dds-allow-default-config", options.dds.allow_default_config,
                    "--dds: run without CYCLONEDDS_URI (Cyclone's defaults: external interface, "
                    "multicast)");
+  command
+      .add_option("--batch", options.batch,
+                  "--dds: consecutive updates per sample (more than 1: the batch topics "
+                  "pose_update_batches and distance_report_batches; the window is then at "
+                  "least one batch)")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, nearpoint::dds::kMaxUpdatesPerBatch));
 }
 
 int run_dds_stream_command(DdsStreamArguments& args, const std::string& scene,
@@ -539,8 +546,11 @@ Examples:
         }
       }
       // DDS has no back-pressure: updates published beyond the server's in-flight limit are
-      // merged (and reported so). Without an explicit --window, step in lock with the reports.
-      const std::size_t window = command->count("--window") > 0 ? options->window : 1;
+      // merged (and reported so). Without an explicit --window, step in lock with the reports
+      // (batched: a batch at a time).
+      const std::size_t window = command->count("--window") > 0
+                                     ? options->window
+                                     : std::max<std::size_t>(1, dds->options.batch);
       exit_code = run_dds_stream_command(*dds, options->scene, options->trajectory, window,
                                          options->near_points);
       return;
@@ -694,6 +704,12 @@ void add_dds_load_subcommand(CLI::App& dds, int& exit_code) {
                    "Updates in flight per stream (within nearpointd's --max-in-flight)")
       ->capture_default_str()
       ->check(CLI::Range(1, 4096));
+  command
+      ->add_option("--batch", args->load.batch,
+                   "Consecutive updates per sample (more than 1: PoseUpdateBatch on "
+                   "pose_update_batches; --window then defaults to two batches)")
+      ->capture_default_str()
+      ->check(CLI::Range(1u, nearpoint::dds::kMaxUpdatesPerBatch));
   command->add_option("--dds-domain", args->load.dds.domain_id, "DDS domain id")
       ->capture_default_str()
       ->check(CLI::Range(0, 230));
@@ -706,10 +722,14 @@ void add_dds_load_subcommand(CLI::App& dds, int& exit_code) {
   command->footer(R"(
 Each stream is its own DDS participant; the report topic is keyless, so every stream's reader
 also receives the other streams' reports. Prints the reports (answered updates), updates/s,
-the publish-to-report latency and the reports' server and geometry time.
+the publish-to-report latency and the reports' server and geometry time. With --batch N the
+window counts updates; keep it within nearpointd's --max-in-flight, or the server merges updates.
   nearpoint dds load cell45 cell45.jsonl --duration 5 --window 4
+  nearpoint dds load cell45 cell45.jsonl --duration 5 --batch 8    # nearpointd --max-in-flight 16
 )");
-  command->callback([args, &exit_code] {
+  command->callback([command, args, &exit_code] {
+    if (args->load.batch > 1 && command->count("--window") == 0)
+      args->load.window = 2 * args->load.batch;
     nearpoint::cli::Trajectory trajectory;
     if (!args->trajectory.empty()) {
       if (std::string error;

@@ -33,6 +33,14 @@ std::string threshold_events_topic(const std::string& prefix) {
   return prefix + kThresholdEventsSuffix;
 }
 
+std::string pose_update_batches_topic(const std::string& prefix) {
+  return prefix + kPoseUpdateBatchesSuffix;
+}
+
+std::string distance_report_batches_topic(const std::string& prefix) {
+  return prefix + kDistanceReportBatchesSuffix;
+}
+
 std::string check_ros_topic(const std::string& name) {
   if (!name.starts_with("rt/"))
     return "does not start with 'rt/' (ROS 2 topic /a/b is the DDS topic rt/a/b)";

@@ -2,12 +2,14 @@
 // What the DDS server bridge and the DDS client must agree on, in one place: topic names, QoS,
 // and the rule that Cyclone DDS never runs without a configuration here.
 //
-// The topics are ROS 2 topics (the types: ros/nearpoint_msgs, generated into nearpoint_ros.h):
-//   ROS 2 name                    DDS topic                       DDS type
-//   /nearpoint/pose_updates       rt/nearpoint/pose_updates nearpoint_msgs::msg::dds_::PoseUpdate_
-//   /nearpoint/distance_reports   rt/nearpoint/distance_reports
-//   nearpoint_msgs::msg::dds_::DistanceReport_ /nearpoint/threshold_events
-//   rt/nearpoint/threshold_events   nearpoint_msgs::msg::dds_::ThresholdEvent_
+// The topics are ROS 2 topics (the types: ros/nearpoint_msgs, generated into nearpoint_ros.h),
+// each as ROS 2 name, then DDS topic and DDS type (nearpoint_msgs::msg::dds_::<type>_):
+//   /nearpoint/pose_updates              rt/nearpoint/pose_updates              PoseUpdate_
+//   /nearpoint/distance_reports          rt/nearpoint/distance_reports          DistanceReport_
+//   /nearpoint/threshold_events          rt/nearpoint/threshold_events          ThresholdEvent_
+//   /nearpoint/pose_update_batches       rt/nearpoint/pose_update_batches       PoseUpdateBatch_
+//   /nearpoint/distance_report_batches   rt/nearpoint/distance_report_batches
+//                                                                       DistanceReportBatch_
 // with "rt/nearpoint/" the default prefix (rt/ + the ROS 2 namespace, as rmw_cyclonedds maps
 // it). The types are keyless and plain XCDR1, as ROS 2 requires; scenes are told apart by the
 // scene_id field, which lets one reader serve every scene (scene ids are free text, not ROS
@@ -16,6 +18,7 @@
 
 #include <dds/dds.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -28,11 +31,30 @@ inline constexpr const char* kDefaultTopicPrefix = "rt/nearpoint/";
 inline constexpr const char* kPoseUpdatesSuffix = "pose_updates";
 inline constexpr const char* kDistanceReportsSuffix = "distance_reports";
 inline constexpr const char* kThresholdEventsSuffix = "threshold_events";
+/// The batched pair: several updates per sample in, several reports per sample out (a writer on
+/// the batch topic is answered on the batch report topic, and only there).
+inline constexpr const char* kPoseUpdateBatchesSuffix = "pose_update_batches";
+inline constexpr const char* kDistanceReportBatchesSuffix = "distance_report_batches";
 
 /// The DDS type names, as ROS 2 tools show them (ros2 topic info: nearpoint_msgs/msg/PoseUpdate).
 inline constexpr const char* kPoseUpdateType = "nearpoint_msgs::msg::dds_::PoseUpdate_";
 inline constexpr const char* kDistanceReportType = "nearpoint_msgs::msg::dds_::DistanceReport_";
 inline constexpr const char* kThresholdEventType = "nearpoint_msgs::msg::dds_::ThresholdEvent_";
+inline constexpr const char* kPoseUpdateBatchType = "nearpoint_msgs::msg::dds_::PoseUpdateBatch_";
+inline constexpr const char* kDistanceReportBatchType =
+    "nearpoint_msgs::msg::dds_::DistanceReportBatch_";
+
+/// The most updates one PoseUpdateBatch_ sample may carry. A larger one is refused whole, with
+/// one error report (RESOURCE_EXHAUSTED, field "updates"): the bridge thread accepts a sample's
+/// updates in one go, and this bounds how long one client's sample holds it from the others.
+inline constexpr std::uint32_t kMaxUpdatesPerBatch = 1024;
+/// The most reports the server puts in one DistanceReportBatch_ sample, and about the most bytes
+/// (estimated from the reports' pairs, at least one report each): a DDS sample is cut into
+/// fragments of about 1.3 kB, all of which must arrive (or be resent) before the reader sees any
+/// report, so a few large reports (45 pairs: ~17 kB each) gain nothing from one sample while the
+/// burst's latency grows with it.
+inline constexpr std::uint32_t kMaxReportsPerBatch = 64;
+inline constexpr std::size_t kMaxReportBatchBytes = 64 * 1024;
 
 /// ROS 2's default QoS profile: KEEP_LAST 10, RELIABLE, VOLATILE (rmw_qos_profile_default).
 /// The types are keyless, so the depth is shared by every writer of a topic: a reader that does
@@ -62,6 +84,8 @@ QosPtr reader_qos(std::int32_t depth = kDefaultHistoryDepth, bool best_effort = 
 std::string pose_updates_topic(const std::string& prefix);
 std::string distance_reports_topic(const std::string& prefix);
 std::string threshold_events_topic(const std::string& prefix);
+std::string pose_update_batches_topic(const std::string& prefix);
+std::string distance_report_batches_topic(const std::string& prefix);
 
 /// Empty when `prefix` makes legal topic names; otherwise what is wrong with it.
 std::string check_topic_prefix(const std::string& prefix);

@@ -28,6 +28,8 @@ namespace {
 
 using UpdateSample = nearpoint_msgs_msg_dds__PoseUpdate_;
 using ReportSample = nearpoint_msgs_msg_dds__DistanceReport_;
+using UpdateBatchSample = nearpoint_msgs_msg_dds__PoseUpdateBatch_;
+using ReportBatchSample = nearpoint_msgs_msg_dds__DistanceReportBatch_;
 using PairSample = nearpoint_msgs_msg_dds__PairDistance_;
 using EventSample = nearpoint_msgs_msg_dds__ThresholdEvent_;
 using Guid = std::array<std::uint8_t, 16>;
@@ -45,6 +47,10 @@ constexpr auto kInlineSlice = std::chrono::milliseconds(2);
 /// How long a new stream's first evaluation waits for the report writer to discover a reader of
 /// the client's participant (see StreamState::ready).
 constexpr auto kReaderMatchWait = std::chrono::seconds(2);
+/// How long a batched stream's ready report may wait for the stream's next ones before they are
+/// written together: as long as one inline slice, so that a stream kept busy by a steady flow of
+/// updates still sees its reports every few milliseconds.
+constexpr auto kReportHold = kInlineSlice;
 
 /// Cyclone serialises strings through char*; the sample only borrows ours for dds_write.
 char* borrow(const std::string& text) {
@@ -124,12 +130,14 @@ void to_input(const UpdateSample& sample, model::PoseUpdateInput& out) {
   }
 }
 
-/// Who a report goes to: the update's scene, its client id and writer (and its header, echoed).
+/// Who a report goes to: the update's scene, its client id and writer (and its header, echoed),
+/// and whether that writer publishes batches (then its reports go on the batch report topic).
 struct Addressee {
   std::string scene_id;
   std::string client_id;
   Guid writer_guid{};
   Header header;
+  bool batched = false;
 };
 
 void address(const Addressee& to, ReportSample& out) {
@@ -161,6 +169,27 @@ struct Waiting {
   std::optional<PendingError> error;
 };
 
+/// A batched stream's answer that waits to be written with the stream's next ones: an
+/// evaluation's report (with its update's client id and header) or an error report.
+struct HeldReport {
+  std::optional<Report> report;
+  Addressee to;
+  std::optional<PendingError> error;
+  /// About its size in a DistanceReportBatch_ (estimated_bytes).
+  std::size_t bytes = 0;
+};
+
+/// About the XCDR1 size of a report: its fixed fields and strings, each PairDistance_ (~330 bytes
+/// of fields and two object ids) and each event. Only to keep report batches near
+/// dds::kMaxReportBatchBytes: an estimate, not a bound.
+constexpr std::size_t kReportFixedBytes = 400;
+constexpr std::size_t kPairSampleBytes = 400;
+constexpr std::size_t kEventSampleBytes = 200;
+std::size_t estimated_bytes(const Report& report) {
+  return kReportFixedBytes + kPairSampleBytes * report.pairs.size() +
+         kEventSampleBytes * report.events.size();
+}
+
 /// One writer's stream on one scene. Lives in Impl::streams; erased only while no evaluation
 /// references it.
 struct StreamState {
@@ -190,6 +219,16 @@ struct StreamState {
   /// overlap, so neither do its writes).
   std::vector<PairSample> pair_samples;
   std::vector<EventSample> event_samples;
+  /// A batched stream (its writer publishes PoseUpdateBatch_): answers wait in `held` until
+  /// they are written together in one DistanceReportBatch_ (Impl::flush_if_due says when), in
+  /// the order the updates were taken. The samples' buffers, one per held answer, are reused.
+  bool batched = false;
+  std::vector<HeldReport> held;
+  std::size_t held_bytes = 0;
+  Clock::time_point held_since;
+  std::vector<ReportSample> batch_samples;
+  std::vector<std::vector<PairSample>> batch_pair_samples;
+  std::vector<std::vector<EventSample>> batch_event_samples;
   bool announced = false;
   /// The writer is no longer matched: erase once everything taken has been answered.
   bool closing = false;
@@ -213,6 +252,9 @@ struct DdsBridge::Impl {
   dds_entity_t reader = 0;
   dds_entity_t writer = 0;
   dds_entity_t event_writer = 0;
+  /// The batched pair: PoseUpdateBatch_ in, DistanceReportBatch_ out.
+  dds_entity_t batch_reader = 0;
+  dds_entity_t batch_writer = 0;
   dds_entity_t guard = 0;
   /// One reader per --dds-joint-states binding, with its scene and, per writer, the sequence
   /// number of its last JointState (JointState has none; the reports count them from 1).
@@ -254,7 +296,7 @@ struct DdsBridge::Impl {
   // ---- the bridge thread ----
 
   void run() {
-    std::array<dds_attach_t, 4> triggered{};
+    std::array<dds_attach_t, 6> triggered{};
     bool inline_left = false;  // evaluations still due: look at the waitset without waiting
     for (;;) {
       const dds_return_t woken = dds_waitset_wait(waitset, triggered.data(), triggered.size(),
@@ -274,6 +316,7 @@ struct DdsBridge::Impl {
       // Reading the writer's matched status resets it, so that its condition stops triggering.
       dds_publication_matched_status_t publication{};
       dds_get_publication_matched_status(writer, &publication);
+      dds_get_publication_matched_status(batch_writer, &publication);
       check_readiness();
       inline_left = evaluate_inline();
     }
@@ -282,6 +325,7 @@ struct DdsBridge::Impl {
   /// Takes every update and joint state waiting in the readers.
   void take_samples() {
     take_updates();
+    take_update_batches();
     for (JointReader& joints : joint_readers) take_joint_states(joints);
   }
 
@@ -310,11 +354,18 @@ struct DdsBridge::Impl {
     inline_due.pop_front();
     std::shared_ptr<EvaluationJob> job = std::move(stream.inline_job);
     lock.unlock();
-    const Report report = stream.stream->run_evaluation(*job);
+    Report report = stream.stream->run_evaluation(*job);
     job.reset();
+    if (stream.batched) {
+      lock.lock();
+      hold(stream, std::move(report));
+      evaluated(stream);
+      return;
+    }
     const Written written = write_report(stream, report);
     lock.lock();
-    evaluated(stream, report.sequence, written);
+    counted(stream, report.sequence, written);
+    evaluated(stream);
   }
 
   /// The waitset's timeout: until the earliest deadline of a stream not yet ready.
@@ -330,9 +381,9 @@ struct DdsBridge::Impl {
         0, std::chrono::duration_cast<std::chrono::nanoseconds>(left).count() + 1000);
   }
 
-  /// The participants of the readers our report writer has matched. Requires `mutex` (only to
-  /// keep the DDS calls off the pool threads' way; they do not call back).
-  std::vector<Guid> reader_participants() const {
+  /// The participants of the readers `writer` (one of our report writers) has matched. Requires
+  /// `mutex` (only to keep the DDS calls off the pool threads' way; they do not call back).
+  static std::vector<Guid> reader_participants(dds_entity_t writer) {
     std::vector<dds_instance_handle_t> handles(16);
     dds_return_t count = dds_get_matched_subscriptions(writer, handles.data(), handles.size());
     if (count > dds_return_t(handles.size())) {
@@ -358,12 +409,13 @@ struct DdsBridge::Impl {
     bool any = false;
     for (const auto& [key, stream] : streams) any = any || !stream->ready;
     if (!any) return;
-    const std::vector<Guid> readers = reader_participants();
+    const std::vector<Guid> readers = reader_participants(writer);
+    const std::vector<Guid> batch_readers = reader_participants(batch_writer);
     const Clock::time_point now = Clock::now();
     for (auto it = streams.begin(); it != streams.end();) {
       StreamState& stream = *it->second;
-      const bool matched =
-          std::find(readers.begin(), readers.end(), stream.participant) != readers.end();
+      const std::vector<Guid>& ours = stream.batched ? batch_readers : readers;
+      const bool matched = std::find(ours.begin(), ours.end(), stream.participant) != ours.end();
       if (stream.ready || (!matched && now < stream.ready_deadline)) {
         ++it;
         continue;
@@ -385,8 +437,9 @@ struct DdsBridge::Impl {
   /// Erases the stream at `it` when its writer has gone and everything taken from it has been
   /// answered; the next stream either way. Requires `mutex`.
   Streams::iterator erase_if_finished(Streams::iterator it) {
-    const StreamState& stream = *it->second;
+    StreamState& stream = *it->second;
     if (!stream.closing || stream.evaluating || !stream.waiting.empty()) return std::next(it);
+    if (stream.batched) write_held(stream);
     log_closed(stream);
     return streams.erase(it);
   }
@@ -397,7 +450,7 @@ struct DdsBridge::Impl {
   void reconcile_writers() {
     bool changed = false;
     std::vector<dds_instance_handle_t> matched;
-    std::vector<dds_entity_t> readers{reader};
+    std::vector<dds_entity_t> readers{reader, batch_reader};
     for (const JointReader& joints : joint_readers) readers.push_back(joints.reader);
     for (const dds_entity_t source : readers) {
       dds_subscription_matched_status_t status{};
@@ -445,6 +498,86 @@ struct DdsBridge::Impl {
     }
   }
 
+  /// Takes the PoseUpdateBatch_ samples: each update is accepted exactly as if it had been
+  /// published alone (accept, in the order listed), so sequence numbers, error reports, merging
+  /// under overload (counted in updates) and thresholds are those of the unbatched topic. A batch
+  /// of more than dds::kMaxUpdatesPerBatch updates is refused whole (refuse_batch).
+  void take_update_batches() {
+    for (;;) {
+      std::array<void*, kTakeBatch> samples{};
+      std::array<dds_sample_info_t, kTakeBatch> infos{};
+      const dds_return_t taken =
+          dds_take(batch_reader, samples.data(), infos.data(), samples.size(), kTakeBatch);
+      if (taken < 0) {
+        log_error("dds_take_failed").kv("message", dds::describe("dds_take(batches)", taken));
+        return;
+      }
+      std::vector<PendingError> errors;
+      for (dds_return_t i = 0; i < taken; ++i) {
+        const dds_sample_info_t& info = infos[std::size_t(i)];
+        if (!info.valid_data) continue;
+        const auto& batch = *static_cast<const UpdateBatchSample*>(samples[std::size_t(i)]);
+        if (batch.updates._length > dds::kMaxUpdatesPerBatch) {
+          if (std::optional<PendingError> error = refuse_batch(batch, info.publication_handle))
+            errors.push_back(std::move(*error));
+          continue;
+        }
+        for (std::uint32_t k = 0; k < batch.updates._length; ++k) {
+          const UpdateSample& update = batch.updates._buffer[k];
+          to_input(update, update_scratch);
+          if (std::optional<PendingError> error =
+                  accept(update_scratch, own(update.client_id), own(update.header), batch_reader,
+                         info.publication_handle))
+            errors.push_back(std::move(*error));
+        }
+      }
+      if (taken > 0) dds_return_loan(batch_reader, samples.data(), taken);
+      for (const PendingError& error : errors) write_error(error);
+      if (taken < kTakeBatch) return;
+    }
+  }
+
+  /// A batch of more than dds::kMaxUpdatesPerBatch updates: none of them is read, and one error
+  /// report (RESOURCE_EXHAUSTED, field "updates", the first update's sequence number) says so,
+  /// in its turn behind the stream's earlier answers when the writer streams to the first
+  /// update's scene, at once otherwise (the returned error). Counted as that many rejected
+  /// updates.
+  std::optional<PendingError> refuse_batch(const UpdateBatchSample& batch,
+                                           dds_instance_handle_t publication) {
+    const UpdateSample& first = batch.updates._buffer[0];
+    const UpdateSample& last = batch.updates._buffer[batch.updates._length - 1];
+    const std::string scene_id = own(first.scene_id);
+    const Error error{
+        ErrorCode::resource_exhausted, "updates",
+        text("the batch holds ", batch.updates._length, " updates (sequence numbers ",
+             first.sequence_number, " to ", last.sequence_number, "); at most ",
+             dds::kMaxUpdatesPerBatch, " per PoseUpdateBatch sample: none of them was read")};
+    std::lock_guard lock(mutex);
+    stats.updates_taken += batch.updates._length;
+    stats.updates_rejected += batch.updates._length - 1;  // reject() counts one more
+    const auto open = streams.find(StreamKey{publication, scene_id});
+    if (open != streams.end()) {
+      StreamState& stream = *open->second;
+      stream.updates += batch.updates._length;
+      stream.rejected += batch.updates._length - 1;
+      Addressee to{stream.to.scene_id, own(first.client_id).substr(0, kMaxNameBytes),
+                   stream.to.writer_guid, own(first.header), /*batched=*/true};
+      queue_error(stream, *reject(&stream, std::move(to), first.sequence_number, error));
+      return std::nullopt;
+    }
+    dds_builtintopic_endpoint_t* endpoint =
+        dds_get_matched_publication_data(batch_reader, publication);
+    if (!endpoint) return std::nullopt;  // the writer has gone: nobody to answer
+    Addressee to{scene_id.substr(0, kQuotedBytes),
+                 own(first.client_id).substr(0, kMaxNameBytes),
+                 {},
+                 own(first.header),
+                 /*batched=*/true};
+    std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
+    dds_builtintopic_free_endpoint(endpoint);
+    return reject(nullptr, std::move(to), first.sequence_number, error);
+  }
+
   /// The type each of our topics carries, for the endpoints of other participants: what a
   /// publication (`publication`) or a subscription on it must name to match ours.
   std::string expected_type(const std::string& topic, bool publication) const {
@@ -454,6 +587,10 @@ struct DdsBridge::Impl {
       return dds::kDistanceReportType;
     if (!publication && topic == dds::threshold_events_topic(config.topic_prefix))
       return dds::kThresholdEventType;
+    if (publication && topic == dds::pose_update_batches_topic(config.topic_prefix))
+      return dds::kPoseUpdateBatchType;
+    if (!publication && topic == dds::distance_report_batches_topic(config.topic_prefix))
+      return dds::kDistanceReportBatchType;
     if (publication)
       for (const JointStateBinding& binding : config.joint_states)
         if (topic == binding.topic) return "sensor_msgs::msg::dds_::JointState_";
@@ -581,6 +718,8 @@ struct DdsBridge::Impl {
                                      Header header, dds_entity_t source,
                                      dds_instance_handle_t publication) {
     const Clock::time_point received = Clock::now();
+    // A writer on the batch topic is answered on the batch report topic.
+    const bool batched = source == batch_reader;
     std::lock_guard lock(mutex);
     ++stats.updates_taken;
     metrics::record_dds_sample(/*in=*/true);
@@ -595,7 +734,8 @@ struct DdsBridge::Impl {
       Addressee to{input.scene_id.substr(0, kQuotedBytes),
                    client_id.substr(0, kMaxNameBytes),
                    {},
-                   std::move(header)};
+                   std::move(header),
+                   batched};
       std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
       dds_builtintopic_free_endpoint(endpoint);
       return reject(nullptr, std::move(to), input.sequence, *malformed);
@@ -612,7 +752,7 @@ struct DdsBridge::Impl {
             .kv("sequence", input.sequence);
         return std::nullopt;
       }
-      Addressee to{input.scene_id, client_id, {}, header};
+      Addressee to{input.scene_id, client_id, {}, header, batched};
       std::memcpy(to.writer_guid.data(), endpoint->key.v, to.writer_guid.size());
       Guid participant{};
       std::memcpy(participant.data(), endpoint->participant_key.v, participant.size());
@@ -625,7 +765,8 @@ struct DdsBridge::Impl {
       state->stream = std::move(opened.value());
       state->to = std::move(to);
       state->participant = participant;
-      const std::vector<Guid> readers = reader_participants();
+      state->batched = batched;
+      const std::vector<Guid> readers = reader_participants(batched ? batch_writer : writer);
       state->ready = std::find(readers.begin(), readers.end(), participant) != readers.end();
       state->ready_deadline = received + kReaderMatchWait;
       found = streams.emplace(key, std::move(state)).first;
@@ -639,7 +780,8 @@ struct DdsBridge::Impl {
       // The error report is queued behind the stream's earlier answers, so that a stream's
       // reports, errors included, come in the order its updates were taken. (A stream whose
       // scene is unknown stays open, unbound and without caches, until its writer goes.)
-      Addressee to{stream.to.scene_id, client_id, stream.to.writer_guid, std::move(header)};
+      Addressee to{stream.to.scene_id, client_id, stream.to.writer_guid, std::move(header),
+                   stream.batched};
       queue_error(stream, *reject(&stream, std::move(to), input.sequence, prepared.error()));
       return std::nullopt;
     }
@@ -704,9 +846,18 @@ struct DdsBridge::Impl {
   /// running. Requires `mutex` (error reports are written under it, which keeps them in order
   /// with the evaluations' reports).
   void pump(StreamState& stream) {
+    advance(stream);
+    if (stream.batched) flush_if_due(stream);
+  }
+
+  /// pump() without the batched stream's write.
+  void advance(StreamState& stream) {
     while (stream.ready && !stream.evaluating && !stream.waiting.empty() &&
            stream.waiting.front().error) {
-      write_error_locked(*stream.waiting.front().error);
+      if (stream.batched)
+        hold(stream, std::move(*stream.waiting.front().error));
+      else
+        write_error_locked(*stream.waiting.front().error);
       stream.waiting.pop_front();
     }
     if (!stream.ready || stream.evaluating || stream.waiting.empty()) return;
@@ -724,18 +875,107 @@ struct DdsBridge::Impl {
       inline_due.push_back(&stream);
       return;
     }
-    stream.stream->evaluate(std::move(next.update),
-                            [this, &stream](Report report) { on_report(stream, report); });
+    stream.stream->evaluate(std::move(next.update), [this, &stream](Report report) {
+      on_report(stream, std::move(report));
+    });
+  }
+
+  // ---- a batched stream's answers: held, then written together ----
+
+  /// Keeps an evaluation's report (addressed as the update being evaluated) for the stream's
+  /// next DistanceReportBatch_. Requires `mutex`.
+  void hold(StreamState& stream, Report report) {
+    if (stream.held.empty()) stream.held_since = Clock::now();
+    const std::size_t bytes = estimated_bytes(report);
+    stream.held_bytes += bytes;
+    stream.held.push_back(HeldReport{std::move(report), stream.to, std::nullopt, bytes});
+  }
+
+  /// Keeps an error report for the stream's next DistanceReportBatch_. Requires `mutex`.
+  void hold(StreamState& stream, PendingError error) {
+    if (stream.held.empty()) stream.held_since = Clock::now();
+    stream.held_bytes += kReportFixedBytes;
+    stream.held.push_back(HeldReport{std::nullopt, {}, std::move(error), kReportFixedBytes});
+  }
+
+  /// Writes a batched stream's held answers when nothing more of the stream is about to be
+  /// answered (no evaluation running or due), when the oldest has waited kReportHold, or when
+  /// they would fill a sample (dds::kMaxReportsPerBatch, dds::kMaxReportBatchBytes). A stream that
+  /// is kept busy thus still sees its reports every few milliseconds, and an idle one at once:
+  /// nothing waits for a batch to fill. Requires `mutex` (the stream's answers are written under
+  /// it, in order).
+  void flush_if_due(StreamState& stream) {
+    if (stream.held.empty()) return;
+    const bool busy = stream.evaluating;
+    if (busy && stream.held.size() < dds::kMaxReportsPerBatch &&
+        stream.held_bytes < dds::kMaxReportBatchBytes &&
+        Clock::now() - stream.held_since < kReportHold)
+      return;
+    write_held(stream);
+  }
+
+  /// Writes every held answer of the stream, in order, as few samples as the limits of one allow
+  /// (dds::kMaxReportsPerBatch, dds::kMaxReportBatchBytes; at least one report each), then each
+  /// report's threshold crossings on their own topic too. Requires `mutex`.
+  void write_held(StreamState& stream) {
+    std::size_t begin = 0;
+    while (begin < stream.held.size()) {
+      std::size_t count = 1, bytes = stream.held[begin].bytes;
+      while (begin + count < stream.held.size() && count < dds::kMaxReportsPerBatch &&
+             bytes + stream.held[begin + count].bytes <= dds::kMaxReportBatchBytes)
+        bytes += stream.held[begin + count++].bytes;
+      if (stream.batch_samples.size() < count) {
+        stream.batch_samples.resize(count);
+        stream.batch_pair_samples.resize(count);
+        stream.batch_event_samples.resize(count);
+      }
+      for (std::size_t k = 0; k < count; ++k) {
+        const HeldReport& held = stream.held[begin + k];
+        ReportSample& sample = stream.batch_samples[k];
+        if (held.report)
+          sample = fill_report(*held.report, held.to, stream.batch_pair_samples[k],
+                               stream.batch_event_samples[k]);
+        else
+          sample = fill_error(*held.error);
+      }
+      ReportBatchSample batch{};
+      batch.reports._buffer = stream.batch_samples.data();
+      batch.reports._length = batch.reports._maximum = std::uint32_t(count);
+      batch.reports._release = false;
+      const dds_return_t written = dds_write(batch_writer, &batch);
+      std::uint64_t event_failures = 0;
+      for (std::size_t k = 0; k < count; ++k) {
+        const HeldReport& held = stream.held[begin + k];
+        const bool ok =
+            count_write(written, held.report ? held.report->sequence : held.error->sequence,
+                        &stream, /*log=*/k == 0);
+        if (ok && held.report) ++stream.reports;
+        if (held.report)
+          for (std::size_t e = 0; e < held.report->events.size(); ++e)
+            if (dds_write(event_writer, &stream.batch_event_samples[k][e]) < 0) ++event_failures;
+      }
+      count_event_failures(stream, event_failures);
+      begin += count;
+    }
+    stream.held.clear();
+    stream.held_bytes = 0;
   }
 
   // ---- the report's way out: the worker pool's side, or the bridge thread's ----
 
   /// An evaluation's report, on a pool thread: written from here, then the stream's next update
   /// starts.
-  void on_report(StreamState& stream, const Report& report) {
+  void on_report(StreamState& stream, Report report) {
+    if (stream.batched) {
+      std::lock_guard lock(mutex);
+      hold(stream, std::move(report));
+      evaluated(stream);
+      return;
+    }
     const Written written = write_report(stream, report);
     std::lock_guard lock(mutex);
-    evaluated(stream, report.sequence, written);
+    counted(stream, report.sequence, written);
+    evaluated(stream);
   }
 
   /// dds_write's result for a report, and how many of its events failed to be written.
@@ -747,7 +987,21 @@ struct DdsBridge::Impl {
   /// Writes an evaluation's report and its events, without the lock: the samples borrow the
   /// report's strings and live in the stream's reused buffers.
   Written write_report(StreamState& stream, const Report& report) {
-    std::vector<PairSample>& pairs = stream.pair_samples;
+    const ReportSample sample =
+        fill_report(report, stream.to, stream.pair_samples, stream.event_samples);
+    Written written;
+    written.report = dds_write(writer, &sample);
+    // Each crossing also on its own topic, for subscribers that want the events alone.
+    for (const EventSample& event : stream.event_samples)
+      if (dds_write(event_writer, &event) < 0) ++written.event_failures;
+    return written;
+  }
+
+  /// An evaluation's report as a sample addressed `to`, whose pairs and events live in `pairs`
+  /// and `events` (reused from report to report) and borrow the report's strings and `to`'s.
+  static ReportSample fill_report(const Report& report, const Addressee& to,
+                                  std::vector<PairSample>& pairs,
+                                  std::vector<EventSample>& events) {
     pairs.resize(report.pairs.size());
     for (std::size_t i = 0; i < report.pairs.size(); ++i) {
       const model::PairReport& in = report.pairs[i];
@@ -789,7 +1043,7 @@ struct DdsBridge::Impl {
       out.depth_iterations = in.depth_iterations;
     }
     ReportSample sample{};
-    address(stream.to, sample);
+    address(to, sample);
     sample.sequence_number = report.sequence;
     sample.status = 0;
     sample.error_field = borrow("");
@@ -804,7 +1058,6 @@ struct DdsBridge::Impl {
     sample.counts = {report.counts.pairs_evaluated, report.counts.pairs_pruned,
                      report.counts.pairs_unmoved};
     sample.report_mode = model::to_dds(report.mode);
-    std::vector<EventSample>& events = stream.event_samples;
     events.resize(report.events.size());
     for (std::size_t i = 0; i < report.events.size(); ++i) {
       const model::ThresholdEvent& in = report.events[i];
@@ -825,28 +1078,29 @@ struct DdsBridge::Impl {
     sample.events._buffer = events.data();
     sample.events._length = sample.events._maximum = std::uint32_t(events.size());
     sample.events._release = false;
-    Written written;
-    written.report = dds_write(writer, &sample);
-    // Each crossing also on its own topic, for subscribers that want the events alone.
-    for (const EventSample& event : events)
-      if (dds_write(event_writer, &event) < 0) ++written.event_failures;
-    return written;
+    return sample;
   }
 
-  /// The stream's evaluation of `sequence` is over and its report `written`: counts it and
-  /// starts the stream's next update (or erases a closing stream with nothing left). Requires
-  /// `mutex`.
-  void evaluated(StreamState& stream, std::uint64_t sequence, const Written& written) {
+  /// Counts the report of `sequence`, `written` on the unbatched topic. Requires `mutex`.
+  void counted(StreamState& stream, std::uint64_t sequence, const Written& written) {
     if (count_write(written.report, sequence, &stream)) ++stream.reports;
-    if (written.event_failures > 0) {
-      stats.write_failures += written.event_failures;
-      log_warn("dds_event_write_failed")
-          .kv("stream", stream.number)
-          .kv("events", written.event_failures);
-    }
+    count_event_failures(stream, written.event_failures);
+  }
+
+  /// Requires `mutex`.
+  void count_event_failures(const StreamState& stream, std::uint64_t failures) {
+    if (failures == 0) return;
+    stats.write_failures += failures;
+    log_warn("dds_event_write_failed").kv("stream", stream.number).kv("events", failures);
+  }
+
+  /// The stream's evaluation is over (its report written or held): starts the stream's next
+  /// update (or erases a closing stream with nothing left). Requires `mutex`.
+  void evaluated(StreamState& stream) {
     stream.evaluating = false;
     --evaluating;
     if (stream.closing && stream.waiting.empty()) {
+      if (stream.batched) write_held(stream);
       log_closed(stream);
       streams.erase(stream.key);
       stats.open_streams = streams.size();
@@ -861,8 +1115,23 @@ struct DdsBridge::Impl {
     write_error_locked(pending);
   }
 
-  /// Requires `mutex`.
+  /// Writes an error report on its addressee's report topic (a batched writer's: as a batch of
+  /// one). Requires `mutex`.
   void write_error_locked(const PendingError& pending) {
+    ReportSample sample = fill_error(pending);
+    if (!pending.to.batched) {
+      count_write(dds_write(writer, &sample), pending.sequence, nullptr);
+      return;
+    }
+    ReportBatchSample batch{};
+    batch.reports._buffer = &sample;
+    batch.reports._length = batch.reports._maximum = 1;
+    batch.reports._release = false;
+    count_write(dds_write(batch_writer, &batch), pending.sequence, nullptr);
+  }
+
+  /// An error report as a sample; it borrows `pending`'s strings.
+  static ReportSample fill_error(const PendingError& pending) {
     ReportSample sample{};
     address(pending.to, sample);
     sample.sequence_number = pending.sequence;
@@ -871,18 +1140,21 @@ struct DdsBridge::Impl {
     sample.message = borrow(pending.error.message);
     sample.pairs._release = false;
     sample.events._release = false;
-    count_write(dds_write(writer, &sample), pending.sequence, nullptr);
+    return sample;
   }
 
   /// Counts a report's dds_write result and logs a failure (naming the stream when the report
-  /// has one); true when written. Requires `mutex`.
-  bool count_write(dds_return_t written, std::uint64_t sequence, const StreamState* stream) {
+  /// has one; `log` false for the further reports of a failed batch); true when written.
+  /// Requires `mutex`.
+  bool count_write(dds_return_t written, std::uint64_t sequence, const StreamState* stream,
+                   bool log = true) {
     if (written >= 0) {
       ++stats.reports_written;
       metrics::record_dds_sample(/*in=*/false);
       return true;
     }
     ++stats.write_failures;
+    if (!log) return false;
     LogLine warning = log_warn("dds_write_failed");
     if (stream) warning.kv("stream", stream->number);
     warning.kv("sequence", sequence).kv("message", dds::describe("dds_write", written));
@@ -939,7 +1211,9 @@ Outcome check_dds_config(const DdsConfig& config) {
                               text("'", binding.topic, "' is bound to two scenes; one each"));
     for (const std::string& own_topic : {dds::pose_updates_topic(config.topic_prefix),
                                          dds::distance_reports_topic(config.topic_prefix),
-                                         dds::threshold_events_topic(config.topic_prefix)})
+                                         dds::threshold_events_topic(config.topic_prefix),
+                                         dds::pose_update_batches_topic(config.topic_prefix),
+                                         dds::distance_report_batches_topic(config.topic_prefix)})
       if (binding.topic == own_topic)
         return invalid_argument("dds.joint_states.topic",
                                 text("'", binding.topic, "' is one of nearpointd's own topics"));
@@ -991,6 +1265,21 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
   if (impl.writer < 0) return fail("dds_create_writer", impl.writer);
   impl.event_writer = dds_create_writer(impl.participant, event_topic, qos.get(), nullptr);
   if (impl.event_writer < 0) return fail("dds_create_writer(threshold_events)", impl.event_writer);
+  const dds_entity_t update_batch_topic = dds_create_topic(
+      impl.participant, &nearpoint_msgs_msg_dds__PoseUpdateBatch__desc,
+      dds::pose_update_batches_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  if (update_batch_topic < 0)
+    return fail("dds_create_topic(pose_update_batches)", update_batch_topic);
+  const dds_entity_t report_batch_topic = dds_create_topic(
+      impl.participant, &nearpoint_msgs_msg_dds__DistanceReportBatch__desc,
+      dds::distance_report_batches_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  if (report_batch_topic < 0)
+    return fail("dds_create_topic(distance_report_batches)", report_batch_topic);
+  impl.batch_reader =
+      dds_create_reader(impl.participant, update_batch_topic, read_qos.get(), nullptr);
+  if (impl.batch_reader < 0) return fail("dds_create_reader(batches)", impl.batch_reader);
+  impl.batch_writer = dds_create_writer(impl.participant, report_batch_topic, qos.get(), nullptr);
+  if (impl.batch_writer < 0) return fail("dds_create_writer(batches)", impl.batch_writer);
   if (const dds_return_t rc = dds_set_status_mask(
           impl.reader, DDS_DATA_AVAILABLE_STATUS | DDS_SUBSCRIPTION_MATCHED_STATUS);
       rc < 0)
@@ -998,6 +1287,14 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
   if (const dds_return_t rc = dds_set_status_mask(impl.writer, DDS_PUBLICATION_MATCHED_STATUS);
       rc < 0)
     return fail("dds_set_status_mask(writer)", rc);
+  if (const dds_return_t rc = dds_set_status_mask(
+          impl.batch_reader, DDS_DATA_AVAILABLE_STATUS | DDS_SUBSCRIPTION_MATCHED_STATUS);
+      rc < 0)
+    return fail("dds_set_status_mask(batch reader)", rc);
+  if (const dds_return_t rc =
+          dds_set_status_mask(impl.batch_writer, DDS_PUBLICATION_MATCHED_STATUS);
+      rc < 0)
+    return fail("dds_set_status_mask(batch writer)", rc);
   impl.guard = dds_create_guardcondition(impl.participant);
   if (impl.guard < 0) return fail("dds_create_guardcondition", impl.guard);
   impl.waitset = dds_create_waitset(impl.participant);
@@ -1008,6 +1305,14 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
     return fail("dds_waitset_attach(writer)", rc);
   if (const dds_return_t rc = dds_waitset_attach(impl.waitset, impl.guard, impl.guard); rc < 0)
     return fail("dds_waitset_attach(guard)", rc);
+  if (const dds_return_t rc =
+          dds_waitset_attach(impl.waitset, impl.batch_reader, impl.batch_reader);
+      rc < 0)
+    return fail("dds_waitset_attach(batch reader)", rc);
+  if (const dds_return_t rc =
+          dds_waitset_attach(impl.waitset, impl.batch_writer, impl.batch_writer);
+      rc < 0)
+    return fail("dds_waitset_attach(batch writer)", rc);
   for (const JointStateBinding& binding : config.joint_states) {
     const dds_entity_t topic =
         dds_create_topic(impl.participant, &sensor_msgs_msg_dds__JointState__desc,
@@ -1050,6 +1355,8 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
       .kv("updates_topic", dds::pose_updates_topic(config.topic_prefix))
       .kv("reports_topic", dds::distance_reports_topic(config.topic_prefix))
       .kv("events_topic", dds::threshold_events_topic(config.topic_prefix))
+      .kv("update_batches_topic", dds::pose_update_batches_topic(config.topic_prefix))
+      .kv("report_batches_topic", dds::distance_report_batches_topic(config.topic_prefix))
       .kv("history_depth", config.history_depth)
       .kv("reliability", config.best_effort ? "best_effort" : "reliable")
       .kv("max_in_flight", impl.max_waiting)
@@ -1077,7 +1384,10 @@ void DdsBridge::shutdown() {
   // The bridge thread has stopped: the small evaluations are this thread's to run now.
   while (!impl.inline_due.empty()) impl.run_inline_evaluation(lock);
   impl.idle.wait(lock, [&] { return impl.evaluating == 0; });
-  for (const auto& [key, stream] : impl.streams) impl.log_closed(*stream);
+  for (const auto& [key, stream] : impl.streams) {
+    if (stream->batched) impl.write_held(*stream);  // already written when idle; to be sure
+    impl.log_closed(*stream);
+  }
   impl.streams.clear();
   impl.stats.open_streams = 0;
   log_info("dds_shutdown")

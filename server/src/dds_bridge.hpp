@@ -5,6 +5,17 @@
 // <prefix>distance_reports, and writes each threshold crossing on <prefix>threshold_events too
 // (ROS 2 topics /nearpoint/...; names, types and QoS: proto/dds/nearpoint_dds.hpp).
 //
+// Batches. A client may instead publish nearpoint_msgs::msg::dds_::PoseUpdateBatch_ samples on
+// <prefix>pose_update_batches, each carrying several consecutive updates, and read
+// DistanceReportBatch_ samples on <prefix>distance_report_batches, so that it pays DDS's
+// per-sample cost once per batch. Every update of a batch is accepted exactly as if it had been
+// published alone, in the order listed (sequence numbers, error reports in their place, merging
+// under overload counted in updates, thresholds); a batch of more than dds::kMaxUpdatesPerBatch
+// updates is refused whole with one error report. A batch writer's stream holds its answers
+// (reports and error reports, in order) and writes them together once it has nothing more to
+// evaluate, 2 ms after the oldest was ready, or when they fill a sample
+// (dds::kMaxReportsPerBatch, dds::kMaxReportBatchBytes).
+//
 // Streams. A stream is one DDS writer (its publication handle) publishing for one scene id:
 // each such pair owns a PoseStream, so warm-start caches, sequence numbers and "objects not
 // listed keep their previous pose" are per client and per scene — two robots sharing a scene

@@ -30,6 +30,12 @@ inline constexpr std::uint32_t kDomainNoConfiguration = 105;
 inline constexpr std::uint32_t kDomainEvents = 106;
 inline constexpr std::uint32_t kDomainDepth = 107;
 inline constexpr std::uint32_t kDomainInline = 108;
+inline constexpr std::uint32_t kDomainBatchStream = 109;
+inline constexpr std::uint32_t kDomainBatchErrors = 110;
+inline constexpr std::uint32_t kDomainBatchOverload = 113;
+inline constexpr std::uint32_t kDomainBatchEvents = 114;
+inline constexpr std::uint32_t kDomainBatchOversized = 115;
+inline constexpr std::uint32_t kDomainBatchShutdown = 116;
 inline constexpr std::uint32_t kDomainEndToEnd = 111;
 inline constexpr std::uint32_t kDomainPreloaded = 112;
 // 121: tests/cli/check_scene_lifecycle.py (cli.report_schema).
@@ -93,6 +99,26 @@ struct UpdateMessage {
   std::vector<nearpoint_msgs_msg_dds__ObjectPose_> buffer_;
   std::vector<nearpoint_msgs_msg_dds__Threshold_> threshold_buffer_;
   cli::PoseUpdateSample sample_{};
+};
+
+/// A PoseUpdateBatch_ sample of UpdateMessages, each owning its strings.
+struct BatchMessage {
+  std::vector<UpdateMessage> updates;
+
+  /// The sample; valid while this object is alive and unchanged.
+  const cli::PoseUpdateBatchSample& sample() {
+    samples_.clear();
+    for (UpdateMessage& update : updates) samples_.push_back(update.sample());
+    sample_ = {};
+    sample_.updates._buffer = samples_.data();
+    sample_.updates._length = sample_.updates._maximum = std::uint32_t(samples_.size());
+    sample_.updates._release = false;
+    return sample_;
+  }
+
+ private:
+  std::vector<cli::PoseUpdateSample> samples_;
+  cli::PoseUpdateBatchSample sample_{};
 };
 
 /// A report copied out of its sample.
@@ -190,12 +216,14 @@ inline std::vector<ReceivedReport> collect_reports(
   return out;
 }
 
-/// A connected client (fails the test if it cannot match the server within 10 s).
-inline std::unique_ptr<cli::DdsPoseClient> connect(std::uint32_t domain,
-                                                   const std::string& prefix) {
+/// A connected client (fails the test if it cannot match the server within 10 s); `batched`:
+/// on the batch topics.
+inline std::unique_ptr<cli::DdsPoseClient> connect(std::uint32_t domain, const std::string& prefix,
+                                                   bool batched = false) {
   cli::DdsPoseClient::Config config;
   config.domain_id = domain;
   config.topic_prefix = prefix;
+  config.batched = batched;
   std::string error;
   std::unique_ptr<cli::DdsPoseClient> client = cli::DdsPoseClient::create(config, error);
   if (!client) {

@@ -9,6 +9,7 @@
 #include <map>
 #include <numbers>
 #include <thread>
+#include <tuple>
 
 #include "common/held_workers.hpp"
 #include "common/random_hull.hpp"
@@ -135,13 +136,19 @@ std::vector<UpdateMessage::Pose> path_poses(const TestScene& scene, int k) {
   return poses;
 }
 
-/// Publishes update `sequence` of the scene's path (path_poses at step `sequence`); false (and
-/// a test failure) when DDS refuses it.
-bool publish_path_step(cli::DdsPoseClient& client, const TestScene& scene, std::uint64_t sequence) {
+/// Update `sequence` of the scene's path, path_poses at step `sequence`.
+UpdateMessage path_update(const TestScene& scene, std::uint64_t sequence) {
   UpdateMessage update;
   update.scene_id = scene.scene_id;
   update.sequence = sequence;
   update.poses = path_poses(scene, int(sequence));
+  return update;
+}
+
+/// Publishes update `sequence` of the scene's path (path_poses at step `sequence`); false (and
+/// a test failure) when DDS refuses it.
+bool publish_path_step(cli::DdsPoseClient& client, const TestScene& scene, std::uint64_t sequence) {
+  UpdateMessage update = path_update(scene, sequence);
   std::string error;
   const bool published = client.publish(update.sample(), error);
   EXPECT_TRUE(published) << error;
@@ -153,6 +160,25 @@ Pose<double> to_pose(const UpdateMessage::Pose& pose) {
   return Pose<double>::from_quaternion(
       Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized(),
       Vec3<double>(pose.translation[0], pose.translation[1], pose.translation[2]));
+}
+
+/// Checks each pair of `report` against the engine's distance at `poses` (within both certified
+/// bounds, intersecting alike); returns how many of its pairs were warm-started.
+int expect_engine_distances(const ReceivedReport& report, const TestScene& scene,
+                            const std::vector<UpdateMessage::Pose>& poses) {
+  int warm = 0;
+  for (const ReceivedPair& pair : report.pairs) {
+    const std::size_t a = std::size_t(pair.object_a.back() - '0');
+    const std::size_t b = std::size_t(pair.object_b.back() - '0');
+    const auto truth =
+        distance(scene.local[a], to_pose(poses[a]), scene.local[b], to_pose(poses[b])).nearest;
+    EXPECT_NEAR(pair.distance, truth.distance, pair.error_bound + truth.error_bound + 1e-12)
+        << pair.object_a << "/" << pair.object_b;
+    EXPECT_EQ(pair.status == 2, truth.status == Status::intersecting)
+        << pair.object_a << "/" << pair.object_b;
+    warm += pair.warm_started;
+  }
+  return warm;
 }
 
 // The whole path of a DDS stream: every update answered once, in order, each pair's distance
@@ -202,18 +228,7 @@ TEST(DdsBridge, StreamAnswersEveryUpdateWithTheCoresDistances) {
     if (k == 0) {
       EXPECT_EQ(report.pairs_unmoved, 0u);
     }
-    const auto& poses = sent.at(report.sequence);
-    for (const ReceivedPair& pair : report.pairs) {
-      const std::size_t a = std::size_t(pair.object_a.back() - '0');
-      const std::size_t b = std::size_t(pair.object_b.back() - '0');
-      const auto truth =
-          distance(scene.local[a], to_pose(poses[a]), scene.local[b], to_pose(poses[b])).nearest;
-      EXPECT_NEAR(pair.distance, truth.distance, pair.error_bound + truth.error_bound + 1e-12)
-          << pair.object_a << "/" << pair.object_b;
-      EXPECT_EQ(pair.status == 2, truth.status == Status::intersecting)
-          << pair.object_a << "/" << pair.object_b;
-      warm += pair.warm_started;
-    }
+    warm += expect_engine_distances(report, scene, sent.at(report.sequence));
   }
   EXPECT_GT(warm, kUpdates) << "the stream's caches warm-start its later updates";
   server.bridge->shutdown();  // the counters are final once every evaluation has ended
@@ -354,6 +369,73 @@ TEST(DdsBridge, DepthModeReportsCarryTheSignedDistanceAndTheDepth) {
   server.bridge->shutdown();
 }
 
+/// Waits (at most 20 s) until the bridge has taken `count` updates.
+void wait_taken(const DdsBridge& bridge, std::uint64_t count) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (bridge.stats().updates_taken < count && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+}
+
+/// Takes the client's reports until they account for updates 1 … `updates`, each answering
+/// exactly the updates after the previous report's: its own and those merged into it
+/// (coalesced_from_sequence … sequence). Fails the test on an error report, a gap or a timeout.
+std::vector<ReceivedReport> collect_accounted(cli::DdsPoseClient& client, std::uint64_t updates) {
+  std::vector<ReceivedReport> reports;
+  std::uint64_t accounted = 0;
+  while (accounted < updates) {
+    std::vector<ReceivedReport> got = collect_reports(client, 1, std::chrono::seconds(20));
+    if (got.empty()) {
+      ADD_FAILURE() << "missing reports after sequence " << accounted;
+      break;
+    }
+    for (ReceivedReport& report : got) {
+      EXPECT_EQ(report.status, 0u) << report.error_field << ": " << report.message;
+      const std::uint64_t first =
+          report.coalesced_updates > 0 ? report.coalesced_from_sequence : report.sequence;
+      EXPECT_EQ(first, accounted + 1) << "report " << report.sequence;
+      EXPECT_EQ(report.sequence - first, report.coalesced_updates) << "report " << report.sequence;
+      accounted = report.sequence;
+      reports.push_back(std::move(report));
+    }
+  }
+  EXPECT_EQ(accounted, updates);
+  return reports;
+}
+
+/// Update `s` of the threshold tests: object-1 on object-0 (intersecting) for even s, 20 m away
+/// for odd s, asking for the global minimum; the first names a threshold on that pair.
+UpdateMessage toggle_update(const TestScene& scene, std::uint64_t s) {
+  UpdateMessage update;
+  update.scene_id = scene.scene_id;
+  update.sequence = s;
+  update.options.report_mode = 4;  // global minimum
+  update.poses = {{scene.ids[1], {1, 0, 0, 0}, {s % 2 ? 20.0 : 0.0, 0, 0}}};
+  if (s == 1) update.thresholds = {{"touch", scene.ids[0], scene.ids[1], 0.05, 0.01, 0}};
+  return update;
+}
+
+/// The reports of toggle_update 1 … `updates`: each names its mode, holds the global minimum at
+/// most, and every ENTER and EXIT comes once, in order, with the sequence number of its update.
+void expect_toggle_events(const std::vector<ReceivedReport>& reports, const TestScene& scene,
+                          std::uint64_t updates) {
+  std::vector<std::pair<std::uint64_t, std::uint8_t>> events;
+  for (const ReceivedReport& report : reports) {
+    EXPECT_EQ(report.report_mode, 4u);
+    EXPECT_LE(report.pairs.size(), 1u);  // the global minimum only
+    for (const ReceivedReport::Event& e : report.events) {
+      EXPECT_EQ(e.threshold, "touch");
+      EXPECT_EQ(e.object_a, scene.ids[0]);
+      EXPECT_EQ(e.object_b, scene.ids[1]);
+      events.emplace_back(e.sequence, e.crossing);
+    }
+  }
+  ASSERT_EQ(events.size(), std::size_t(updates - 1));
+  for (std::size_t e = 0; e < events.size(); ++e) {
+    EXPECT_EQ(events[e].first, e + 2);
+    EXPECT_EQ(events[e].second, e % 2 ? 2 : 1);  // enter, exit, enter, …
+  }
+}
+
 // A publisher faster than the server: DDS cannot hold it back, so updates beyond --max-in-flight
 // waiting ones are merged into the newest, and its report says which. Every update is accounted
 // for exactly once, and the reports still come in sequence order.
@@ -379,32 +461,14 @@ TEST(DdsBridge, UpdatesFasterThanTheServerAreMergedAndReportedSo) {
 
   constexpr std::uint64_t kUpdates = 30;
   for (std::uint64_t s = 1; s <= kUpdates; ++s) ASSERT_TRUE(publish_path_step(*client, scene, s));
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (server.bridge->stats().updates_taken < kUpdates &&
-         std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  wait_taken(*server.bridge, kUpdates);
   held.release();
   ASSERT_EQ(server.bridge->stats().updates_taken, kUpdates) << "the bridge took every update";
 
-  std::vector<ReceivedReport> reports;
-  std::uint64_t accounted = 0;
-  while (accounted < kUpdates) {
-    std::vector<ReceivedReport> got = collect_reports(*client, 1, std::chrono::seconds(20));
-    ASSERT_FALSE(got.empty()) << "missing reports after sequence " << accounted;
-    for (ReceivedReport& report : got) {
-      ASSERT_EQ(report.status, 0u) << report.message;
-      // This report answers its own update and the merged ones before it: exactly the
-      // sequence numbers after the previous report's.
-      const std::uint64_t first =
-          report.coalesced_updates > 0 ? report.coalesced_from_sequence : report.sequence;
-      EXPECT_EQ(first, accounted + 1) << "report " << report.sequence;
-      EXPECT_EQ(report.sequence - first, report.coalesced_updates) << "report " << report.sequence;
-      ASSERT_EQ(report.pairs.size(), 3u);
-      accounted = report.sequence;
-      reports.push_back(std::move(report));
-    }
-  }
-  EXPECT_EQ(accounted, kUpdates);
+  // Each report answers its own update and the merged ones before it: exactly the sequence
+  // numbers after the previous report's.
+  const std::vector<ReceivedReport> reports = collect_accounted(*client, kUpdates);
+  for (const ReceivedReport& report : reports) EXPECT_EQ(report.pairs.size(), 3u);
   // Update 1 went to the (held) pool at once; of the 29 after it, at most max_in_flight = 2
   // waited, so exactly 1 + 2 reports answer all 30 and 27 updates were merged.
   EXPECT_EQ(reports.size(), 3u);
@@ -473,49 +537,15 @@ TEST(DdsBridge, ModesAndThresholdEventsSurviveMergedUpdates) {
 
   constexpr std::uint64_t kUpdates = 12;
   std::string error;
-  for (std::uint64_t s = 1; s <= kUpdates; ++s) {
-    UpdateMessage update;
-    update.scene_id = scene.scene_id;
-    update.sequence = s;
-    update.options.report_mode = 4;  // global minimum
-    // Even updates: object-1 on object-0 (intersecting); odd ones: 20 m away.
-    update.poses = {{scene.ids[1], {1, 0, 0, 0}, {s % 2 ? 20.0 : 0.0, 0, 0}}};
-    if (s == 1) update.thresholds = {{"touch", scene.ids[0], scene.ids[1], 0.05, 0.01, 0}};
-    ASSERT_TRUE(client->publish(update.sample(), error)) << error;
-  }
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (server.bridge->stats().updates_taken < kUpdates &&
-         std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  for (std::uint64_t s = 1; s <= kUpdates; ++s)
+    ASSERT_TRUE(client->publish(toggle_update(scene, s).sample(), error)) << error;
+  wait_taken(*server.bridge, kUpdates);
   held.release();
   ASSERT_EQ(server.bridge->stats().updates_taken, kUpdates);
 
-  std::vector<std::pair<std::uint64_t, std::uint8_t>> events;
-  std::uint64_t accounted = 0;
-  std::size_t reports = 0;
-  while (accounted < kUpdates) {
-    std::vector<ReceivedReport> got = collect_reports(*client, 1, std::chrono::seconds(20));
-    ASSERT_FALSE(got.empty()) << "missing reports after sequence " << accounted;
-    for (const ReceivedReport& report : got) {
-      ASSERT_EQ(report.status, 0u) << report.error_field << ": " << report.message;
-      EXPECT_EQ(report.report_mode, 4u);
-      EXPECT_LE(report.pairs.size(), 1u);  // the global minimum only
-      for (const ReceivedReport::Event& e : report.events) {
-        EXPECT_EQ(e.threshold, "touch");
-        EXPECT_EQ(e.object_a, scene.ids[0]);
-        EXPECT_EQ(e.object_b, scene.ids[1]);
-        events.emplace_back(e.sequence, e.crossing);
-      }
-      accounted = report.sequence;
-      ++reports;
-    }
-  }
-  EXPECT_LT(reports, std::size_t(kUpdates));  // updates were merged
-  ASSERT_EQ(events.size(), std::size_t(kUpdates - 1));
-  for (std::size_t e = 0; e < events.size(); ++e) {
-    EXPECT_EQ(events[e].first, e + 2);
-    EXPECT_EQ(events[e].second, e % 2 ? 2 : 1);  // enter, exit, enter, …
-  }
+  const std::vector<ReceivedReport> reports = collect_accounted(*client, kUpdates);
+  EXPECT_LT(reports.size(), std::size_t(kUpdates));  // updates were merged
+  expect_toggle_events(reports, scene, kUpdates);
   server.bridge->shutdown();
 }
 
@@ -554,6 +584,274 @@ TEST(DdsBridge, ClientsSharingASceneGetTheirOwnReports) {
     EXPECT_TRUE(collect_reports(*client, 1, std::chrono::milliseconds(200)).empty());
   }
   EXPECT_EQ(server.bridge->stats().open_streams, 2u);
+}
+
+// ---- batches: PoseUpdateBatch_ in, DistanceReportBatch_ out ----
+
+// A batched stream is the unbatched one with other framing: every update of every batch gets
+// its own report with its own sequence number, in order, with the engine's distances and warm
+// starts, and the reports travel several to a sample (the point of batching). Were a batch's
+// updates answered as one, or its reports written one per sample, this fails.
+TEST(DdsBridge, BatchesAreAnsweredUpdateByUpdateInOrder) {
+  Server server = start(kDomainBatchStream, "batch_stream");
+  ASSERT_TRUE(server.bridge);
+  const TestScene scene =
+      create_scene(*server.scenes, {polytope(random_hull_vertices(7, 40, 0.7)), arm(),
+                                    polytope(random_hull_vertices(8, 12, 0.5))});
+  ASSERT_FALSE(scene.scene_id.empty());
+  auto client = connect(kDomainBatchStream, server.prefix, /*batched=*/true);
+  ASSERT_TRUE(client);
+
+  constexpr std::uint64_t kBatch = 4;
+  constexpr std::uint64_t kUpdates = 40;  // ten batches, two in flight: within --max-in-flight
+  std::map<std::uint64_t, std::vector<UpdateMessage::Pose>> sent;
+  std::vector<ReceivedReport> reports;
+  std::string error;
+  std::uint64_t next = 1;
+  while (reports.size() < kUpdates) {
+    while (next <= kUpdates && next - 1 - reports.size() + kBatch <= 2 * kBatch) {
+      BatchMessage batch;
+      for (std::uint64_t k = 0; k < kBatch; ++k) {
+        batch.updates.push_back(path_update(scene, next + k));
+        sent[next + k] = batch.updates.back().poses;
+      }
+      ASSERT_TRUE(client->publish_batch(batch.sample(), error)) << error;
+      next += kBatch;
+    }
+    const std::size_t before = reports.size();
+    for (ReceivedReport& report : collect_reports(*client, 1)) reports.push_back(std::move(report));
+    ASSERT_GT(reports.size(), before) << "no report after " << before;
+  }
+  ASSERT_EQ(reports.size(), kUpdates);
+  int warm = 0;
+  for (std::size_t k = 0; k < reports.size(); ++k) {
+    const ReceivedReport& report = reports[k];
+    SCOPED_TRACE("report " + std::to_string(k));
+    ASSERT_EQ(report.sequence, k + 1) << "reports are complete and in sequence order";
+    ASSERT_EQ(report.status, 0u) << report.error_field << ": " << report.message;
+    EXPECT_EQ(report.coalesced_updates, 0u);
+    ASSERT_EQ(report.pairs.size(), 3u);
+    warm += expect_engine_distances(report, scene, sent.at(report.sequence));
+  }
+  EXPECT_GT(warm, int(kUpdates)) << "the stream's caches warm-start its later updates";
+  EXPECT_LT(client->report_samples(), kUpdates) << "reports travel several to a sample";
+  server.bridge->shutdown();
+  EXPECT_EQ(server.bridge->stats().reports_written, kUpdates);
+  EXPECT_EQ(server.bridge->stats().updates_taken, kUpdates);
+}
+
+// A batch's bad updates are answered in their place: each rejected update gets its error report
+// between the reports of the updates around it, with its own sequence number and field, and the
+// updates after it are evaluated as if it had never come (the sequence check compares with the
+// last accepted one). An update with a malformed scene id belongs to no stream; its error report
+// comes on the batch report topic too. The stream goes on with the next batch.
+TEST(DdsBridge, RejectedUpdatesMidBatchAreAnsweredInPlace) {
+  Server server = start(kDomainBatchErrors, "batch_errors");
+  ASSERT_TRUE(server.bridge);
+  const TestScene scene =
+      create_scene(*server.scenes, {arm(), polytope(random_hull_vertices(3, 20, 0.5))});
+  auto client = connect(kDomainBatchErrors, server.prefix, /*batched=*/true);
+  ASSERT_TRUE(client);
+  std::string error;
+
+  BatchMessage batch;
+  for (std::uint64_t s = 1; s <= 7; ++s) batch.updates.push_back(path_update(scene, s));
+  batch.updates[1].poses[0].translation[0] = std::nan("");  // 2: NaN
+  batch.updates[3].sequence = 3;                            // 4: not after 3, the last accepted
+  batch.updates[4].poses[0].object_id = "ghost";            // 5: unknown object
+  batch.updates[5].scene_id = std::string(10'000, 's');     // 6: malformed scene id
+  ASSERT_TRUE(client->publish_batch(batch.sample(), error)) << error;
+  std::vector<ReceivedReport> reports = collect_reports(*client, 7);
+  ASSERT_EQ(reports.size(), 7u) << "every update of the batch is answered";
+
+  // The malformed scene id's report (sequence 6) is not on the stream; the others are, in order.
+  std::vector<std::tuple<std::uint64_t, std::uint32_t, std::string>> stream;
+  std::size_t malformed = 0;
+  for (const ReceivedReport& report : reports) {
+    if (report.sequence == 6) {
+      ++malformed;
+      EXPECT_EQ(report.status, 3u);
+      EXPECT_EQ(report.error_field, "scene_id") << report.message;
+      EXPECT_LT(report.message.size(), 300u);
+      continue;
+    }
+    stream.emplace_back(report.sequence, report.status, report.error_field);
+    if (report.status == 0) {
+      EXPECT_EQ(report.pairs.size(), 1u);
+    }
+  }
+  EXPECT_EQ(malformed, 1u);
+  const std::vector<std::tuple<std::uint64_t, std::uint32_t, std::string>> expected{
+      {1, 0, ""},         {2, 3, "poses[0].pose.translation.x"}, {3, 0, ""},
+      {3, 3, "sequence"}, {5, 5, "poses[0].object_id"},          {7, 0, ""}};
+  EXPECT_EQ(stream, expected);
+
+  BatchMessage after;
+  after.updates.push_back(path_update(scene, 8));
+  after.updates.push_back(path_update(scene, 9));
+  ASSERT_TRUE(client->publish_batch(after.sample(), error)) << error;
+  reports = collect_reports(*client, 2);
+  ASSERT_EQ(reports.size(), 2u);
+  EXPECT_EQ(reports[0].sequence, 8u);
+  EXPECT_EQ(reports[1].sequence, 9u);
+  EXPECT_EQ(reports[0].status, 0u) << reports[0].message;
+  EXPECT_EQ(reports[1].status, 0u) << reports[1].message;
+  server.bridge->shutdown();
+  EXPECT_EQ(server.bridge->stats().updates_rejected, 4u);
+  EXPECT_EQ(server.bridge->stats().updates_taken, 9u);
+}
+
+/// What a held_batch run saw: the scene, the reports (accounting for every update, see
+/// collect_accounted) and the bridge's counters after its shutdown.
+struct HeldBatchRun {
+  TestScene scene;
+  std::vector<ReceivedReport> reports;
+  server::DdsBridgeStats stats;
+};
+
+/// Publishes updates 1 … `updates` (make(scene, s)) as one batch to a bridge whose only worker is
+/// held (max_in_flight 2, every evaluation on the pool), and releases the worker once the bridge
+/// has taken them all: a batch arriving faster than the server answers, for certain.
+template <class Make>
+HeldBatchRun held_batch(std::uint32_t domain, const std::string& name,
+                        std::vector<Geometry> geometries, std::uint64_t updates, Make make) {
+  HeldBatchRun run;
+  ServiceLimits limits;
+  limits.max_in_flight_per_stream = 2;
+  limits.inline_evaluation = false;  // the held pool makes updates wait
+  Server server = start(domain, name, limits, /*workers=*/1);
+  if (!server.bridge) return run;
+  run.scene = create_scene(*server.scenes, std::move(geometries));
+  auto client = connect(domain, server.prefix, /*batched=*/true);
+  if (run.scene.scene_id.empty() || !client) return run;
+  testkit::HeldWorkers held(*server.scenes, run.scene.scene_id);
+  EXPECT_TRUE(held.held());
+  BatchMessage batch;
+  for (std::uint64_t s = 1; s <= updates; ++s) batch.updates.push_back(make(run.scene, s));
+  std::string error;
+  EXPECT_TRUE(client->publish_batch(batch.sample(), error)) << error;
+  wait_taken(*server.bridge, updates);
+  held.release();
+  EXPECT_EQ(server.bridge->stats().updates_taken, updates) << "the bridge took every update";
+  run.reports = collect_accounted(*client, updates);
+  server.bridge->shutdown();
+  run.stats = server.bridge->stats();
+  return run;
+}
+
+// Overload is counted in updates, not samples: one batch of 30 updates while the only worker is
+// held is 30 updates arriving at once, so exactly as with 30 samples (see above) one goes to the
+// pool, max_in_flight = 2 wait and 27 are merged into them; every update is accounted for once,
+// in order. Counted in samples, the batch would be one waiting entry and nothing would merge.
+TEST(DdsBridge, BatchedUpdatesFasterThanTheServerAreMergedCountingUpdates) {
+  constexpr std::uint64_t kUpdates = 30;
+  const HeldBatchRun run = held_batch(kDomainBatchOverload, "batch_overload",
+                                      {polytope(random_hull_vertices(40, 60, 0.9)), arm(),
+                                       polytope(random_hull_vertices(41, 60, 0.9))},
+                                      kUpdates, path_update);
+  EXPECT_EQ(run.reports.size(), 3u);
+  EXPECT_EQ(run.stats.updates_coalesced, kUpdates - 3);
+  EXPECT_EQ(run.stats.reports_written, 3u);
+}
+
+// Thresholds through batches: one batch puts object-1 on object-0 and takes it away again,
+// twelve times in turn, naming a threshold in its first update. Every ENTER and EXIT arrives
+// once, in order, with the sequence number of the update that crossed, also when most updates
+// were merged (max_in_flight 2, the worker held), as for unbatched updates.
+TEST(DdsBridge, ThresholdEventsOfBatchedUpdatesKeepTheirSequenceNumbers) {
+  constexpr std::uint64_t kUpdates = 12;
+  const HeldBatchRun run = held_batch(kDomainBatchEvents, "batch_events", {arm(), arm(), arm()},
+                                      kUpdates, toggle_update);
+  EXPECT_LT(run.reports.size(), std::size_t(kUpdates));  // updates were merged
+  expect_toggle_events(run.reports, run.scene, kUpdates);
+  EXPECT_EQ(run.stats.write_failures, 0u);
+}
+
+// A batch of more than kMaxUpdatesPerBatch updates is refused whole with one clear error report
+// (RESOURCE_EXHAUSTED, field "updates", naming the count and the limit) and none of its updates
+// is read: the same sequence numbers are accepted afterwards. Meanwhile the bridge serves another
+// client, and the refused one's next batch.
+TEST(DdsBridge, AnOversizedBatchGetsOneErrorAndTheBridgeServesOthers) {
+  Server server = start(kDomainBatchOversized, "batch_oversized");
+  ASSERT_TRUE(server.bridge);
+  const TestScene scene =
+      create_scene(*server.scenes, {arm(), polytope(random_hull_vertices(5, 30, 0.6))});
+  ASSERT_FALSE(scene.scene_id.empty());
+  auto batched = connect(kDomainBatchOversized, server.prefix, /*batched=*/true);
+  auto single = connect(kDomainBatchOversized, server.prefix);
+  ASSERT_TRUE(batched && single);
+  std::string error;
+
+  const std::uint64_t oversized = dds::kMaxUpdatesPerBatch + 1;
+  BatchMessage big;
+  for (std::uint64_t s = 1; s <= oversized; ++s) big.updates.push_back(path_update(scene, s));
+  ASSERT_TRUE(batched->publish_batch(big.sample(), error)) << error;
+  std::vector<ReceivedReport> reports = collect_reports(*batched, 1);
+  ASSERT_EQ(reports.size(), 1u);
+  EXPECT_EQ(reports[0].sequence, 1u);
+  EXPECT_EQ(reports[0].status, 8u);  // RESOURCE_EXHAUSTED
+  EXPECT_EQ(reports[0].error_field, "updates");
+  EXPECT_NE(reports[0].message.find(std::to_string(oversized) + " updates"), std::string::npos)
+      << reports[0].message;
+  EXPECT_NE(reports[0].message.find("at most " + std::to_string(dds::kMaxUpdatesPerBatch)),
+            std::string::npos)
+      << reports[0].message;
+  EXPECT_TRUE(collect_reports(*batched, 1, std::chrono::milliseconds(300)).empty())
+      << "one error report for the whole batch";
+
+  ASSERT_TRUE(single->publish(path_update(scene, 1).sample(), error)) << error;
+  reports = collect_reports(*single, 1);
+  ASSERT_EQ(reports.size(), 1u);
+  EXPECT_EQ(reports[0].status, 0u) << reports[0].message;
+
+  BatchMessage fits;
+  for (std::uint64_t s = 1; s <= 3; ++s) fits.updates.push_back(path_update(scene, s));
+  ASSERT_TRUE(batched->publish_batch(fits.sample(), error)) << error;
+  reports = collect_reports(*batched, 3);
+  ASSERT_EQ(reports.size(), 3u);
+  for (std::uint64_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(reports[k].sequence, k + 1) << "none of the refused batch's updates was read";
+    EXPECT_EQ(reports[k].status, 0u) << reports[k].message;
+  }
+  server.bridge->shutdown();
+  EXPECT_EQ(server.bridge->stats().updates_rejected, oversized);
+}
+
+// Shutdown drains a batched stream: every update already taken is answered — the reports held
+// for the stream's batch included — before the bridge deletes its writers. The shutdown starts
+// while the only worker is still held, so the answers come after it began.
+TEST(DdsBridge, ShutdownAnswersEveryBatchedUpdateTaken) {
+  ServiceLimits limits;
+  limits.inline_evaluation = false;
+  Server server = start(kDomainBatchShutdown, "batch_shutdown", limits, /*workers=*/1);
+  ASSERT_TRUE(server.bridge);
+  const TestScene scene =
+      create_scene(*server.scenes, {arm(), polytope(random_hull_vertices(6, 30, 0.6))});
+  ASSERT_FALSE(scene.scene_id.empty());
+  auto client = connect(kDomainBatchShutdown, server.prefix, /*batched=*/true);
+  ASSERT_TRUE(client);
+  testkit::HeldWorkers held(*server.scenes, scene.scene_id);
+  ASSERT_TRUE(held.held());
+
+  constexpr std::uint64_t kUpdates = 6;  // within --max-in-flight (8): none merged
+  BatchMessage batch;
+  for (std::uint64_t s = 1; s <= kUpdates; ++s) batch.updates.push_back(path_update(scene, s));
+  std::string error;
+  ASSERT_TRUE(client->publish_batch(batch.sample(), error)) << error;
+  wait_taken(*server.bridge, kUpdates);
+  ASSERT_EQ(server.bridge->stats().updates_taken, kUpdates);
+  std::thread stopping([&] { server.bridge->shutdown(); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // let the shutdown begin
+  held.release();
+  stopping.join();
+  const std::vector<ReceivedReport> reports = collect_reports(*client, kUpdates);
+  ASSERT_EQ(reports.size(), kUpdates);
+  for (std::uint64_t k = 0; k < kUpdates; ++k) {
+    EXPECT_EQ(reports[k].sequence, k + 1);
+    EXPECT_EQ(reports[k].status, 0u) << reports[k].message;
+    EXPECT_EQ(reports[k].coalesced_updates, 0u);
+  }
+  EXPECT_EQ(server.bridge->stats().reports_written, kUpdates);
 }
 
 // Without CYCLONEDDS_URI, Cyclone would use the external interface and multicast: both ends

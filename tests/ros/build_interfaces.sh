@@ -25,7 +25,7 @@ for package in builtin_interfaces std_msgs geometry_msgs sensor_msgs nearpoint_m
 done
 ls "$work"/install/nearpoint_msgs/lib/libnearpoint_msgs__rosidl_typesupport_introspection_c.so \
   >/dev/null
-for message in PoseUpdate DistanceReport ThresholdEvent; do
+for message in PoseUpdate DistanceReport ThresholdEvent PoseUpdateBatch DistanceReportBatch; do
   test -f "$work/install/nearpoint_msgs/share/nearpoint_msgs/msg/$message.idl" ||
     { echo "build_interfaces.sh: no $message.idl" >&2; exit 1; }
 done

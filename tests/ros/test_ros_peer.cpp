@@ -117,11 +117,15 @@ TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
     endpoints.insert(e.at("endpoint").get<std::string>() + " " + e.at("topic").get<std::string>() +
                      " " + e.at("type").get<std::string>());
   }
-  // nearpointd's three endpoints, and `nearpoint dds echo`'s two (still running then).
+  // nearpointd's five endpoints (the batched pair included), and `nearpoint dds echo`'s two
+  // (still running then).
   const std::set<std::string> expected = {
       "subscription rt/nearpoint/pose_updates nearpoint_msgs::msg::dds_::PoseUpdate_",
       "publication rt/nearpoint/distance_reports nearpoint_msgs::msg::dds_::DistanceReport_",
       "publication rt/nearpoint/threshold_events nearpoint_msgs::msg::dds_::ThresholdEvent_",
+      "subscription rt/nearpoint/pose_update_batches nearpoint_msgs::msg::dds_::PoseUpdateBatch_",
+      "publication rt/nearpoint/distance_report_batches "
+      "nearpoint_msgs::msg::dds_::DistanceReportBatch_",
       "publication rt/nearpoint/pose_updates nearpoint_msgs::msg::dds_::PoseUpdate_",
       "subscription rt/nearpoint/distance_reports nearpoint_msgs::msg::dds_::DistanceReport_"};
   for (const std::string& name : expected) EXPECT_TRUE(endpoints.count(name)) << name;
@@ -159,6 +163,9 @@ TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
       << all;
   EXPECT_TRUE(has("/nearpoint/distance_reports [nearpoint_msgs/msg/DistanceReport]")) << all;
   EXPECT_TRUE(has("/nearpoint/threshold_events [nearpoint_msgs/msg/ThresholdEvent]")) << all;
+  EXPECT_TRUE(has("/nearpoint/pose_update_batches [nearpoint_msgs/msg/PoseUpdateBatch]")) << all;
+  EXPECT_TRUE(has("/nearpoint/distance_report_batches [nearpoint_msgs/msg/DistanceReportBatch]"))
+      << all;
 
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();

@@ -353,6 +353,49 @@ TEST(RosWire, PoseUpdateMatchesRos2Bytes) {
       });
 }
 
+// nearpoint_msgs/PoseUpdateBatch: updates[] — a uint32 count, then each PoseUpdate inline, its
+// 8-byte fields aligned from the start of the payload (so the second update's padding differs
+// from the first's: its strings end at other offsets).
+TEST(RosWire, PoseUpdateBatchMatchesRos2Bytes) {
+  nearpoint_msgs_msg_dds__ObjectPose_ poses[2]{};
+  nearpoint_msgs_msg_dds__PoseUpdate_ updates[2]{};
+  const char* scenes[2] = {"s", "scene-2"};
+  for (int k = 0; k < 2; ++k) {
+    poses[k].object_id = text("arm");
+    poses[k].pose.position = {0.1 * (k + 1), 0.2, 0.3};
+    poses[k].pose.orientation = {0, 0, 0, 1};
+    updates[k].header.stamp = {k, 0};
+    updates[k].header.frame_id = text("");
+    updates[k].scene_id = text(scenes[k]);
+    updates[k].client_id = text("ros");
+    updates[k].sequence_number = std::uint64_t(5 + k);
+    updates[k].poses = {1, 1, &poses[k], false};
+    updates[k].thresholds = {0, 0, nullptr, false};
+  }
+  nearpoint_msgs_msg_dds__PoseUpdateBatch_ sample{};
+  sample.updates = {2, 2, updates, false};
+  Cdr cdr;
+  cdr.u32(2);
+  for (int k = 0; k < 2; ++k) {
+    cdr.i32(k).u32(0).str("").str(scenes[k]).str("ros").u64(std::uint64_t(5 + k));
+    cdr.u32(1).str("arm").f64(0.1 * (k + 1)).f64(0.2).f64(0.3).f64(0).f64(0).f64(0).f64(1);
+    cdr.boolean(false).f64(0).boolean(false).boolean(false).u8(0).boolean(false).boolean(false);
+    cdr.boolean(false).f64(0).boolean(false).boolean(false).boolean(false).u32(0).u8(0);
+    cdr.boolean(false).f64(0);
+    cdr.u8(0).u32(0);
+  }
+  Loop loop(&nearpoint_msgs_msg_dds__PoseUpdateBatch__desc, "rt/ros_wire_update_batches");
+  EXPECT_EQ(hex(loop.serialise(&sample)), hex(cdr.bytes()));
+  loop.deserialise<nearpoint_msgs_msg_dds__PoseUpdateBatch_>(
+      cdr.bytes(), [](const nearpoint_msgs_msg_dds__PoseUpdateBatch_& back) {
+        ASSERT_EQ(back.updates._length, 2u);
+        EXPECT_STREQ(back.updates._buffer[1].scene_id, "scene-2");
+        EXPECT_EQ(back.updates._buffer[1].sequence_number, 6u);
+        ASSERT_EQ(back.updates._buffer[1].poses._length, 1u);
+        EXPECT_EQ(back.updates._buffer[1].poses._buffer[0].pose.position.x, 0.2);
+      });
+}
+
 // Bytes that do not hold the type (a peer with another idea of it, or a malformed sample) are
 // refused when Cyclone reads them, never read past.
 TEST(RosWire, MalformedSamplesAreRefused) {
