@@ -87,9 +87,12 @@ void SceneService::run_task(Job& job) {
   // (a 100-vertex hull next to a sphere) balance across the workers without any partitioning.
   IncrementalState& state = *job.state;
   const std::size_t count = job.evaluate.size();
-  std::int64_t nanoseconds = 0;
   metrics::PairTally tally;  // recorded once per task, not per pair
   const bool tallying = metrics::enabled();
+  // The task's pair loop is timed as a whole, not pair by pair: two clock reads per pair were
+  // about 3 % of a 45-pair update's CPU. What the loop adds to the engine's time (taking the
+  // next index, the tally) is a few nanoseconds per pair.
+  const Clock::time_point begin = Clock::now();
   for (;;) {
     const std::size_t i = job.next_pair.fetch_add(1, std::memory_order_relaxed);
     if (i >= count) break;
@@ -98,12 +101,11 @@ void SceneService::run_task(Job& job) {
     const std::span<SimplexCache> caches =
         job.caches.empty() ? std::span<SimplexCache>{}
                            : job.caches.subspan(pair.cache_offset, pair.cache_count);
-    const Clock::time_point begin = Clock::now();
     evaluate_pair(*job.scene, pair, job.poses, job.options, caches, state.pairs[p]);
-    nanoseconds += std::chrono::nanoseconds(Clock::now() - begin).count();
     if (tallying) tally.add(state.pairs[p].iterations, state.pairs[p].warm_started);
   }
-  job.geometry_ns.fetch_add(nanoseconds, std::memory_order_relaxed);
+  job.geometry_ns.fetch_add(std::chrono::nanoseconds(Clock::now() - begin).count(),
+                            std::memory_order_relaxed);
   if (tallying) metrics::record_pairs(tally);
   // acq_rel: the last task sees every other task's pair results.
   if (job.tasks_left.fetch_sub(1, std::memory_order_acq_rel) != 1) return;

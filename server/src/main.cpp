@@ -38,6 +38,9 @@
 #if NEARPOINT_HAVE_DDS
 #include "dds_bridge.hpp"
 #endif
+#if NEARPOINT_HAVE_GRPC
+#include <absl/synchronization/mutex.h>
+#endif
 
 namespace {
 
@@ -540,5 +543,12 @@ int main(int argc, char** argv) {
     return code == 0 ? kExitOk : kExitUsage;
   }
   if (int code = apply_flags(flags); code != kExitOk) return code;
+#if NEARPOINT_HAVE_GRPC
+  // Debian builds abseil without NDEBUG, so every absl::Mutex lock (all of gRPC's) also ran
+  // abseil's debug-only deadlock detection: a global spin lock and a lock-graph update per lock,
+  // 1-2 % of a pose update's CPU. It checks gRPC's internal lock order, not ours (TSan does).
+  // Set here, for the process, not in the server library that tests and benchmarks embed.
+  absl::SetMutexDeadlockDetectionMode(absl::OnDeadlockCycle::kIgnore);
+#endif
   return serve(flags);
 }
