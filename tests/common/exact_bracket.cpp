@@ -236,6 +236,43 @@ bool ExactBracket::within_along(int side, int piece, const double point[3], cons
   return ratio_at_most(excess, p.radius + sum(slack), dot(u, u));
 }
 
+namespace {
+
+// One piece pair's exact distance (√q − r)⁺ against lo and hi, by CGAL's QP.
+struct PairTruth {
+  bool at_least_lo, at_most_hi;
+  long double approx;
+};
+
+template <class Piece>
+PairTruth pair_truth(const Piece& pa, const Piece& pb, const Exact& lo, const Exact& hi) {
+  std::vector<Kernel::Point_3> a, b;
+  for (const E3& w : pa.world) a.emplace_back(w[0], w[1], w[2], Exact(1));
+  for (const E3& w : pb.world) b.emplace_back(w[0], w[1], w[2], Exact(1));
+  const PolytopeDistance solver(a.begin(), a.end(), b.begin(), b.end());
+  Exact num = solver.squared_distance_numerator();
+  Exact den = solver.squared_distance_denominator();
+  if (CGAL::sign(den) == CGAL::NEGATIVE) {
+    num = -num;
+    den = -den;
+  }
+  const Exact radii = pa.radius + pb.radius;
+  PairTruth out;
+  // (√q − r)⁺ ≥ lo (always when lo ≤ 0); ≤ hi.
+  out.at_least_lo = CGAL::sign(lo) != CGAL::POSITIVE || root_at_least(num, den, lo + radii);
+  out.at_most_hi = CGAL::sign(hi) != CGAL::NEGATIVE && root_at_most(num, den, hi + radii);
+  out.approx =
+      std::max(0.0L, std::sqrt(approx_ratio(num, den)) - (long double)CGAL::to_double(radii));
+  return out;
+}
+
+// An exact E3 over an exact positive count, rounded: the point's coordinates as doubles.
+long double approx_quotient(const Exact& x, const Exact& n) {
+  return approx_ratio(x, n);
+}
+
+}  // namespace
+
 ExactBracket::Truth ExactBracket::truth(const ExactSum& lo_sum, const ExactSum& hi_sum) const {
   Truth out;
   const Exact lo = sum(lo_sum), hi = sum(hi_sum);
@@ -243,27 +280,175 @@ ExactBracket::Truth ExactBracket::truth(const ExactSum& lo_sum, const ExactSum& 
   long double best = std::numeric_limits<long double>::infinity();
   for (const Impl::Piece& pa : impl_->side[0])
     for (const Impl::Piece& pb : impl_->side[1]) {
-      std::vector<Kernel::Point_3> a, b;
-      for (const E3& w : pa.world) a.emplace_back(w[0], w[1], w[2], Exact(1));
-      for (const E3& w : pb.world) b.emplace_back(w[0], w[1], w[2], Exact(1));
-      const PolytopeDistance solver(a.begin(), a.end(), b.begin(), b.end());
-      Exact num = solver.squared_distance_numerator();
-      Exact den = solver.squared_distance_denominator();
-      if (CGAL::sign(den) == CGAL::NEGATIVE) {
-        num = -num;
-        den = -den;
-      }
-      const Exact radii = pa.radius + pb.radius;
-      // (√q − r)⁺ ≥ lo for every pair (always when lo ≤ 0), ≤ hi for some pair.
-      if (CGAL::sign(lo) == CGAL::POSITIVE && !root_at_least(num, den, lo + radii))
-        out.at_least_lo = false;
-      if (CGAL::sign(hi) != CGAL::NEGATIVE && root_at_most(num, den, hi + radii))
-        out.at_most_hi = true;
-      const long double q = approx_ratio(num, den);
-      best = std::min(best, std::max(0.0L, std::sqrt(q) - (long double)CGAL::to_double(radii)));
+      const PairTruth t = pair_truth(pa, pb, lo, hi);
+      ++out.qp_pairs;
+      out.at_least_lo = out.at_least_lo && t.at_least_lo;
+      out.at_most_hi = out.at_most_hi || t.at_most_hi;
+      best = std::min(best, t.approx);
     }
   out.approx = double(best);
   return out;
+}
+
+ExactBracket::Truth ExactBracket::truth_where_needed(
+    const ExactSum& lo_sum, const ExactSum& hi_sum,
+    const std::vector<std::array<double, 3>>& directions, bool hi_known, int prefer_a,
+    int prefer_b) const {
+  Truth out;
+  const Exact lo = sum(lo_sum), hi = sum(hi_sum);
+  out.at_most_hi = hi_known;
+  long double best = std::numeric_limits<long double>::infinity();
+  const int na = pieces(0), nb = pieces(1);
+  // Piece pairs in the order the QP should try them for hi: the preferred pair first.
+  std::vector<std::pair<int, int>> order;
+  if (prefer_a >= 0 && prefer_a < na && prefer_b >= 0 && prefer_b < nb)
+    order.emplace_back(prefer_a, prefer_b);
+  for (int i = 0; i < na; ++i)
+    for (int j = 0; j < nb; ++j)
+      if (i != prefer_a || j != prefer_b) order.emplace_back(i, j);
+  std::vector<char> qp_done(order.size(), 0);
+
+  // The lower half, pair by pair: L_ij(u) > lo along some direction proves d(A_i, B_j) − r ≥ lo.
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const Impl::Piece& pa = impl_->side[0][std::size_t(order[k].first)];
+    const Impl::Piece& pb = impl_->side[1][std::size_t(order[k].second)];
+    bool witnessed = CGAL::sign(lo) != CGAL::POSITIVE;
+    std::vector<std::array<double, 3>> tried = directions;
+    {  // the vertex means' difference, rounded (any direction gives a valid bound)
+      const Exact ca(int(pa.world.size())), cb(int(pb.world.size()));
+      std::array<double, 3> u;
+      for (std::size_t c = 0; c < 3; ++c)
+        u[c] = double(approx_quotient(ca * pb.vertex_sum[c] - cb * pa.vertex_sum[c], ca * cb));
+      tried.push_back(u);
+    }
+    for (const std::array<double, 3>& ud : tried) {
+      if (witnessed) break;
+      if (!usable_direction(ud.data())) continue;
+      const E3 u = exact3(ud.data());
+      const Exact gap = Impl::extreme(pb, u, false) - Impl::extreme(pa, u, true);
+      witnessed = !ratio_at_most(gap, lo + pa.radius + pb.radius, dot(u, u));
+    }
+    if (witnessed) continue;
+    const PairTruth t = pair_truth(pa, pb, lo, hi);
+    qp_done[k] = 1;
+    ++out.qp_pairs;
+    out.at_least_lo = out.at_least_lo && t.at_least_lo;
+    out.at_most_hi = out.at_most_hi || t.at_most_hi;
+    best = std::min(best, t.approx);
+  }
+  // The upper half: some pair at most hi.
+  for (std::size_t k = 0; k < order.size() && !out.at_most_hi; ++k) {
+    if (qp_done[k]) continue;
+    const PairTruth t = pair_truth(impl_->side[0][std::size_t(order[k].first)],
+                                   impl_->side[1][std::size_t(order[k].second)], lo, hi);
+    ++out.qp_pairs;
+    out.at_most_hi = t.at_most_hi;
+    best = std::min(best, t.approx);
+  }
+  out.approx = out.qp_pairs > 0 ? double(best) : 0.0;
+  return out;
+}
+
+bool ExactBracket::closest_on_simplex(int piece_a, int piece_b, int count,
+                                      const std::int32_t* index_a, const std::int32_t* index_b,
+                                      double weights[4], double direction[3]) const {
+  if (piece_a < 0 || piece_a >= pieces(0) || piece_b < 0 || piece_b >= pieces(1)) return false;
+  if (count < 1 || count > 4) return false;
+  const Impl::Piece& pa = impl_->side[0][std::size_t(piece_a)];
+  const Impl::Piece& pb = impl_->side[1][std::size_t(piece_b)];
+  const int size_a = int(pa.world.size()), size_b = int(pb.world.size());
+  using LD = long double;
+  std::array<std::array<LD, 3>, 4> d{};
+  for (int k = 0; k < count; ++k) {
+    if (index_a[k] < -1 || index_a[k] >= size_a || index_b[k] < -1 || index_b[k] >= size_b)
+      return false;
+    // q − p exactly as (n_p·x_q − n_q·x_p) / (n_p·n_q), n = 1 for a vertex, the count for a mean.
+    const Exact np(index_a[k] < 0 ? size_a : 1), nq(index_b[k] < 0 ? size_b : 1);
+    for (std::size_t c = 0; c < 3; ++c) {
+      const Exact xp = index_a[k] < 0 ? pa.vertex_sum[c] : pa.world[std::size_t(index_a[k])][c];
+      const Exact xq = index_b[k] < 0 ? pb.vertex_sum[c] : pb.world[std::size_t(index_b[k])][c];
+      d[std::size_t(k)][c] = approx_quotient(np * xq - nq * xp, np * nq);
+    }
+  }
+  const auto dot3 = [](const std::array<LD, 3>& x, const std::array<LD, 3>& y) {
+    return x[0] * y[0] + x[1] * y[1] + x[2] * y[2];
+  };
+  // Every subset: the origin's projection on its affine hull (normal equations, Gaussian
+  // elimination with partial pivoting), kept when its weights are ≥ 0 after clamping round-off.
+  LD best_norm2 = std::numeric_limits<LD>::infinity();
+  std::array<LD, 4> best{};
+  for (int mask = 1; mask < (1 << count); ++mask) {
+    int members[4], m = 0;
+    for (int k = 0; k < count; ++k)
+      if (mask & (1 << k)) members[m++] = k;
+    std::array<LD, 4> lambda{};
+    if (m == 1) {
+      lambda[std::size_t(members[0])] = 1;
+    } else {
+      // minimise |P0 + Σ μ_i E_i|²: G μ = −E·P0 with G_ij = E_i·E_j.
+      const std::array<LD, 3>& p0 = d[std::size_t(members[0])];
+      std::array<std::array<LD, 3>, 3> e{};
+      for (int i = 1; i < m; ++i)
+        for (std::size_t c = 0; c < 3; ++c)
+          e[std::size_t(i - 1)][c] = d[std::size_t(members[i])][c] - p0[c];
+      const int n = m - 1;
+      LD g[3][4];
+      for (int i = 0; i < n; ++i) {
+        for (int j = 0; j < n; ++j) g[i][j] = dot3(e[std::size_t(i)], e[std::size_t(j)]);
+        g[i][n] = -dot3(e[std::size_t(i)], p0);
+      }
+      bool singular = false;
+      for (int col = 0; col < n && !singular; ++col) {
+        int pivot = col;
+        for (int row = col + 1; row < n; ++row)
+          if (std::abs(g[row][col]) > std::abs(g[pivot][col])) pivot = row;
+        if (!(std::abs(g[pivot][col]) > 0)) {
+          singular = true;
+          break;
+        }
+        for (int j = 0; j <= n; ++j) std::swap(g[col][j], g[pivot][j]);
+        for (int row = 0; row < n; ++row) {
+          if (row == col) continue;
+          const LD f = g[row][col] / g[col][col];
+          for (int j = col; j <= n; ++j) g[row][j] -= f * g[col][j];
+        }
+      }
+      if (singular) continue;
+      LD mu_sum = 0;
+      for (int i = 0; i < n; ++i) {
+        const LD mu = g[i][n] / g[i][i];
+        if (!std::isfinite(mu)) singular = true;
+        lambda[std::size_t(members[i + 1])] = mu;
+        mu_sum += mu;
+      }
+      if (singular) continue;
+      lambda[std::size_t(members[0])] = 1 - mu_sum;
+      // Clearly outside the subset's hull: another subset holds the closest point.
+      bool inside = true;
+      for (int i = 0; i < m; ++i)
+        if (lambda[std::size_t(members[i])] < -1e-9L) inside = false;
+      if (!inside) continue;
+      LD total = 0;
+      for (LD& l : lambda) total += (l = std::max(l, LD(0)));
+      if (!(total > 0)) continue;
+      for (LD& l : lambda) l /= total;
+    }
+    std::array<LD, 3> x{};
+    for (int k = 0; k < count; ++k)
+      for (std::size_t c = 0; c < 3; ++c) x[c] += lambda[std::size_t(k)] * d[std::size_t(k)][c];
+    const LD norm2 = dot3(x, x);
+    if (norm2 < best_norm2) {
+      best_norm2 = norm2;
+      best = lambda;
+    }
+  }
+  if (!(best_norm2 > 0) || !std::isfinite(best_norm2)) return false;
+  std::array<LD, 3> x{};
+  for (int k = 0; k < count; ++k)
+    for (std::size_t c = 0; c < 3; ++c) x[c] += best[std::size_t(k)] * d[std::size_t(k)][c];
+  for (int k = 0; k < 4; ++k) weights[k] = k < count ? double(best[std::size_t(k)]) : 0.0;
+  for (std::size_t c = 0; c < 3; ++c) direction[c] = double(x[c]);
+  return usable_direction(direction);
 }
 
 template <class S>

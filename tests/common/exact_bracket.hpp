@@ -19,6 +19,7 @@
 // error_bound), added exactly. The header is CGAL-free; the number type lives in the .cpp.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <initializer_list>
 #include <memory>
@@ -86,14 +87,35 @@ class ExactBracket {
   bool within_along(int side, int piece, const double point[3], const double u[3],
                     const ExactSum& slack) const;
 
+  /// The bracket's own closest point on the reported simplex, independent of the engine's
+  /// subalgorithm: the point of least norm in the hull of d_k = q_k − p_k (p_k the point of
+  /// A's piece `piece_a` named by index_a[k], q_k likewise on B; index −1: the vertex mean), the
+  /// differences formed exactly and rounded to double, tried over every subset of the ≤ 4
+  /// points. Writes its weights (≥ 0, 0 for points left out) and the direction Σλ_k·d_k, which
+  /// points from A to B. False (nothing written) for unusable indices or a zero direction.
+  bool closest_on_simplex(int piece_a, int piece_b, int count, const std::int32_t* index_a,
+                          const std::int32_t* index_b, double weights[4],
+                          double direction[3]) const;
+
   /// The exact distance t = min_ij (d(A_i, B_j) − r_i − r_j)⁺ (CGAL's QP per piece pair, ~1 ms
-  /// each): whether lo ≤ t and t ≤ hi, and t rounded for messages.
+  /// each, far more when the exact world coordinates are long): whether lo ≤ t and t ≤ hi, and t
+  /// rounded for messages.
   struct Truth {
     bool at_least_lo = true;
     bool at_most_hi = true;
     double approx = 0;
+    int qp_pairs = 0;  // piece pairs that needed CGAL's QP
   };
   Truth truth(const ExactSum& lo, const ExactSum& hi) const;
+
+  /// The same verdicts, with the QP only where exact witnesses do not already give them: a piece
+  /// pair is at least lo when its support-plane bound L_ij(u) along one of `directions` (or the
+  /// pair's vertex means' difference) is, and t ≤ hi is taken as given when `hi_known` (the
+  /// caller has shape points within hi). The remaining pairs get the QP, B's piece `prefer_b`
+  /// and A's `prefer_a` first for hi. `approx` is then the least QP result (0 when none ran).
+  Truth truth_where_needed(const ExactSum& lo, const ExactSum& hi,
+                           const std::vector<std::array<double, 3>>& directions, bool hi_known,
+                           int prefer_a, int prefer_b) const;
 
   int pieces(int side) const;
   int vertices(int side, int piece) const;

@@ -497,6 +497,34 @@ struct ExactPair {
   }
 };
 
+// How often the oracle needed CGAL's QP (NEARPOINT_FUZZ_ORACLE_STATS=1 prints it at exit): the
+// witnesses should settle nearly every answer, and a QP on long exact coordinates is what can
+// run past a timeout.
+struct OracleStats {
+  long answers = 0, witnessed = 0, qp_answers = 0, qp_pairs = 0;
+  void record(int pairs) {
+    ++answers;
+    if (pairs == 0) ++witnessed;
+    qp_answers += pairs > 0;
+    qp_pairs += pairs;
+  }
+};
+OracleStats& oracle_stats() {
+  static OracleStats* s = [] {
+    auto* out = new OracleStats;
+    if (std::getenv("NEARPOINT_FUZZ_ORACLE_STATS"))
+      std::atexit([] {
+        const OracleStats& o = oracle_stats();
+        std::fprintf(stderr,
+                     "oracle: %ld answers past both witnesses' first try, %ld settled per piece "
+                     "pair, %ld needed the QP (%ld piece pairs)\n",
+                     o.answers, o.witnessed, o.qp_answers, o.qp_pairs);
+      });
+    return out;
+  }();
+  return *s;
+}
+
 std::string number(long double x) {
   std::ostringstream out;
   out.precision(20);
@@ -563,7 +591,17 @@ void check_result(const DistanceResult<S>& r, ExactPair<S>& pair, int piece_a, i
     std::fprintf(stderr, "  exact distance (CGAL): %s\n",
                  number(exact->truth({0}, {0}).approx).c_str());
 
+  // The bracket's own closest point on the reported simplex (weights and direction computed
+  // without the engine's subalgorithm): a near-optimal direction for the lower witness and
+  // weights for the upper one, where the answer's own are too coarse (float weights, a normal
+  // from an early stop) to prove a tight interval.
+  double own_weights[4] = {0, 0, 0, 0}, own_direction[3] = {0, 0, 0};
+  const bool own_simplex = exact && r.simplex_size > 0 && piece_a >= 0 && piece_b >= 0 &&
+                           exact->closest_on_simplex(piece_a, piece_b, r.simplex_size, r.index_a,
+                                                     r.index_b, own_weights, own_direction);
+
   std::vector<P3> directions;
+  if (own_simplex) directions.push_back({own_direction[0], own_direction[1], own_direction[2]});
   for (const V3L& u : extra_directions) directions.push_back({u.x(), u.y(), u.z()});
   directions.push_back({1, 0, 0});
   directions.push_back({0, 1, 0});
@@ -675,13 +713,22 @@ void check_result(const DistanceResult<S>& r, ExactPair<S>& pair, int piece_a, i
     if (oracle)
       hi_witnessed = exact->upper_at_least(piece_a, piece_b, r.simplex_size, r.index_a, r.index_b,
                                            w, hi) == testkit::ExactBracket::Upper::fails;
+    if (oracle && !hi_witnessed && own_simplex)
+      hi_witnessed = exact->upper_at_least(piece_a, piece_b, r.simplex_size, r.index_a, r.index_b,
+                                           own_weights, hi) == testkit::ExactBracket::Upper::fails;
   }
   // CGAL's exact distance, unless both halves are already witnessed exactly: then lo ≤ truth ≤ hi
   // is proven and the QP could add nothing. Its cost grows with the bit length of the exact
   // world coordinates (far local coordinates cancelled by the pose make them thousands of bits
   // long, and one such QP ran for over ten minutes), so it runs only where a witness is missing.
   if (exact && oracle && !(lo_witnessed && hi_witnessed)) {
-    const testkit::ExactBracket::Truth t = exact->truth(lo, hi);
+    // Piece pair by piece pair: a pair whose own support plane is above lo needs no QP either.
+    std::vector<std::array<double, 3>> tried;
+    for (const P3& u : directions)
+      if (dot(u, u) != 0) tried.push_back({double(u.x), double(u.y), double(u.z)});
+    const testkit::ExactBracket::Truth t =
+        exact->truth_where_needed(lo, hi, tried, hi_witnessed, piece_a, piece_b);
+    oracle_stats().record(t.qp_pairs);
     if (!(t.at_least_lo && t.at_most_hi))
       fuzz::fail(__FILE__, __LINE__,
                  "CGAL's exact distance " + number(t.approx) + " is outside " + interval +
