@@ -93,6 +93,25 @@ void expect_demo_reports(const std::vector<std::string>& lines) {
   }
 }
 
+/// Runs ros_peer on `domain` for scene dds-demo with `options`, then every pose of kDemoPoses as
+/// X,Y,THETA; its stdout lines, or none (the test failed with both processes' stderr) when it does
+/// not exit 0.
+std::vector<std::string> run_demo_peer(int domain, const std::vector<std::string>& options,
+                                       ChildProcess& server) {
+  std::vector<std::string> argv = {ROS_PEER_PATH, std::to_string(domain), "dds-demo"};
+  argv.insert(argv.end(), options.begin(), options.end());
+  for (const auto& [x, y, t] : kDemoPoses)
+    argv.push_back(std::to_string(x) + "," + std::to_string(y) + "," + std::to_string(t));
+  ChildProcess peer(argv);
+  const int status = peer.started() ? peer.wait_exit(std::chrono::seconds(90)) : -1;
+  if (status != 0) {
+    ADD_FAILURE() << "ros_peer exited " << status << ": " << peer.stderr_text() << "\nserver:\n"
+                  << server.stderr_text();
+    return {};
+  }
+  return peer.stdout_lines();
+}
+
 TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
   ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "2", "--dds",
                        "--dds-domain", std::to_string(kDomain), "--scene",
@@ -110,15 +129,7 @@ TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
 
   const std::vector<std::array<double, 3>>& poses = kDemoPoses;
-  std::vector<std::string> argv = {ROS_PEER_PATH, std::to_string(kDomain), "dds-demo"};
-  for (const auto& [x, y, t] : poses)
-    argv.push_back(std::to_string(x) + "," + std::to_string(y) + "," + std::to_string(t));
-  ChildProcess peer(argv);
-  ASSERT_TRUE(peer.started());
-  ASSERT_EQ(peer.wait_exit(std::chrono::seconds(90)), 0) << peer.stderr_text() << "\nserver:\n"
-                                                         << server.stderr_text();
-
-  const std::vector<std::string> lines = peer.stdout_lines();
+  const std::vector<std::string> lines = run_demo_peer(kDomain, {}, server);
   expect_demo_reports(lines);
   if (HasFatalFailure()) return;
 
@@ -196,15 +207,7 @@ TEST(RosPeer, RosidlTypedPeerStreamsBatchesToNearpointd) {
   ASSERT_NE(server.wait_for_stderr("event=dds_ready", std::chrono::seconds(20)), "")
       << server.stderr_text();
 
-  std::vector<std::string> argv = {ROS_PEER_PATH, std::to_string(kDomain + 6), "dds-demo",
-                                   "--batches", "3"};
-  for (const auto& [x, y, t] : kDemoPoses)
-    argv.push_back(std::to_string(x) + "," + std::to_string(y) + "," + std::to_string(t));
-  ChildProcess peer(argv);
-  ASSERT_TRUE(peer.started());
-  ASSERT_EQ(peer.wait_exit(std::chrono::seconds(90)), 0) << peer.stderr_text() << "\nserver:\n"
-                                                         << server.stderr_text();
-  expect_demo_reports(peer.stdout_lines());
+  expect_demo_reports(run_demo_peer(kDomain + 6, {"--batches", "3"}, server));
 
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
