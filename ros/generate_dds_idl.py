@@ -11,6 +11,12 @@ ROS 2's rmw_cyclonedds puts on the wire: every message `pkg/msg/Name` becomes th
 key, no @optional and no annotations, so that idlc (with final extensibility) makes keyless
 types serialised as plain XCDR1. The structs come in dependency order. The bridge's types are
 therefore the .msg files themselves: they cannot drift apart.
+
+A fixed-size array is declared through the typedef rosidl's IDL gives it (`uint8[16] guid`
+becomes `typedef uint8 uint8__16[16];` beside the struct and `uint8__16 guid;`), not as a plain
+array: the wire bytes are the same, but the typedef is part of the type's XTypes identity
+(its TypeIdentifier, and an alias in the TypeObject), and a peer whose types idlc made from
+rosidl's IDL matches a writer only when those agree.
 """
 import argparse
 import pathlib
@@ -66,10 +72,27 @@ def scalar(t) -> str:
     raise SystemExit(f"generate_dds_idl.py: unsupported type {t!r}")
 
 
+def array_typedefs(t: definition.Array) -> list[tuple[str, str]]:
+    """The typedefs rosidl's IDL declares for an array member, as (name, declaration), the
+    array's own last; the name and spelling are rosidl_adapter's (resource/struct.idl.em)."""
+    value = t.value_type
+    if isinstance(value, definition.NamespacedType):
+        # rosidl: typedef pkg::msg::Name pkg__msg__Name; (pkg::msg::Name is pkg::msg::dds_::Name_
+        # on the wire, as everywhere else in this file).
+        base = "__".join(list(value.namespaces) + [value.name])
+        out = [(base, f"typedef {dds_name(value)} {base};")]
+    else:
+        base = scalar(value)
+        out = []
+    name = f"{base.replace('<', '__').replace('>', '')}__{t.size}"
+    out.append((name, f"typedef {base} {name}[{t.size}];"))
+    return out
+
+
 def member(m: definition.Member) -> str:
     t = m.type
     if isinstance(t, definition.Array):
-        return f"{scalar(t.value_type)} {m.name}[{t.size}];"
+        return f"{array_typedefs(t)[-1][0]} {m.name};"
     if isinstance(t, definition.BoundedSequence):
         return f"sequence<{scalar(t.value_type)}, {t.maximum_size}> {m.name};"
     if isinstance(t, definition.UnboundedSequence):
@@ -135,10 +158,23 @@ def main() -> None:
         "// ROS 2's rmw_cyclonedds.",
         "",
     ]
+    declared: dict[tuple, str] = {}  # (module..., typedef name) -> its declaration
     for key in ordered:
         message = messages[key]
         namespaces = list(message.structure.namespaced_type.namespaces) + ["dds_"]
         lines.append(" ".join(f"module {n} {{" for n in namespaces))
+        # Once per module: rosidl declares a typedef in every message that uses it, each file
+        # compiled alone; here every message shares one file.
+        for m in message.structure.members:
+            if not isinstance(m.type, definition.Array):
+                continue
+            for name, declaration in array_typedefs(m.type):
+                scoped = tuple(namespaces) + (name,)
+                if scoped not in declared:
+                    declared[scoped] = declaration
+                    lines.append(declaration)
+                elif declared[scoped] != declaration:
+                    sys.exit(f"generate_dds_idl.py: {'::'.join(scoped)} declared twice, differently")
         lines.append(f"struct {key[-1]}_ {{")
         lines.extend("  " + member(m) for m in message.structure.members)
         lines.append("};")

@@ -7,6 +7,7 @@
 // discovery shows for nearpointd's endpoints, exactly those ROS 2 expects.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -25,7 +26,7 @@ namespace {
 using nearpoint::testkit::ChildProcess;
 using Json = nlohmann::json;
 
-// 131-140: tests/ros (101-130: tests/dds); this file uses 132-137.
+// 131-140: tests/ros (101-130: tests/dds); this file uses 132-138.
 constexpr int kDomain = 132;
 
 /// nearpointd with robot scene "arm7" (examples/robots/arm7.urdf, created over gRPC by `nearpoint
@@ -65,6 +66,52 @@ double axis_to_cube(double ax, double ay, double cx, double cy, double theta, do
   return std::max(gap - r, 0.0);
 }
 
+/// The mover's poses the demo-scene tests stream, as (x, y, theta).
+const std::vector<std::array<double, 3>> kDemoPoses = {
+    {0, -2, 0}, {0, -1.2, 0.3}, {0.6, -0.4, 0.8}, {1.5, 0, 0.2}, {2.2, 0.1, 1.0}, {3, 1.4, 0}};
+
+/// ros_peer's first kDemoPoses.size() lines: one accepted report per pose, in order, with the
+/// update's header echoed and every distance equal to its closed form within its error bound.
+void expect_demo_reports(const std::vector<std::string>& lines) {
+  ASSERT_GE(lines.size(), kDemoPoses.size());
+  for (std::size_t k = 0; k < kDemoPoses.size(); ++k) {
+    SCOPED_TRACE(lines[k]);
+    const Json report = Json::parse(lines[k]);
+    ASSERT_EQ(report.at("sequence"), k + 1);
+    ASSERT_EQ(report.at("status"), 0);
+    EXPECT_EQ(report.at("stamp_sec"), 1000 + int(k)) << "the update's header is echoed";
+    const auto [x, y, theta] = kDemoPoses[k];
+    const Json& pairs = report.at("pairs");
+    ASSERT_EQ(pairs.size(), 3u);
+    const double post = axis_to_cube(0, 0, x, y, theta, 0.2);
+    const double drum = axis_to_cube(3, 0, x, y, theta, 0.3);
+    EXPECT_NEAR(pairs.at("mover/post")[0].get<double>(), post,
+                pairs.at("mover/post")[1].get<double>() + 1e-12);
+    EXPECT_NEAR(pairs.at("mover/drum")[0].get<double>(), drum,
+                pairs.at("mover/drum")[1].get<double>() + 1e-12);
+    EXPECT_NEAR(pairs.at("post/drum")[0].get<double>(), 2.5, 1e-9);
+  }
+}
+
+/// Runs ros_peer on `domain` for scene dds-demo with `options`, then every pose of kDemoPoses as
+/// X,Y,THETA; its stdout lines, or none (the test failed with both processes' stderr) when it does
+/// not exit 0.
+std::vector<std::string> run_demo_peer(int domain, const std::vector<std::string>& options,
+                                       ChildProcess& server) {
+  std::vector<std::string> argv = {ROS_PEER_PATH, std::to_string(domain), "dds-demo"};
+  argv.insert(argv.end(), options.begin(), options.end());
+  for (const auto& [x, y, t] : kDemoPoses)
+    argv.push_back(std::to_string(x) + "," + std::to_string(y) + "," + std::to_string(t));
+  ChildProcess peer(argv);
+  const int status = peer.started() ? peer.wait_exit(std::chrono::seconds(90)) : -1;
+  if (status != 0) {
+    ADD_FAILURE() << "ros_peer exited " << status << ": " << peer.stderr_text() << "\nserver:\n"
+                  << server.stderr_text();
+    return {};
+  }
+  return peer.stdout_lines();
+}
+
 TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
   ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "2", "--dds",
                        "--dds-domain", std::to_string(kDomain), "--scene",
@@ -81,35 +128,10 @@ TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
   // Discovery runs in both directions: give nearpointd's writer a moment to see echo's reader.
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
 
-  const std::vector<std::array<double, 3>> poses = {
-      {0, -2, 0}, {0, -1.2, 0.3}, {0.6, -0.4, 0.8}, {1.5, 0, 0.2}, {2.2, 0.1, 1.0}, {3, 1.4, 0}};
-  std::vector<std::string> argv = {ROS_PEER_PATH, std::to_string(kDomain), "dds-demo"};
-  for (const auto& [x, y, t] : poses)
-    argv.push_back(std::to_string(x) + "," + std::to_string(y) + "," + std::to_string(t));
-  ChildProcess peer(argv);
-  ASSERT_TRUE(peer.started());
-  ASSERT_EQ(peer.wait_exit(std::chrono::seconds(90)), 0) << peer.stderr_text() << "\nserver:\n"
-                                                         << server.stderr_text();
-
-  const std::vector<std::string> lines = peer.stdout_lines();
-  ASSERT_GE(lines.size(), poses.size());
-  for (std::size_t k = 0; k < poses.size(); ++k) {
-    SCOPED_TRACE(lines[k]);
-    const Json report = Json::parse(lines[k]);
-    ASSERT_EQ(report.at("sequence"), k + 1);
-    ASSERT_EQ(report.at("status"), 0);
-    EXPECT_EQ(report.at("stamp_sec"), 1000 + int(k)) << "the update's header is echoed";
-    const auto [x, y, theta] = poses[k];
-    const Json& pairs = report.at("pairs");
-    ASSERT_EQ(pairs.size(), 3u);
-    const double post = axis_to_cube(0, 0, x, y, theta, 0.2);
-    const double drum = axis_to_cube(3, 0, x, y, theta, 0.3);
-    EXPECT_NEAR(pairs.at("mover/post")[0].get<double>(), post,
-                pairs.at("mover/post")[1].get<double>() + 1e-12);
-    EXPECT_NEAR(pairs.at("mover/drum")[0].get<double>(), drum,
-                pairs.at("mover/drum")[1].get<double>() + 1e-12);
-    EXPECT_NEAR(pairs.at("post/drum")[0].get<double>(), 2.5, 1e-9);
-  }
+  const std::vector<std::array<double, 3>>& poses = kDemoPoses;
+  const std::vector<std::string> lines = run_demo_peer(kDomain, {}, server);
+  expect_demo_reports(lines);
+  if (HasFatalFailure()) return;
 
   std::set<std::string> endpoints;
   for (std::size_t k = poses.size(); k < lines.size(); ++k) {
@@ -166,6 +188,26 @@ TEST(RosPeer, RosidlTypedPeerStreamsToNearpointd) {
   EXPECT_TRUE(has("/nearpoint/pose_update_batches [nearpoint_msgs/msg/PoseUpdateBatch]")) << all;
   EXPECT_TRUE(has("/nearpoint/distance_report_batches [nearpoint_msgs/msg/DistanceReportBatch]"))
       << all;
+
+  server.signal(SIGTERM);
+  EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();
+}
+
+// The batch topics with rosidl's types on both ends: the peer publishes the demo poses three to a
+// nearpoint_msgs/PoseUpdateBatch and reads nearpointd's nearpoint_msgs/DistanceReportBatch
+// samples. Guards the type information of the report batch: the peer's types are idlc's
+// compilation of rosidl's IDL, whose XTypes type ids must equal those of nearpointd's writer or
+// the peer's reader does not match it (it did not while nearpointd spelled DistanceReport's
+// uint8[16] as a plain array where rosidl's IDL declares the typedef uint8__16).
+TEST(RosPeer, RosidlTypedPeerStreamsBatchesToNearpointd) {
+  ChildProcess server({NEARPOINTD_PATH, "--listen", "127.0.0.1:0", "--workers", "2", "--dds",
+                       "--dds-domain", std::to_string(kDomain + 6), "--scene",
+                       NEARPOINT_SOURCE_DIR "/examples/dds_scene.json"});
+  ASSERT_TRUE(server.started());
+  ASSERT_NE(server.wait_for_stderr("event=dds_ready", std::chrono::seconds(20)), "")
+      << server.stderr_text();
+
+  expect_demo_reports(run_demo_peer(kDomain + 6, {"--batches", "3"}, server));
 
   server.signal(SIGTERM);
   EXPECT_EQ(server.wait_exit(std::chrono::seconds(30)), 0) << server.stderr_text();

@@ -13,6 +13,12 @@
 // then one line per endpoint of other participants seen by discovery:
 //   {"endpoint": "publication"|"subscription", "topic": "...", "type": "..."}
 //
+//   ros_peer DOMAIN SCENE --batches K X,Y,THETA...
+// the same updates, sequence numbers and output, but published K at a time as
+// nearpoint_msgs/PoseUpdateBatch samples on rt/nearpoint/pose_update_batches, and the reports read
+// from nearpoint_msgs/DistanceReportBatch samples on rt/nearpoint/distance_report_batches (then
+// the discovery lines as above).
+//
 //   ros_peer DOMAIN SCENE --joint-states
 // publishes three sensor_msgs/JointState samples on rt/joint_states (two well formed, then one
 // with fewer positions than names) and prints, per DistanceReport addressed to that writer:
@@ -34,6 +40,7 @@
 // Exit status 0, or 1 with the reason on stderr.
 #include <dds/dds.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -41,13 +48,15 @@
 #include <cstring>
 #include <set>
 #include <string>
-#include <utility>
 #include <thread>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "nearpoint_msgs/msg/DistanceReport.h"
+#include "nearpoint_msgs/msg/DistanceReportBatch.h"
 #include "nearpoint_msgs/msg/PoseUpdate.h"
+#include "nearpoint_msgs/msg/PoseUpdateBatch.h"
 #include "sensor_msgs/msg/JointState.h"
 
 namespace {
@@ -72,6 +81,42 @@ std::string json_string(const char* s) {
     out += *p;
   }
   return out + "\"";
+}
+
+/// One report as the pose modes print it: {"sequence", "status", "stamp_sec", "message", "pairs"}.
+std::string report_line(const nearpoint_msgs_msg_dds__DistanceReport_& report) {
+  std::string line = "{\"sequence\": " + std::to_string(report.sequence_number) +
+                     ", \"status\": " + std::to_string(report.status) +
+                     ", \"stamp_sec\": " + std::to_string(report.header.stamp.sec) +
+                     ", \"message\": " + json_string(report.message) + ", \"pairs\": {";
+  for (uint32_t i = 0; i < report.pairs._length; ++i) {
+    const auto& p = report.pairs._buffer[i];
+    char numbers[80];
+    std::snprintf(numbers, sizeof numbers, "[%.17g, %.17g]", p.distance, p.error_bound);
+    line += (i ? ", " : "") + json_string((std::string(p.object_a) + "/" + p.object_b).c_str()) +
+            ": " + numbers;
+  }
+  return line + "}}";
+}
+
+/// The PoseUpdate moving "mover" to (x, y, 0) turned by theta about z, stamped 1000 + k - 1 with
+/// sequence number k; `pose` is the storage its poses sequence points to.
+nearpoint_msgs_msg_dds__PoseUpdate_ mover_update(std::string& scene, std::size_t k, double x,
+                                                 double y, double theta,
+                                                 nearpoint_msgs_msg_dds__ObjectPose_& pose) {
+  pose = {};
+  pose.object_id = const_cast<char*>("mover");
+  pose.pose.position = {x, y, 0};
+  pose.pose.orientation = {0, 0, std::sin(theta / 2), std::cos(theta / 2)};
+  nearpoint_msgs_msg_dds__PoseUpdate_ update{};
+  update.header.stamp = {int32_t(999 + k), 0};
+  update.header.frame_id = const_cast<char*>("world");
+  update.scene_id = scene.data();
+  update.client_id = const_cast<char*>("ros_peer");
+  update.sequence_number = k;
+  update.poses = {1, 1, &pose, false};
+  update.thresholds = {0, 0, nullptr, false};
+  return update;
 }
 
 /// Joint names and their positions, one JointState.
@@ -118,13 +163,17 @@ std::size_t take_reports(dds_entity_t reader, const dds_guid_t& own, std::size_t
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 4) return fail("usage: ros_peer DOMAIN SCENE X,Y,THETA... | --joint-states");
+  if (argc < 4)
+    return fail("usage: ros_peer DOMAIN SCENE [--batches K] X,Y,THETA... | --joint-states");
   const auto domain = dds_domainid_t(std::atoi(argv[1]));
   std::string scene = argv[2];
   const bool joint_states = std::string(argv[3]) == "--joint-states";
   const bool wrong_type = std::string(argv[3]) == "--wrong-type";
   const bool joint_pipeline = std::string(argv[3]) == "--joint-pipeline";
   const bool joint_steps = std::string(argv[3]) == "--joint-steps" || joint_pipeline;
+  const bool batches = std::string(argv[3]) == "--batches";
+  const int batch_size = batches && argc > 4 ? std::atoi(argv[4]) : 0;
+  if (batches && batch_size < 1) return fail("--batches needs a batch size of at least 1");
   std::vector<JointStep> steps;
   for (int i = 4; joint_steps && i < argc; ++i) {
     auto& [names, values] = steps.emplace_back();
@@ -146,7 +195,7 @@ int main(int argc, char** argv) {
     }
   }
   std::vector<std::tuple<double, double, double>> poses;
-  for (int i = 3; i < argc && !joint_states && !wrong_type && !joint_steps; ++i) {
+  for (int i = batches ? 5 : 3; i < argc && !joint_states && !wrong_type && !joint_steps; ++i) {
     double x, y, theta;
     if (std::sscanf(argv[i], "%lf,%lf,%lf", &x, &y, &theta) != 3)
       return fail(std::string("not X,Y,THETA: ") + argv[i]);
@@ -166,11 +215,22 @@ int main(int argc, char** argv) {
                        "rt/nearpoint/distance_reports", qos, nullptr);
   const dds_entity_t joint_topic = dds_create_topic(
       participant, &sensor_msgs_msg_dds__JointState__desc, "rt/joint_states", qos, nullptr);
-  if (update_topic < 0 || report_topic < 0 || joint_topic < 0)
+  const dds_entity_t update_batch_topic =
+      dds_create_topic(participant, &nearpoint_msgs_msg_dds__PoseUpdateBatch__desc,
+                       "rt/nearpoint/pose_update_batches", qos, nullptr);
+  const dds_entity_t report_batch_topic =
+      dds_create_topic(participant, &nearpoint_msgs_msg_dds__DistanceReportBatch__desc,
+                       "rt/nearpoint/distance_report_batches", qos, nullptr);
+  if (update_topic < 0 || report_topic < 0 || joint_topic < 0 || update_batch_topic < 0 ||
+      report_batch_topic < 0)
     return fail("dds_create_topic failed");
-  const dds_entity_t writer = dds_create_writer(
-      participant, joint_states || joint_steps ? joint_topic : update_topic, qos, nullptr);
-  const dds_entity_t reader = dds_create_reader(participant, report_topic, qos, nullptr);
+  const dds_entity_t writer = dds_create_writer(participant,
+                                                joint_states || joint_steps ? joint_topic
+                                                : batches                   ? update_batch_topic
+                                                                            : update_topic,
+                                                qos, nullptr);
+  const dds_entity_t reader =
+      dds_create_reader(participant, batches ? report_batch_topic : report_topic, qos, nullptr);
   dds_delete_qos(qos);
   if (writer < 0 || reader < 0) return fail("dds_create_writer/reader failed");
   const dds_entity_t publications =
@@ -211,7 +271,10 @@ int main(int argc, char** argv) {
     dds_get_publication_matched_status(writer, &pm);
     dds_get_subscription_matched_status(reader, &sm);
     if (pm.current_count > 0 && sm.current_count > 0) break;
-    if (std::chrono::steady_clock::now() > deadline) return fail("nearpointd not matched in 20 s");
+    if (std::chrono::steady_clock::now() > deadline)
+      return fail("nearpointd not matched in 20 s: our writer matched " +
+                  std::to_string(pm.current_count) + " reader(s), our reader " +
+                  std::to_string(sm.current_count) + " writer(s)");
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
 
@@ -252,25 +315,61 @@ int main(int argc, char** argv) {
     return answered == steps.size() ? 0 : fail("reports missing for the pipelined steps");
   }
 
-  const std::size_t count = joint_steps ? steps.size() : poses.size();
+  if (batches) {
+    // Every update first, batch_size per sample, then the reports as they come, in whichever
+    // grouping nearpointd chose; each printed once, in sequence order.
+    for (std::size_t first = 0; first < poses.size(); first += std::size_t(batch_size)) {
+      const std::size_t end = std::min(poses.size(), first + std::size_t(batch_size));
+      std::vector<nearpoint_msgs_msg_dds__ObjectPose_> storage(end - first);
+      std::vector<nearpoint_msgs_msg_dds__PoseUpdate_> updates;
+      for (std::size_t k = first; k < end; ++k) {
+        const auto [x, y, theta] = poses[k];
+        updates.push_back(mover_update(scene, k + 1, x, y, theta, storage[k - first]));
+      }
+      nearpoint_msgs_msg_dds__PoseUpdateBatch_ batch{};
+      batch.updates = {uint32_t(updates.size()), uint32_t(updates.size()), updates.data(), false};
+      if (const dds_return_t rc = dds_write(writer, &batch); rc < 0)
+        return fail(std::string("dds_write: ") + dds_strretcode(rc));
+    }
+    std::vector<std::string> lines(poses.size());
+    std::size_t answered = 0;
+    const auto wait_until = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (answered < poses.size() && std::chrono::steady_clock::now() < wait_until) {
+      void* samples[1] = {nullptr};
+      dds_sample_info_t info;
+      if (dds_take(reader, samples, &info, 1, 1) != 1) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+        continue;
+      }
+      const auto& batch =
+          *static_cast<const nearpoint_msgs_msg_dds__DistanceReportBatch_*>(samples[0]);
+      for (uint32_t i = 0; info.valid_data && i < batch.reports._length; ++i) {
+        const auto& report = batch.reports._buffer[i];
+        const std::size_t k = report.sequence_number;
+        if (std::memcmp(report.writer_guid, own.v, 16) != 0 || k < 1 || k > poses.size() ||
+            !lines[k - 1].empty())
+          continue;
+        lines[k - 1] = report_line(report);
+        ++answered;
+      }
+      dds_return_loan(reader, samples, 1);
+    }
+    for (std::size_t k = 0; k < lines.size(); ++k) {
+      if (lines[k].empty()) return fail("no batched report for sequence " + std::to_string(k + 1));
+      std::printf("%s\n", lines[k].c_str());
+    }
+  }
+
+  const std::size_t count = batches ? 0 : joint_steps ? steps.size() : poses.size();
   for (std::size_t k = 0; k < count; ++k) {
     dds_return_t written = 0;
     if (joint_steps) {
       written = write_joint_state(writer, steps[k], int32_t(1000 + k));
     } else {
       const auto [x, y, theta] = poses[k];
-      nearpoint_msgs_msg_dds__ObjectPose_ pose{};
-      pose.object_id = const_cast<char*>("mover");
-      pose.pose.position = {x, y, 0};
-      pose.pose.orientation = {0, 0, std::sin(theta / 2), std::cos(theta / 2)};
-      nearpoint_msgs_msg_dds__PoseUpdate_ update{};
-      update.header.stamp = {int32_t(1000 + k), 0};
-      update.header.frame_id = const_cast<char*>("world");
-      update.scene_id = scene.data();
-      update.client_id = const_cast<char*>("ros_peer");
-      update.sequence_number = k + 1;
-      update.poses = {1, 1, &pose, false};
-      update.thresholds = {0, 0, nullptr, false};
+      nearpoint_msgs_msg_dds__ObjectPose_ pose;
+      const nearpoint_msgs_msg_dds__PoseUpdate_ update =
+          mover_update(scene, k + 1, x, y, theta, pose);
       written = dds_write(writer, &update);
     }
     if (written < 0) return fail(std::string("dds_write: ") + dds_strretcode(written));
@@ -287,19 +386,7 @@ int main(int argc, char** argv) {
       if (info.valid_data && std::memcmp(report.writer_guid, own.v, 16) == 0 &&
           report.sequence_number == k + 1) {
         answered = true;
-        std::string line = "{\"sequence\": " + std::to_string(report.sequence_number) +
-                           ", \"status\": " + std::to_string(report.status) +
-                           ", \"stamp_sec\": " + std::to_string(report.header.stamp.sec) +
-                           ", \"message\": " + json_string(report.message) + ", \"pairs\": {";
-        for (uint32_t i = 0; i < report.pairs._length; ++i) {
-          const auto& p = report.pairs._buffer[i];
-          char numbers[80];
-          std::snprintf(numbers, sizeof numbers, "[%.17g, %.17g]", p.distance, p.error_bound);
-          line += (i ? ", " : "") +
-                  json_string((std::string(p.object_a) + "/" + p.object_b).c_str()) + ": " +
-                  numbers;
-        }
-        std::printf("%s}}\n", line.c_str());
+        std::printf("%s\n", report_line(report).c_str());
       }
       dds_return_loan(reader, samples, 1);
     }
