@@ -223,6 +223,11 @@ struct StreamState {
   /// they are written together in one DistanceReportBatch_ (Impl::flush_if_due says when), in
   /// the order the updates were taken. The samples' buffers, one per held answer, are reused.
   bool batched = false;
+  /// The PoseUpdateBatch_ sample whose updates are being accepted (its serial number, 0: none
+  /// yet) and whether it arrived while fewer than the limit waited: then it is admitted whole,
+  /// as gRPC's FLOW_CONTROL_BLOCK admits a batch read whole (Impl::accept).
+  std::uint64_t batch_serial = 0;
+  bool batch_admitted_whole = false;
   std::vector<HeldReport> held;
   std::size_t held_bytes = 0;
   Clock::time_point held_since;
@@ -247,6 +252,8 @@ struct DdsBridge::Impl {
   SceneService& scenes;
   DdsConfig config;
   std::size_t max_waiting = 1;
+  /// Numbers the PoseUpdateBatch_ samples taken (only the bridge thread takes samples).
+  std::uint64_t batches_taken = 0;
 
   dds_entity_t participant = 0;
   dds_entity_t reader = 0;
@@ -522,12 +529,13 @@ struct DdsBridge::Impl {
             errors.push_back(std::move(*error));
           continue;
         }
+        const std::uint64_t serial = ++batches_taken;
         for (std::uint32_t k = 0; k < batch.updates._length; ++k) {
           const UpdateSample& update = batch.updates._buffer[k];
           to_input(update, update_scratch);
           if (std::optional<PendingError> error =
                   accept(update_scratch, own(update.client_id), own(update.header), batch_reader,
-                         info.publication_handle))
+                         info.publication_handle, serial))
             errors.push_back(std::move(*error));
         }
       }
@@ -713,10 +721,11 @@ struct DdsBridge::Impl {
   }
 
   /// As above for an update already in the scene API's terms (from a PoseUpdate or, for a robot
-  /// scene, a JointState), taken by `source` (the reader that matched its writer).
+  /// scene, a JointState), taken by `source` (the reader that matched its writer); `batch`: the
+  /// serial number of the PoseUpdateBatch_ sample it came in (0: published alone).
   std::optional<PendingError> accept(const model::PoseUpdateInput& input, std::string client_id,
                                      Header header, dds_entity_t source,
-                                     dds_instance_handle_t publication) {
+                                     dds_instance_handle_t publication, std::uint64_t batch = 0) {
     const Clock::time_point received = Clock::now();
     // A writer on the batch topic is answered on the batch report topic.
     const bool batched = source == batch_reader;
@@ -800,9 +809,19 @@ struct DdsBridge::Impl {
     // DDS cannot hold the publisher back: beyond the limit the newest update absorbs the newest
     // one waiting (its poses already include the older one's) and takes its place at the back,
     // and its report says so.
-    const std::size_t limit =
-        stream.stream->flow_control() == model::FlowControl::coalesce ? 1 : max_waiting;
-    if (stream.waiting_updates >= limit) {
+    const bool coalescing = stream.stream->flow_control() == model::FlowControl::coalesce;
+    const std::size_t limit = coalescing ? 1 : max_waiting;
+    // A batch is admitted whole when it arrives while fewer than the limit wait, as gRPC's
+    // FLOW_CONTROL_BLOCK reads a batch whole while fewer than N are in flight: at most N − 1
+    // plus one batch's updates wait, and a batch larger than N sent to an idle stream is not
+    // merged down for want of room it never needed. One arriving while N wait merges, update by
+    // update, as samples published alone would. (A coalescing stream merges whatever arrives.)
+    if (batch != 0 && stream.batch_serial != batch) {
+      stream.batch_serial = batch;
+      stream.batch_admitted_whole = !coalescing && stream.waiting_updates < limit;
+    }
+    const bool admitted_whole = batch != 0 && stream.batch_admitted_whole;
+    if (!admitted_whole && stream.waiting_updates >= limit) {
       const auto older = std::find_if(stream.waiting.rbegin(), stream.waiting.rend(),
                                       [](const Waiting& w) { return !w.error; });
       PoseStream::coalesce(next.update, older->update);

@@ -709,12 +709,16 @@ struct HeldBatchRun {
   server::DdsBridgeStats stats;
 };
 
-/// Publishes updates 1 … `updates` (make(scene, s)) as one batch to a bridge whose only worker is
-/// held (max_in_flight 2, every evaluation on the pool), and releases the worker once the bridge
-/// has taken them all: a batch arriving faster than the server answers, for certain.
+/// Publishes updates 1 … Σ`batches` (make(scene, s)) as consecutive batches of those sizes to a
+/// bridge whose only worker is held (max_in_flight 2, every evaluation on the pool), and releases
+/// the worker once the bridge has taken them all: batches arriving faster than the server
+/// answers, for certain.
 template <class Make>
-HeldBatchRun held_batch(std::uint32_t domain, const std::string& name,
-                        std::vector<Geometry> geometries, std::uint64_t updates, Make make) {
+HeldBatchRun held_batches(std::uint32_t domain, const std::string& name,
+                          std::vector<Geometry> geometries,
+                          const std::vector<std::uint64_t>& batches, Make make) {
+  std::uint64_t updates = 0;
+  for (const std::uint64_t size : batches) updates += size;
   HeldBatchRun run;
   ServiceLimits limits;
   limits.max_in_flight_per_stream = 2;
@@ -726,10 +730,13 @@ HeldBatchRun held_batch(std::uint32_t domain, const std::string& name,
   if (run.scene.scene_id.empty() || !client) return run;
   testkit::HeldWorkers held(*server.scenes, run.scene.scene_id);
   EXPECT_TRUE(held.held());
-  BatchMessage batch;
-  for (std::uint64_t s = 1; s <= updates; ++s) batch.updates.push_back(make(run.scene, s));
-  std::string error;
-  EXPECT_TRUE(client->publish_batch(batch.sample(), error)) << error;
+  std::uint64_t next = 1;
+  for (const std::uint64_t size : batches) {
+    BatchMessage batch;
+    for (std::uint64_t k = 0; k < size; ++k) batch.updates.push_back(make(run.scene, next++));
+    std::string error;
+    EXPECT_TRUE(client->publish_batch(batch.sample(), error)) << error;
+  }
   wait_taken(*server.bridge, updates);
   held.release();
   EXPECT_EQ(server.bridge->stats().updates_taken, updates) << "the bridge took every update";
@@ -739,29 +746,34 @@ HeldBatchRun held_batch(std::uint32_t domain, const std::string& name,
   return run;
 }
 
-// Overload is counted in updates, not samples: one batch of 30 updates while the only worker is
-// held is 30 updates arriving at once, so exactly as with 30 samples (see above) one goes to the
-// pool, max_in_flight = 2 wait and 27 are merged into them; every update is accounted for once,
-// in order. Counted in samples, the batch would be one waiting entry and nothing would merge.
+// A batch is admitted whole when it arrives while fewer than max_in_flight updates wait (as
+// gRPC's BLOCK reads a batch whole), and merged update by update when it arrives while that many
+// wait. The only worker is held, max_in_flight = 2: the first batch of 30 finds the stream idle
+// and all 30 are answered on their own (merged down to the limit, 27 would have been lost to
+// merging with no overload at all); the second finds 29 waiting, so each of its 20 updates is
+// merged into the newest waiting one, overload counted in updates as with 20 samples. Every
+// update is accounted for once, in order.
 TEST(DdsBridge, BatchedUpdatesFasterThanTheServerAreMergedCountingUpdates) {
-  constexpr std::uint64_t kUpdates = 30;
-  const HeldBatchRun run = held_batch(kDomainBatchOverload, "batch_overload",
-                                      {polytope(random_hull_vertices(40, 60, 0.9)), arm(),
-                                       polytope(random_hull_vertices(41, 60, 0.9))},
-                                      kUpdates, path_update);
-  EXPECT_EQ(run.reports.size(), 3u);
-  EXPECT_EQ(run.stats.updates_coalesced, kUpdates - 3);
-  EXPECT_EQ(run.stats.reports_written, 3u);
+  const HeldBatchRun run = held_batches(kDomainBatchOverload, "batch_overload",
+                                        {polytope(random_hull_vertices(40, 60, 0.9)), arm(),
+                                         polytope(random_hull_vertices(41, 60, 0.9))},
+                                        {30, 20}, path_update);
+  EXPECT_EQ(run.reports.size(), 30u);
+  EXPECT_EQ(run.stats.updates_coalesced, 20u);
+  EXPECT_EQ(run.stats.reports_written, 30u);
+  ASSERT_FALSE(run.reports.empty());
+  EXPECT_EQ(run.reports.back().sequence, 50u) << "the last report absorbed the second batch";
 }
 
-// Thresholds through batches: one batch puts object-1 on object-0 and takes it away again,
-// twelve times in turn, naming a threshold in its first update. Every ENTER and EXIT arrives
-// once, in order, with the sequence number of the update that crossed, also when most updates
-// were merged (max_in_flight 2, the worker held), as for unbatched updates.
+// Thresholds through batches: two batches put object-1 on object-0 and take it away again,
+// twelve times in turn, naming a threshold in the first update. Every ENTER and EXIT arrives
+// once, in order, with the sequence number of the update that crossed, also when updates were
+// merged (max_in_flight 2, the worker held: the second batch finds the first waiting), as for
+// unbatched updates.
 TEST(DdsBridge, ThresholdEventsOfBatchedUpdatesKeepTheirSequenceNumbers) {
   constexpr std::uint64_t kUpdates = 12;
-  const HeldBatchRun run = held_batch(kDomainBatchEvents, "batch_events", {arm(), arm(), arm()},
-                                      kUpdates, toggle_update);
+  const HeldBatchRun run = held_batches(kDomainBatchEvents, "batch_events", {arm(), arm(), arm()},
+                                        {6, 6}, toggle_update);
   EXPECT_LT(run.reports.size(), std::size_t(kUpdates));  // updates were merged
   expect_toggle_events(run.reports, run.scene, kUpdates);
   EXPECT_EQ(run.stats.write_failures, 0u);
