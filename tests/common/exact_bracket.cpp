@@ -266,11 +266,6 @@ PairTruth pair_truth(const Piece& pa, const Piece& pb, const Exact& lo, const Ex
   return out;
 }
 
-// An exact E3 over an exact positive count, rounded: the point's coordinates as doubles.
-long double approx_quotient(const Exact& x, const Exact& n) {
-  return approx_ratio(x, n);
-}
-
 }  // namespace
 
 ExactBracket::Truth ExactBracket::truth(const ExactSum& lo_sum, const ExactSum& hi_sum) const {
@@ -312,23 +307,21 @@ ExactBracket::Truth ExactBracket::truth_where_needed(
   for (std::size_t k = 0; k < order.size(); ++k) {
     const Impl::Piece& pa = impl_->side[0][std::size_t(order[k].first)];
     const Impl::Piece& pb = impl_->side[1][std::size_t(order[k].second)];
-    bool witnessed = CGAL::sign(lo) != CGAL::POSITIVE;
-    std::vector<std::array<double, 3>> tried = directions;
-    {  // the vertex means' difference, rounded (any direction gives a valid bound)
-      const Exact ca(int(pa.world.size())), cb(int(pb.world.size()));
-      std::array<double, 3> u;
-      for (std::size_t c = 0; c < 3; ++c)
-        u[c] = double(approx_quotient(ca * pb.vertex_sum[c] - cb * pa.vertex_sum[c], ca * cb));
-      tried.push_back(u);
-    }
-    for (const std::array<double, 3>& ud : tried) {
-      if (witnessed) break;
-      if (!usable_direction(ud.data())) continue;
+    const auto above_lo = [&](const std::array<double, 3>& ud) {
+      if (!usable_direction(ud.data())) return false;
       const E3 u = exact3(ud.data());
       const Exact gap = Impl::extreme(pb, u, false) - Impl::extreme(pa, u, true);
-      witnessed = !ratio_at_most(gap, lo + pa.radius + pb.radius, dot(u, u));
-    }
-    if (witnessed) continue;
+      return !ratio_at_most(gap, lo + pa.radius + pb.radius, dot(u, u));
+    };
+    // The caller's directions, then the vertex means' difference, rounded (any direction gives
+    // a valid bound).
+    const Exact ca(int(pa.world.size())), cb(int(pb.world.size()));
+    std::array<double, 3> means{};
+    for (std::size_t c = 0; c < 3; ++c)
+      means[c] = double(approx_ratio(ca * pb.vertex_sum[c] - cb * pa.vertex_sum[c], ca * cb));
+    if (CGAL::sign(lo) != CGAL::POSITIVE ||
+        std::any_of(directions.begin(), directions.end(), above_lo) || above_lo(means))
+      continue;
     const PairTruth t = pair_truth(pa, pb, lo, hi);
     qp_done[k] = 1;
     ++out.qp_pairs;
@@ -367,7 +360,7 @@ bool ExactBracket::closest_on_simplex(int piece_a, int piece_b, int count,
     for (std::size_t c = 0; c < 3; ++c) {
       const Exact xp = index_a[k] < 0 ? pa.vertex_sum[c] : pa.world[std::size_t(index_a[k])][c];
       const Exact xq = index_b[k] < 0 ? pb.vertex_sum[c] : pb.world[std::size_t(index_b[k])][c];
-      d[std::size_t(k)][c] = approx_quotient(np * xq - nq * xp, np * nq);
+      d[std::size_t(k)][c] = approx_ratio(np * xq - nq * xp, np * nq);
     }
   }
   const auto dot3 = [](const std::array<LD, 3>& x, const std::array<LD, 3>& y) {
@@ -377,6 +370,7 @@ bool ExactBracket::closest_on_simplex(int piece_a, int piece_b, int count,
   // elimination with partial pivoting), kept when its weights are ≥ 0 after clamping round-off.
   LD best_norm2 = std::numeric_limits<LD>::infinity();
   std::array<LD, 4> best{};
+  std::array<LD, 3> best_point{};
   for (int mask = 1; mask < (1 << count); ++mask) {
     int members[4], m = 0;
     for (int k = 0; k < count; ++k)
@@ -398,7 +392,7 @@ bool ExactBracket::closest_on_simplex(int piece_a, int piece_b, int count,
         g[i][n] = -dot3(e[std::size_t(i)], p0);
       }
       bool singular = false;
-      for (int col = 0; col < n && !singular; ++col) {
+      for (int col = 0; col < n; ++col) {
         int pivot = col;
         for (int row = col + 1; row < n; ++row)
           if (std::abs(g[row][col]) > std::abs(g[pivot][col])) pivot = row;
@@ -440,14 +434,12 @@ bool ExactBracket::closest_on_simplex(int piece_a, int piece_b, int count,
     if (norm2 < best_norm2) {
       best_norm2 = norm2;
       best = lambda;
+      best_point = x;
     }
   }
   if (!(best_norm2 > 0) || !std::isfinite(best_norm2)) return false;
-  std::array<LD, 3> x{};
-  for (int k = 0; k < count; ++k)
-    for (std::size_t c = 0; c < 3; ++c) x[c] += best[std::size_t(k)] * d[std::size_t(k)][c];
   for (int k = 0; k < 4; ++k) weights[k] = k < count ? double(best[std::size_t(k)]) : 0.0;
-  for (std::size_t c = 0; c < 3; ++c) direction[c] = double(x[c]);
+  for (std::size_t c = 0; c < 3; ++c) direction[c] = double(best_point[c]);
   return usable_direction(direction);
 }
 
