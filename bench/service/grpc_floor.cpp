@@ -56,9 +56,42 @@ grpc::ByteBuffer bytes_of_size(std::size_t size) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Server, callback API: per stream one read outstanding at all times and one write; replies
-// that find a write in progress wait in the reactor's queue (as nearpointd's reports do).
+// Both servers keep one read outstanding at all times and one write; replies that find a write
+// in progress wait (as nearpointd's reports do). What a stream's completions decide, the same for
+// both APIs; the caller holds the stream's lock.
+struct ReplyQueue {
+  bool writing = false;
+  bool reading_done = false;
+  bool finished = false;
+  std::size_t queued = 0;
 
+  /// A request arrived: true if its reply is to be written now (else it waits).
+  bool on_request() {
+    if (writing) {
+      ++queued;
+      return false;
+    }
+    writing = true;
+    return true;
+  }
+  /// A write completed: true if the next waiting reply is to be written now.
+  bool on_written(bool ok) {
+    writing = false;
+    if (!ok) queued = 0;
+    if (queued == 0) return false;
+    --queued;
+    writing = true;
+    return true;
+  }
+  /// True once, when the client has half-closed and every reply is written: finish the call.
+  bool finish_now() {
+    if (!reading_done || writing || finished) return false;
+    finished = true;
+    return true;
+  }
+};
+
+// Server, callback API: one reactor per stream.
 class CallbackEcho final : public grpc::ServerGenericBidiReactor {
  public:
   explicit CallbackEcho(std::size_t reply_bytes) : reply_(bytes_of_size(reply_bytes)) {
@@ -66,54 +99,31 @@ class CallbackEcho final : public grpc::ServerGenericBidiReactor {
   }
 
   void OnReadDone(bool ok) override {
+    std::lock_guard lock(mutex_);
     if (!ok) {
-      std::lock_guard lock(mutex_);
-      reading_done_ = true;
-      finish_if_idle();
+      queue_.reading_done = true;
+      if (queue_.finish_now()) Finish(grpc::Status::OK);
       return;
     }
-    {
-      std::lock_guard lock(mutex_);
-      if (writing_) {
-        ++queued_;
-      } else {
-        writing_ = true;
-        StartWrite(&reply_);
-      }
-    }
+    if (queue_.on_request()) StartWrite(&reply_);
     StartRead(&request_);
   }
 
   void OnWriteDone(bool ok) override {
     std::lock_guard lock(mutex_);
-    writing_ = false;
-    if (ok && queued_ > 0) {
-      --queued_;
-      writing_ = true;
+    if (queue_.on_written(ok))
       StartWrite(&reply_);
-      return;
-    }
-    if (!ok) queued_ = 0;
-    finish_if_idle();
+    else if (queue_.finish_now())
+      Finish(grpc::Status::OK);
   }
 
   void OnDone() override { delete this; }
 
  private:
-  void finish_if_idle() {
-    if (reading_done_ && !writing_ && !finished_) {
-      finished_ = true;
-      Finish(grpc::Status::OK);
-    }
-  }
-
   grpc::ByteBuffer request_;
   grpc::ByteBuffer reply_;
   std::mutex mutex_;
-  bool writing_ = false;
-  bool reading_done_ = false;
-  bool finished_ = false;
-  std::size_t queued_ = 0;
+  ReplyQueue queue_;
 };
 
 class CallbackService final : public grpc::CallbackGenericService {
@@ -156,37 +166,25 @@ class AsyncCall {
       case Tag::kAccepted:
         if (!ok) return false;                       // the server is shutting down
         new AsyncCall(service_, cq_, reply_bytes_);  // the next stream's slot
-        ++pending_;
-        stream_.Read(&request_, &read_);
+        start(&AsyncCall::read);
         return true;
       case Tag::kRead:
         --pending_;
         if (!ok) {
-          reading_done_ = true;
-          return finish_if_idle();
+          queue_.reading_done = true;
+          if (queue_.finish_now()) start(&AsyncCall::finish);
+          return pending_ > 0;
         }
-        if (writing_) {
-          ++queued_;
-        } else {
-          writing_ = true;
-          ++pending_;
-          stream_.Write(reply_, &written_);
-        }
-        ++pending_;
-        stream_.Read(&request_, &read_);
+        if (queue_.on_request()) start(&AsyncCall::write);
+        start(&AsyncCall::read);
         return true;
       case Tag::kWritten:
         --pending_;
-        writing_ = false;
-        if (ok && queued_ > 0) {
-          --queued_;
-          writing_ = true;
-          ++pending_;
-          stream_.Write(reply_, &written_);
-          return true;
-        }
-        if (!ok) queued_ = 0;
-        return finish_if_idle();
+        if (queue_.on_written(ok))
+          start(&AsyncCall::write);
+        else if (queue_.finish_now())
+          start(&AsyncCall::finish);
+        return pending_ > 0;
       case Tag::kFinished:
         --pending_;
         return pending_ > 0;
@@ -195,14 +193,14 @@ class AsyncCall {
   }
 
  private:
-  bool finish_if_idle() {
-    if (reading_done_ && !writing_ && !finished_) {
-      finished_ = true;
-      ++pending_;
-      stream_.Finish(grpc::Status::OK, &finished_tag_);
-    }
-    return pending_ > 0;
+  // Every operation started is one completion to come; the call is deleted after the last.
+  void start(void (AsyncCall::*operation)()) {
+    ++pending_;
+    (this->*operation)();
   }
+  void read() { stream_.Read(&request_, &read_); }
+  void write() { stream_.Write(reply_, &written_); }
+  void finish() { stream_.Finish(grpc::Status::OK, &finished_tag_); }
 
   grpc::AsyncGenericService& service_;
   grpc::ServerCompletionQueue& cq_;
@@ -212,11 +210,8 @@ class AsyncCall {
   grpc::ByteBuffer request_;
   grpc::ByteBuffer reply_;
   std::mutex mutex_;
+  ReplyQueue queue_;
   int pending_ = 0;
-  bool writing_ = false;
-  bool reading_done_ = false;
-  bool finished_ = false;
-  std::size_t queued_ = 0;
   Tag accepted_{Tag::kAccepted, this};
   Tag read_{Tag::kRead, this};
   Tag written_{Tag::kWritten, this};
