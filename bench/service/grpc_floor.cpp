@@ -344,13 +344,24 @@ Measured drive(const std::string& target, int server_pid, int streams, int windo
   Clock::time_point started;
   std::uint64_t replies = 0, replies_at_start = 0;
   double cpu_seconds = 0, wall_seconds = 0;
+  // An error ends the run; every call is cancelled and the queue drained first, since gRPC
+  // requires a completion queue to be empty when it is destroyed.
+  auto fail = [&](std::string why) {
+    for (auto& each : all) each->context.TryCancel();
+    cq.Shutdown();
+    void* ignored_tag = nullptr;
+    bool ignored_ok = false;
+    while (cq.Next(&ignored_tag, &ignored_ok)) {
+    }
+    return Measured{0, 0, 0, std::move(why)};
+  };
   int finished = 0;
   while (finished < streams) {
     void* raw = nullptr;
     bool ok = false;
     if (cq.AsyncNext(&raw, &ok, std::chrono::system_clock::now() + std::chrono::seconds(10)) !=
         grpc::CompletionQueue::GOT_EVENT) {
-      return {0, 0, 0, "no completion for 10 s"};
+      return fail("no completion for 10 s");
     }
     auto* tag = static_cast<ClientTag*>(raw);
     ClientStream& stream = *tag->stream;
@@ -369,13 +380,13 @@ Measured drive(const std::string& target, int server_pid, int streams, int windo
     }
     switch (tag->kind) {
       case ClientTag::kStarted:
-        if (!ok) return {0, 0, 0, "stream did not start"};
+        if (!ok) return fail("stream did not start");
         stream.call->Read(&stream.reply, stream.tag(ClientTag::kRead));
         send_more(stream);
         break;
       case ClientTag::kRead:
         if (!ok) {  // the server has finished: collect its status
-          if (!stream.writes_done) return {0, 0, 0, "the server ended a stream"};
+          if (!stream.writes_done) return fail("the server ended a stream");
           stream.call->Finish(&stream.status, stream.tag(ClientTag::kFinished));
           break;
         }
@@ -386,13 +397,13 @@ Measured drive(const std::string& target, int server_pid, int streams, int windo
         break;
       case ClientTag::kWritten:
         stream.writing = false;
-        if (!ok) return {0, 0, 0, "write failed"};
+        if (!ok) return fail("write failed");
         send_more(stream);
         break;
       case ClientTag::kWritesDone:
         break;
       case ClientTag::kFinished:
-        if (!stream.status.ok()) return {0, 0, 0, stream.status.error_message()};
+        if (!stream.status.ok()) return fail(stream.status.error_message());
         ++finished;
         break;
     }
@@ -406,6 +417,10 @@ int run(int argc, char** argv) {
   double seconds = 4;
   int streams = 4, window = 4, rounds = 2, server_threads = 1, minimal_stack = 0;
   std::size_t request_bytes = 96, reply_bytes = 320;
+  if (argc % 2 == 0) {
+    std::fprintf(stderr, "every flag takes a value: %s\n", argv[argc - 1]);
+    return 2;
+  }
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string flag = argv[i];
     const char* value = argv[i + 1];
