@@ -10,7 +10,11 @@
 //              nearpointd serves StreamPoses with (gRPC's callback queue and its threads);
 //   async    — grpc::AsyncGenericService on a completion queue drained by --server-threads
 //              threads of the server's own (default 1), and no callback method at all: the
-//              "every RPC on the async API" server that RESULTS.md names as the only lever left.
+//              "every RPC on the async API" server that RESULTS.md names as the only lever left;
+//   hybrid   — async, plus one callback service that is never called (nearpoint.v1.Diagnostics
+//              with its default methods): whether a single callback service anywhere in the
+//              process brings back the callback API's cost (it does: nearpointd therefore
+//              serves every method, health and reflection included, on the async API).
 // The server does no work beyond copying the reply, so a kind's figure is an upper bound for any
 // server built on it here: messages per CPU-second of the child, and CPU µs per message.
 //
@@ -41,6 +45,7 @@
 
 #include "bench_support.hpp"
 #include "common/child_process.hpp"
+#include "nearpoint_diagnostics.grpc.pb.h"
 
 namespace {
 
@@ -227,12 +232,14 @@ int serve(const std::string& kind, std::size_t reply_bytes, int threads, bool mi
   builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
   CallbackService callback_service(reply_bytes);
   grpc::AsyncGenericService async_service;
+  nearpoint::v1::Diagnostics::CallbackService idle_callback_service;
   std::unique_ptr<grpc::ServerCompletionQueue> cq;
   if (kind == "callback") {
     builder.RegisterCallbackGenericService(&callback_service);
-  } else if (kind == "async") {
+  } else if (kind == "async" || kind == "hybrid") {
     builder.RegisterAsyncGenericService(&async_service);
     cq = builder.AddCompletionQueue();
+    if (kind == "hybrid") builder.RegisterService(&idle_callback_service);
   } else {
     std::fprintf(stderr, "unknown server kind %s\n", kind.c_str());
     return 2;
@@ -465,7 +472,7 @@ int run(int argc, char** argv) {
   const std::string self = std::filesystem::read_symlink("/proc/self/exe").string();
   int failures = 0;
   for (int round = 1; round <= rounds; ++round) {
-    for (const char* kind : {"callback", "async"}) {
+    for (const char* kind : {"callback", "async", "hybrid"}) {
       ChildProcess child({self, "--serve", kind, "--reply-bytes", std::to_string(reply_bytes),
                           "--server-threads", std::to_string(server_threads), "--minimal-stack",
                           std::to_string(minimal_stack)});
