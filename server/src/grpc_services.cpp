@@ -33,29 +33,25 @@ std::string routing_key(const grpc::ServerContextBase* context) {
   return std::string(found->second.data(), std::min<std::size_t>(found->second.size(), 128));
 }
 
-/// One unary call whose request we parsed (see RawDistanceService). Its typed handler fills
+/// One unary call whose request we parsed (see DistanceServiceImpl). Its typed handler fills
 /// `response` and ends the call exactly once, with finish() or reject(), possibly later and on
 /// another thread (Query ends from the pool); the call object lives until then.
 template <class Request, class Response>
 class UnaryCall {
  public:
-  UnaryCall(grpc::ServerUnaryReactor* reactor, CallRegistry& calls,
-            grpc::CallbackServerContext* context, const char* rpc, grpc::ByteBuffer* response_bytes)
-      : context(context),
-        rpc(rpc),
-        reactor_(reactor),
-        calls_(calls),
-        response_bytes_(response_bytes) {}
+  UnaryCall(std::shared_ptr<UnaryCallHandle> handle, CallRegistry& calls, const char* rpc)
+      : context(handle->context()), rpc(rpc), handle_(std::move(handle)), calls_(calls) {}
 
   /// Ends the call: `status`, with the serialised response when OK.
   void finish(grpc::Status status) {
+    grpc::ByteBuffer response_bytes;
     if (status.ok()) {
       bool own_buffer = false;
       status =
-          grpc::SerializationTraits<Response>::Serialize(response, response_bytes_, &own_buffer);
+          grpc::SerializationTraits<Response>::Serialize(response, &response_bytes, &own_buffer);
     }
     metrics::record_grpc_status(rpc, status.error_code());
-    reactor_->Finish(status);
+    handle_->finish(status, &response_bytes);
     calls_.end_unary();
   }
   /// Ends the call with `error` and logs it (one line per rejected request).
@@ -69,15 +65,14 @@ class UnaryCall {
     finish(to_grpc_status(error));
   }
 
-  grpc::CallbackServerContext* const context;
+  grpc::GenericServerContext* const context;
   const char* const rpc;
   Request request;
   Response response;
 
  private:
-  grpc::ServerUnaryReactor* const reactor_;
+  const std::shared_ptr<UnaryCallHandle> handle_;
   CallRegistry& calls_;
-  grpc::ByteBuffer* const response_bytes_;
 };
 
 /// A report larger than the server sends cannot go out (gRPC would fail the call with "Sent
@@ -93,28 +88,23 @@ std::optional<Error> check_report_fits(const v1::DistanceReport& report, std::si
            limit, " bytes the server sends in one message (--max-message-bytes)"));
 }
 
-/// The reactor of a unary call refused because the server is draining.
-grpc::ServerUnaryReactor* refuse(grpc::ServerUnaryReactor* reactor) {
-  reactor->Finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, kShuttingDown));
-  return reactor;
-}
-
-/// The raw unary method's body: refuse while draining, parse the request (INVALID_ARGUMENT with
-/// the reason when it does not parse), then hand the call to `handler`, which ends it.
+/// A unary method: refuse while draining, parse the request (INVALID_ARGUMENT with the reason
+/// when it does not parse), then hand the call to `handler`, which ends it.
 template <class Request, class Response, class Handler>
-grpc::ServerUnaryReactor* serve_unary(CallRegistry& calls, grpc::CallbackServerContext* context,
-                                      const char* rpc, const grpc::ByteBuffer* request_bytes,
-                                      grpc::ByteBuffer* response_bytes, Handler&& handler) {
-  grpc::ServerUnaryReactor* reactor = context->DefaultReactor();
-  if (!calls.begin_unary()) return refuse(reactor);
-  auto call =
-      std::make_shared<UnaryCall<Request, Response>>(reactor, calls, context, rpc, response_bytes);
-  if (std::string why = parse_message(*request_bytes, call->request); !why.empty()) {
-    call->reject(invalid_argument("", text("request ", why)));
-    return reactor;
-  }
-  handler(call);
-  return reactor;
+UnaryHandler unary_method(CallRegistry& calls, const char* rpc, Handler handler) {
+  return [&calls, rpc, handler](const grpc::ByteBuffer& request_bytes,
+                                const std::shared_ptr<UnaryCallHandle>& handle) {
+    if (!calls.begin_unary()) {
+      handle->finish(grpc::Status(grpc::StatusCode::UNAVAILABLE, kShuttingDown), nullptr);
+      return;
+    }
+    auto call = std::make_shared<UnaryCall<Request, Response>>(handle, calls, rpc);
+    if (std::string why = parse_message(request_bytes, call->request); !why.empty()) {
+      call->reject(invalid_argument("", text("request ", why)));
+      return;
+    }
+    handler(call);
+  };
 }
 
 // ---- StreamPoses and StreamPoseBatches ----
@@ -149,18 +139,18 @@ constexpr std::size_t kBatchEntryOverhead = 6;
 /// entries, so that a write is the reports ready at that moment, concatenated up to the message
 /// size limit: nothing waits for a batch to fill.
 ///
-/// Locking: `mutex_` guards every member below it. gRPC never runs a reaction inline inside
-/// StartRead/StartWrite/Finish (their tags are not inlineable), so calling them under the lock
-/// is safe; OnDone takes the lock once before deleting, so whoever called Finish has let go.
-class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>,
-                                public DrainableStream {
+/// Locking: `mutex_` guards every member below it. A reaction never runs inline inside
+/// StartRead/StartWrite/Finish (it comes from the completion queue), so calling them under the
+/// lock is safe; OnDone takes the lock once before deleting, so whoever called Finish has let go.
+class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
  public:
-  PoseStreamReactor(DistanceServiceImpl& service, grpc::CallbackServerContext* context,
-                    std::uint64_t number, StreamFraming framing)
-      : service_(service),
-        context_(context),
+  PoseStreamReactor(AsyncCall& call, DistanceServiceImpl& service, std::uint64_t number,
+                    StreamFraming framing)
+      : AsyncReactor(call),
+        service_(service),
+        context_(context()),
         number_(number),
-        peer_(context->peer()),
+        peer_(context_->peer()),
         batched_(framing == StreamFraming::batched),
         rpc_(batched_ ? "StreamPoseBatches" : "StreamPoses"),
         report_limit_(batched_ ? service.max_message_bytes() - kBatchEntryOverhead
@@ -192,7 +182,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
         .kv("stream", number_)
         .kv("rpc", rpc_)
         .kv("peer", peer_)
-        .kv("routing_key", routing_key(context));
+        .kv("routing_key", routing_key(context_));
     std::unique_lock lock(mutex_);
     Pump(lock);
   }
@@ -496,7 +486,7 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
 
   ReactorHandoff handoff_;
   DistanceServiceImpl& service_;
-  grpc::CallbackServerContext* const context_;  // valid until OnDone returns
+  grpc::GenericServerContext* const context_;  // valid until OnDone returns
   const std::uint64_t number_;
   const std::string peer_;
   const bool batched_;
@@ -545,11 +535,11 @@ class PoseStreamReactor final : public grpc::ServerBidiReactor<grpc::ByteBuffer,
 
 // ---- Echo ----
 
-/// Writes back every message it reads, one at a time (the transport floor for benchmarks).
-class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::EchoMessage>,
-                          public DrainableStream {
+/// Writes back every message it reads, one at a time (the transport floor for benchmarks), as
+/// the bytes it read: an EchoMessage comes back as sent, without a parse and a serialisation.
+class EchoReactor final : public AsyncReactor, public DrainableStream {
  public:
-  explicit EchoReactor(CallRegistry& registry) : registry_(registry) {
+  EchoReactor(AsyncCall& call, CallRegistry& registry) : AsyncReactor(call), registry_(registry) {
     const auto constructed = handoff_.construction();  // see tsan_handoff.hpp
     registered_ = registry_.add(this);  // not under mutex_: drain_all locks them the other way
     std::lock_guard lock(mutex_);
@@ -603,7 +593,7 @@ class EchoReactor final : public grpc::ServerBidiReactor<v1::EchoMessage, v1::Ec
   CallRegistry& registry_;
   bool registered_ = false;
   std::mutex mutex_;
-  v1::EchoMessage message_;
+  grpc::ByteBuffer message_;
   bool reading_ = false;
   bool writing_ = false;
   bool draining_ = false;
@@ -777,88 +767,58 @@ void query(SceneService& scenes, std::size_t max_message_bytes,
 
 }  // namespace
 
-grpc::ServerUnaryReactor* DistanceServiceImpl::RegisterGeometry(
-    grpc::CallbackServerContext* context, const grpc::ByteBuffer* request,
-    grpc::ByteBuffer* response) {
-  return serve_unary<v1::RegisterGeometryRequest, v1::RegisterGeometryResponse>(
-      calls_, context, "RegisterGeometry", request, response,
-      [this](const auto& call) { register_geometry(scenes_, *call); });
+void DistanceServiceImpl::register_methods(AsyncGrpcServer& server) {
+  const std::string prefix = text("/", v1::DistanceService::service_full_name(), "/");
+  server.add_unary_method(prefix + "RegisterGeometry",
+                          unary_method<v1::RegisterGeometryRequest, v1::RegisterGeometryResponse>(
+                              calls_, "RegisterGeometry",
+                              [this](const auto& call) { register_geometry(scenes_, *call); }));
+  server.add_unary_method(
+      prefix + "RemoveGeometry",
+      unary_method<v1::RemoveGeometryRequest, v1::RemoveGeometryResponse>(
+          calls_, "RemoveGeometry", [this](const auto& call) { remove_geometry(scenes_, *call); }));
+  server.add_unary_method(
+      prefix + "ListGeometries",
+      unary_method<v1::ListGeometriesRequest, v1::ListGeometriesResponse>(
+          calls_, "ListGeometries", [this](const auto& call) { list_geometries(scenes_, *call); }));
+  server.add_unary_method(
+      prefix + "CreateScene",
+      unary_method<v1::CreateSceneRequest, v1::CreateSceneResponse>(
+          calls_, "CreateScene", [this](const auto& call) { create_scene(scenes_, *call); }));
+  server.add_unary_method(
+      prefix + "DeleteScene",
+      unary_method<v1::DeleteSceneRequest, v1::DeleteSceneResponse>(
+          calls_, "DeleteScene", [this](const auto& call) { delete_scene(scenes_, *call); }));
+  server.add_unary_method(
+      prefix + "ListScenes",
+      unary_method<v1::ListScenesRequest, v1::ListScenesResponse>(
+          calls_, "ListScenes", [this](const auto& call) { list_scenes(scenes_, *call); }));
+  server.add_unary_method(prefix + "Query", unary_method<v1::QueryRequest, v1::DistanceReport>(
+                                                calls_, "Query", [this](const auto& call) {
+                                                  query(scenes_, max_message_bytes_, call);
+                                                }));
+  server.add_unary_method(
+      prefix + "GetServerInfo",
+      unary_method<v1::GetServerInfoRequest, v1::ServerInfo>(
+          calls_, "GetServerInfo", [this](const auto& call) {
+            call->response = server_info_;
+            call->response.mutable_transports()->set_grpc_port(std::uint32_t(port_.load()));
+            call->finish(grpc::Status::OK);
+          }));
+  server.add_method(prefix + "StreamPoses", [this](AsyncCall& call) -> AsyncReactor* {
+    return new PoseStreamReactor(call, *this, next_stream_number_.fetch_add(1),
+                                 StreamFraming::one_per_message);
+  });
+  server.add_method(prefix + "StreamPoseBatches", [this](AsyncCall& call) -> AsyncReactor* {
+    return new PoseStreamReactor(call, *this, next_stream_number_.fetch_add(1),
+                                 StreamFraming::batched);
+  });
 }
 
-grpc::ServerUnaryReactor* DistanceServiceImpl::RemoveGeometry(grpc::CallbackServerContext* context,
-                                                              const grpc::ByteBuffer* request,
-                                                              grpc::ByteBuffer* response) {
-  return serve_unary<v1::RemoveGeometryRequest, v1::RemoveGeometryResponse>(
-      calls_, context, "RemoveGeometry", request, response,
-      [this](const auto& call) { remove_geometry(scenes_, *call); });
-}
-
-grpc::ServerUnaryReactor* DistanceServiceImpl::ListGeometries(grpc::CallbackServerContext* context,
-                                                              const grpc::ByteBuffer* request,
-                                                              grpc::ByteBuffer* response) {
-  return serve_unary<v1::ListGeometriesRequest, v1::ListGeometriesResponse>(
-      calls_, context, "ListGeometries", request, response,
-      [this](const auto& call) { list_geometries(scenes_, *call); });
-}
-
-grpc::ServerUnaryReactor* DistanceServiceImpl::CreateScene(grpc::CallbackServerContext* context,
-                                                           const grpc::ByteBuffer* request,
-                                                           grpc::ByteBuffer* response) {
-  return serve_unary<v1::CreateSceneRequest, v1::CreateSceneResponse>(
-      calls_, context, "CreateScene", request, response,
-      [this](const auto& call) { create_scene(scenes_, *call); });
-}
-
-grpc::ServerUnaryReactor* DistanceServiceImpl::DeleteScene(grpc::CallbackServerContext* context,
-                                                           const grpc::ByteBuffer* request,
-                                                           grpc::ByteBuffer* response) {
-  return serve_unary<v1::DeleteSceneRequest, v1::DeleteSceneResponse>(
-      calls_, context, "DeleteScene", request, response,
-      [this](const auto& call) { delete_scene(scenes_, *call); });
-}
-
-grpc::ServerUnaryReactor* DistanceServiceImpl::GetServerInfo(grpc::CallbackServerContext* context,
-                                                             const grpc::ByteBuffer* request,
-                                                             grpc::ByteBuffer* response) {
-  return serve_unary<v1::GetServerInfoRequest, v1::ServerInfo>(
-      calls_, context, "GetServerInfo", request, response, [this](const auto& call) {
-        call->response = server_info_;
-        call->response.mutable_transports()->set_grpc_port(std::uint32_t(port_.load()));
-        call->finish(grpc::Status::OK);
-      });
-}
-
-grpc::ServerUnaryReactor* DistanceServiceImpl::ListScenes(grpc::CallbackServerContext* context,
-                                                          const grpc::ByteBuffer* request,
-                                                          grpc::ByteBuffer* response) {
-  return serve_unary<v1::ListScenesRequest, v1::ListScenesResponse>(
-      calls_, context, "ListScenes", request, response,
-      [this](const auto& call) { list_scenes(scenes_, *call); });
-}
-
-grpc::ServerUnaryReactor* DistanceServiceImpl::Query(grpc::CallbackServerContext* context,
-                                                     const grpc::ByteBuffer* request,
-                                                     grpc::ByteBuffer* response) {
-  return serve_unary<v1::QueryRequest, v1::DistanceReport>(
-      calls_, context, "Query", request, response,
-      [this](const auto& call) { query(scenes_, max_message_bytes_, call); });
-}
-
-grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* DistanceServiceImpl::StreamPoses(
-    grpc::CallbackServerContext* context) {
-  return new PoseStreamReactor(*this, context, next_stream_number_.fetch_add(1),
-                               StreamFraming::one_per_message);
-}
-
-grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* DistanceServiceImpl::StreamPoseBatches(
-    grpc::CallbackServerContext* context) {
-  return new PoseStreamReactor(*this, context, next_stream_number_.fetch_add(1),
-                               StreamFraming::batched);
-}
-
-grpc::ServerBidiReactor<v1::EchoMessage, v1::EchoMessage>* DiagnosticsServiceImpl::Echo(
-    grpc::CallbackServerContext*) {
-  return new EchoReactor(calls_);
+void DiagnosticsServiceImpl::register_methods(AsyncGrpcServer& server) {
+  server.add_method(
+      text("/", v1::Diagnostics::service_full_name(), "/Echo"),
+      [this](AsyncCall& call) -> AsyncReactor* { return new EchoReactor(call, calls_); });
 }
 
 }  // namespace nearpoint::server

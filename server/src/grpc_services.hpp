@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: Apache-2.0
-// The gRPC adapters: DistanceService and Diagnostics as callback services (one reactor class per
-// streaming RPC, state in members, OnDone cleans up — as in gRPC's route_guide example).
+// The gRPC adapters: DistanceService and Diagnostics on the async generic server (grpc_async.hpp):
+// one reactor class per streaming RPC, state in members, OnDone cleans up.
 #pragma once
 
 #include <atomic>
@@ -10,6 +10,7 @@
 #include <mutex>
 #include <unordered_set>
 
+#include "grpc_async.hpp"
 #include "nearpoint/server/scene_service.hpp"
 #include "nearpoint_diagnostics.grpc.pb.h"
 #include "nearpoint_distance.grpc.pb.h"
@@ -48,65 +49,25 @@ class CallRegistry {
   bool draining_ = false;
 };
 
-/// DistanceService with every method raw (requests and responses as grpc::ByteBuffer). With
-/// the generated typed handlers gRPC parses before our code runs: a unary request that does not
-/// parse is answered UNIMPLEMENTED without a message (read as "no such method"), and a stream
-/// message that does not parse ends the reads like a half-close, so the stream ended OK. Parsing
-/// ourselves (wire_parse.hpp) answers INVALID_ARGUMENT with the reason instead.
-using RawDistanceService = v1::DistanceService::WithRawCallbackMethod_RegisterGeometry<
-    v1::DistanceService::WithRawCallbackMethod_RemoveGeometry<
-        v1::DistanceService::WithRawCallbackMethod_ListGeometries<
-            v1::DistanceService::WithRawCallbackMethod_CreateScene<
-                v1::DistanceService::WithRawCallbackMethod_DeleteScene<
-                    v1::DistanceService::WithRawCallbackMethod_ListScenes<
-                        v1::DistanceService::WithRawCallbackMethod_Query<
-                            v1::DistanceService::WithRawCallbackMethod_StreamPoses<
-                                v1::DistanceService::WithRawCallbackMethod_StreamPoseBatches<
-                                    v1::DistanceService::WithRawCallbackMethod_GetServerInfo<
-                                        v1::DistanceService::Service>>>>>>>>>>;
-
-class DistanceServiceImpl final : public RawDistanceService {
+/// nearpoint.v1.DistanceService on the async generic server. Every method is raw: we parse the
+/// requests ourselves (wire_parse.hpp), so that one that does not parse is answered
+/// INVALID_ARGUMENT with the reason (gRPC's typed handlers answer a unary request UNIMPLEMENTED
+/// without a message, and end a stream's reads like a half-close).
+class DistanceServiceImpl final {
  public:
   /// `max_message_bytes`: the server's send limit; a report larger than that is answered with an
   /// error instead (see the service's send-time check).
   DistanceServiceImpl(SceneService& scenes, std::size_t max_message_bytes)
       : scenes_(scenes), max_message_bytes_(max_message_bytes) {}
 
-  // Each parses its request (INVALID_ARGUMENT when it does not parse), then runs the typed
-  // handler of the same name in grpc_services.cpp.
-  grpc::ServerUnaryReactor* RegisterGeometry(grpc::CallbackServerContext* context,
-                                             const grpc::ByteBuffer* request,
-                                             grpc::ByteBuffer* response) override;
-  grpc::ServerUnaryReactor* RemoveGeometry(grpc::CallbackServerContext* context,
-                                           const grpc::ByteBuffer* request,
-                                           grpc::ByteBuffer* response) override;
-  grpc::ServerUnaryReactor* ListGeometries(grpc::CallbackServerContext* context,
-                                           const grpc::ByteBuffer* request,
-                                           grpc::ByteBuffer* response) override;
-  grpc::ServerUnaryReactor* CreateScene(grpc::CallbackServerContext* context,
-                                        const grpc::ByteBuffer* request,
-                                        grpc::ByteBuffer* response) override;
-  grpc::ServerUnaryReactor* DeleteScene(grpc::CallbackServerContext* context,
-                                        const grpc::ByteBuffer* request,
-                                        grpc::ByteBuffer* response) override;
-  grpc::ServerUnaryReactor* ListScenes(grpc::CallbackServerContext* context,
-                                       const grpc::ByteBuffer* request,
-                                       grpc::ByteBuffer* response) override;
-  grpc::ServerUnaryReactor* Query(grpc::CallbackServerContext* context,
-                                  const grpc::ByteBuffer* request,
-                                  grpc::ByteBuffer* response) override;
-  /// Messages are parsed as nearpoint.v1.PoseUpdate; one that does not parse ends the stream
-  /// with INVALID_ARGUMENT once the updates read before it are answered.
-  grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* StreamPoses(
-      grpc::CallbackServerContext* context) override;
-  /// StreamPoses with nearpoint.v1.PoseUpdateBatch and DistanceReportBatch messages: the same
-  /// reactor, each update in a batch handled as if it had arrived alone.
-  grpc::ServerBidiReactor<grpc::ByteBuffer, grpc::ByteBuffer>* StreamPoseBatches(
-      grpc::CallbackServerContext* context) override;
-  /// Answers set_server_info()'s description with the bound port filled in.
-  grpc::ServerUnaryReactor* GetServerInfo(grpc::CallbackServerContext* context,
-                                          const grpc::ByteBuffer* request,
-                                          grpc::ByteBuffer* response) override;
+  /// Routes the service's methods on `server` (before it starts). The unary methods parse their
+  /// request, then run the typed handler of the same name in grpc_services.cpp. StreamPoses
+  /// parses nearpoint.v1.PoseUpdate messages: one that does not parse ends the stream with
+  /// INVALID_ARGUMENT once the updates read before it are answered. StreamPoseBatches is the same
+  /// with PoseUpdateBatch and DistanceReportBatch messages, each update in a batch handled as if
+  /// it had arrived alone. GetServerInfo answers set_server_info()'s description with the bound
+  /// port filled in.
+  void register_methods(AsyncGrpcServer& server);
 
   /// What GetServerInfo answers (set once, before the server starts); `port`: the bound gRPC
   /// port, known only after the bind, so set apart.
@@ -126,10 +87,11 @@ class DistanceServiceImpl final : public RawDistanceService {
   std::atomic<int> port_{0};
 };
 
-class DiagnosticsServiceImpl final : public v1::Diagnostics::CallbackService {
+/// nearpoint.v1.Diagnostics: Echo writes back every message it reads, one at a time (the
+/// transport's floor, for benchmarks).
+class DiagnosticsServiceImpl final {
  public:
-  grpc::ServerBidiReactor<v1::EchoMessage, v1::EchoMessage>* Echo(
-      grpc::CallbackServerContext* context) override;
+  void register_methods(AsyncGrpcServer& server);
   CallRegistry& calls() { return calls_; }
 
  private:

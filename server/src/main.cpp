@@ -129,6 +129,10 @@ void add_transport_flags(CLI::App& app, Flags& flags) {
       ->envname("NEARPOINT_LISTEN");
   app.add_option("--port-file", flags.port_file,
                  "Write the bound port to this file once listening");
+  app.add_option("--grpc-threads", flags.config.grpc_threads,
+                 "Threads serving gRPC's completion queue (1 costs least per message)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
   app.add_option("--max-message-bytes", flags.config.max_message_bytes,
                  "Largest gRPC message received or sent")
       ->capture_default_str()

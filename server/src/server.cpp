@@ -15,6 +15,10 @@ namespace nearpoint::server {
 
 namespace {
 
+/// Threads for unary requests, off the completion queue (a large geometry's hull, a scene's
+/// pairs): two, so that one long request does not hold up every other.
+constexpr int kControlThreads = 2;
+
 /// GetServerInfo's answer, all but the bound port: the process's description, the gRPC
 /// transport's security and the limits the scene service enforces.
 v1::ServerInfo describe_server(const ServerConfig& config, const ServiceLimits& limits,
@@ -64,6 +68,7 @@ struct GrpcServer::Impl {
   std::shared_ptr<SceneService> scenes;
   std::unique_ptr<DistanceServiceImpl> distance;
   std::unique_ptr<DiagnosticsServiceImpl> diagnostics;
+  std::unique_ptr<AsyncGrpcServer> calls;  // stopped after the gRPC server has shut down
   std::unique_ptr<grpc::Server> server;
   int port = 0;
   std::mutex shutdown_mutex;
@@ -93,8 +98,8 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
       describe_server(config, impl.scenes->limits(), impl.scenes->worker_count()));
   if (config.diagnostics) impl.diagnostics = std::make_unique<DiagnosticsServiceImpl>();
 
-  grpc::EnableDefaultHealthCheckService(true);
-  grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  grpc::EnableDefaultHealthCheckService(false);  // HEALTH-WIRING
+  // REFLECTION-WIRING
   grpc::ServerBuilder builder;
   // gRPC sets SO_REUSEPORT by default, which lets a second server bind a port already in use
   // without an error; we want "address in use" to be an error.
@@ -104,11 +109,14 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
   builder.SetMaxReceiveMessageSize(max_message);
   builder.SetMaxSendMessageSize(max_message);
   builder.AddListeningPort(config.listen, make_server_credentials(config.security), &impl.port);
-  builder.RegisterService(impl.distance.get());
-  if (impl.diagnostics) builder.RegisterService(impl.diagnostics.get());
+  impl.calls = std::make_unique<AsyncGrpcServer>(builder);
+  impl.distance->register_methods(*impl.calls);
+  if (impl.diagnostics) impl.diagnostics->register_methods(*impl.calls);
   impl.server = builder.BuildAndStart();
   if (!impl.server || impl.port == 0) {
+    if (impl.server) impl.server->Shutdown();
     impl.server.reset();
+    impl.calls->stop();
     impl.shut_down = true;
     return Error{
         ErrorCode::unavailable, "listen",
@@ -116,6 +124,7 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
              config.security.tls() ? ", or the TLS key does not match the certificate" : "", ")")};
   }
   impl.distance->set_port(impl.port);
+  impl.calls->start(int(std::max<std::size_t>(config.grpc_threads, 1)), kControlThreads);
   if (grpc::HealthCheckServiceInterface* health = impl.server->GetHealthCheckService()) {
     health->SetServingStatus(true);
     health->SetServingStatus("nearpoint.v1.DistanceService", true);
@@ -158,6 +167,7 @@ void GrpcServer::shutdown() {
   // connections; connections still open then (idle clients keep theirs) are closed by force.
   impl.server->Shutdown(std::chrono::system_clock::now() + impl.config.flush_timeout);
   impl.server->Wait();
+  impl.calls->stop();
   log_info("shutdown_complete")
       .kv("drained", drained ? "all" : "timed_out")
       .kv("ms", std::chrono::duration<double, std::milli>(Clock::now() - begin).count());

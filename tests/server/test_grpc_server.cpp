@@ -1280,6 +1280,56 @@ TEST_F(GrpcServerTest, ReflectionListsTheServices) {
   EXPECT_NE(bytes.find("grpc.health.v1.Health"), std::string::npos);
 }
 
+// Every method is served on the async generic API and routed by its path (grpc_async.hpp), so
+// the answers gRPC's own handlers gave are ours to give: a path no service has is UNIMPLEMENTED
+// and names the path; a unary method called without a request message (a client that
+// half-closes at once) is INVALID_ARGUMENT, and the server goes on serving.
+TEST_F(GrpcServerTest, UnknownMethodsAndUnaryCallsWithoutARequestAreRefusedWithTheReason) {
+  grpc::GenericStub generic(running_.channel);
+  // One call: no message sent, `writes` ended at once; the status that ends it.
+  auto call_without_request = [&](const std::string& path) {
+    grpc::CompletionQueue queue;
+    auto context = make_context();
+    auto call = generic.PrepareCall(context.get(), path, &queue);
+    auto wait = [&](std::intptr_t expected) {
+      void* tag = nullptr;
+      bool ok = false;
+      EXPECT_TRUE(queue.Next(&tag, &ok));
+      EXPECT_EQ(reinterpret_cast<std::intptr_t>(tag), expected);
+      return ok;
+    };
+    call->StartCall(reinterpret_cast<void*>(1));
+    wait(1);
+    call->WritesDone(reinterpret_cast<void*>(2));
+    wait(2);
+    grpc::Status status;
+    call->Finish(&status, reinterpret_cast<void*>(3));
+    wait(3);
+    queue.Shutdown();
+    void* tag;
+    bool ok;
+    while (queue.Next(&tag, &ok)) {
+    }
+    return status;
+  };
+
+  const grpc::Status unknown = call_without_request("/nearpoint.v1.DistanceService/NoSuchMethod");
+  EXPECT_EQ(unknown.error_code(), grpc::StatusCode::UNIMPLEMENTED);
+  EXPECT_NE(unknown.error_message().find("/nearpoint.v1.DistanceService/NoSuchMethod"),
+            std::string::npos)
+      << unknown.error_message();
+  EXPECT_EQ(call_without_request("/no.such.Service/Method").error_code(),
+            grpc::StatusCode::UNIMPLEMENTED);
+
+  const grpc::Status empty = call_without_request("/nearpoint.v1.DistanceService/ListGeometries");
+  EXPECT_EQ(empty.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << empty.error_message();
+  EXPECT_NE(empty.error_message().find("no request"), std::string::npos) << empty.error_message();
+
+  // Still serving.
+  v1::ListGeometriesResponse listed;
+  EXPECT_TRUE(stub().ListGeometries(make_context().get(), {}, &listed).ok());
+}
+
 // The echo stream the service benchmark uses for the transport floor.
 TEST_F(GrpcServerTest, DiagnosticsEchoWritesBackWhatItReads) {
   auto stub = v1::Diagnostics::NewStub(running_.channel);

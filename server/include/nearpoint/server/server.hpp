@@ -34,6 +34,10 @@ struct ServerConfig {
   std::string listen = "127.0.0.1:50051";
   /// Geometry worker threads; 0 = one per hardware thread.
   std::size_t workers = 0;
+  /// Threads serving gRPC's completion queue (every call's reads and writes, and the small
+  /// evaluations a stream runs on the thread that read the update). One is the cheapest per
+  /// message; more only help when one thread's share of a core is the limit.
+  std::size_t grpc_threads = 1;
   ServiceLimits limits;
   /// Largest message received or sent, bytes. Larger requests fail with RESOURCE_EXHAUSTED.
   std::size_t max_message_bytes = kDefaultMaxMessageBytes;
