@@ -1,0 +1,132 @@
+// SPDX-License-Identifier: Apache-2.0
+// nearpointd's gRPC server core: every method on gRPC's async generic API, driven by completion-
+// queue threads of our own, with the callback API's reactor interface on top.
+//
+// Why not the callback API: on gRPC 1.51 (Debian 12) the callback queue's threads take part in
+// polling and hand every message from thread to thread. An empty streaming server costs about
+// 20 µs of CPU per message on the callback API and 10.5 µs on one completion-queue thread, and a
+// single callback (or sync) service anywhere in the process brings the 20 µs back
+// (bench/service/grpc_floor.cpp, "hybrid"). So the server has no callback or sync service at all:
+// DistanceService, Diagnostics, health and reflection are all served here, routed by method path.
+#pragma once
+
+#include <grpcpp/generic/async_generic_service.h>
+#include <grpcpp/grpcpp.h>
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+namespace nearpoint::server {
+
+class AsyncCall;
+
+/// One call's logic, as a reactor of gRPC's callback API: at most one read and one write
+/// outstanding, each answered by OnReadDone / OnWriteDone on a completion-queue thread (never
+/// inline inside StartRead/StartWrite/Finish), OnCancel when the call is cancelled, and OnDone
+/// exactly once, last, after Finish has completed and no other reaction is running. The
+/// reactor owns itself: it is created by its method's factory and usually deletes itself in
+/// OnDone. StartRead, StartWrite and Finish may be called from any thread.
+class AsyncReactor {
+ public:
+  AsyncReactor(const AsyncReactor&) = delete;
+  AsyncReactor& operator=(const AsyncReactor&) = delete;
+
+  virtual void OnReadDone(bool /*ok*/) {}
+  virtual void OnWriteDone(bool /*ok*/) {}
+  virtual void OnCancel() {}
+  virtual void OnDone() = 0;
+
+ protected:
+  explicit AsyncReactor(AsyncCall& call) : call_(call) {}
+  virtual ~AsyncReactor() = default;
+
+  /// The call's context (peer, metadata, cancellation); valid until OnDone returns.
+  grpc::GenericServerContext* context() const;
+  void StartRead(grpc::ByteBuffer* message);
+  /// `message` may be reused once this returns (gRPC holds its own reference to the bytes).
+  void StartWrite(const grpc::ByteBuffer* message);
+  void Finish(const grpc::Status& status);
+  /// A unary call's answer: `response` and OK in one operation.
+  void FinishWithResponse(const grpc::ByteBuffer& response);
+
+ private:
+  AsyncCall& call_;
+};
+
+/// Makes the reactor of a call routed to a method (see AsyncGrpcServer::add_method). Runs on a
+/// completion-queue thread, so it must not block.
+using ReactorFactory = std::function<AsyncReactor*(AsyncCall& call)>;
+
+/// A unary method's body: the request's bytes, and the means to end the call exactly once
+/// (possibly later, from another thread). Runs on one of the server's control threads, never on
+/// a completion-queue thread, so that a long request (a large geometry's hull) holds up no
+/// stream.
+class UnaryCallHandle {
+ public:
+  virtual ~UnaryCallHandle() = default;
+  virtual grpc::GenericServerContext* context() const = 0;
+  /// Ends the call: `status`, with `response` when OK (ignored otherwise).
+  virtual void finish(const grpc::Status& status, const grpc::ByteBuffer* response) = 0;
+};
+using UnaryHandler = std::function<void(const grpc::ByteBuffer& request,
+                                        const std::shared_ptr<UnaryCallHandle>& call)>;
+
+/// The generic service, its completion queue and threads, the method table, and the control
+/// threads unary methods run on.
+class AsyncGrpcServer {
+ public:
+  /// Registers the generic service and adds the completion queue; before builder.BuildAndStart().
+  explicit AsyncGrpcServer(grpc::ServerBuilder& builder);
+  ~AsyncGrpcServer();
+
+  /// Routes `path` ("/package.Service/Method") to reactors made by `make`. Before start().
+  void add_method(std::string path, ReactorFactory make);
+  /// A unary method: one request message in, one response out (see UnaryHandler).
+  void add_unary_method(std::string path, UnaryHandler handler);
+
+  /// Starts serving: `queue_threads` completion-queue threads and `control_threads` threads for
+  /// unary handlers. After BuildAndStart().
+  void start(int queue_threads, int control_threads);
+  /// After grpc::Server::Shutdown() has returned: waits until every call is over, then shuts the
+  /// queue down and joins every thread. Idempotent.
+  void stop();
+
+  /// Runs `task` on a control thread.
+  void post(std::function<void()> task);
+
+ private:
+  friend class AsyncCall;
+  void accept_next();
+  /// Called by an accepted call: makes its reactor (nullptr: no such method).
+  AsyncReactor* route(AsyncCall& call);
+  void call_ended();
+  void serve_queue();
+  void serve_control();
+
+  grpc::AsyncGenericService service_;
+  std::unique_ptr<grpc::ServerCompletionQueue> queue_;
+  std::unordered_map<std::string, ReactorFactory> methods_;
+  std::vector<std::thread> queue_threads_;
+
+  std::mutex calls_mutex_;
+  std::condition_variable calls_over_;
+  std::size_t live_calls_ = 0;  // calls requested or accepted, and not yet over
+  bool shutting_down_ = false;
+
+  std::mutex control_mutex_;
+  std::condition_variable control_ready_;
+  std::deque<std::function<void()>> control_tasks_;
+  bool control_stopping_ = false;
+  std::vector<std::thread> control_threads_;
+  bool stopped_ = false;
+};
+
+}  // namespace nearpoint::server
