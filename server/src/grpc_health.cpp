@@ -28,11 +28,9 @@ std::optional<HealthCheckRequest> parse_health_check_request(std::string_view by
   google::protobuf::io::CodedInputStream input(reinterpret_cast<const std::uint8_t*>(bytes.data()),
                                                static_cast<int>(bytes.size()));
   HealthCheckRequest request;
-  for (;;) {
+  while (input.CurrentPosition() < static_cast<int>(bytes.size())) {
     const std::uint32_t tag = input.ReadTag();
-    if (tag == 0) {
-      // 0 is both the end of the bytes and a malformed (or zero) tag.
-      if (input.CurrentPosition() == static_cast<int>(bytes.size())) break;
+    if (tag == 0) {  // a truncated varint, or field number 0
       why_not = "HealthCheckRequest: the bytes are not protobuf wire format (bad tag)";
       return std::nullopt;
     }
