@@ -45,9 +45,12 @@ void add_with_dependencies(const FileDescriptor& file, reflection::FileDescripto
     add_with_dependencies(*file.dependency(i), out, seen);
 }
 
-void answer_file(const FileDescriptor& file, reflection::ServerReflectionResponse& response) {
+/// `file` with its dependencies; NOT_FOUND saying "`what` not found" when there is no file.
+void answer_file(const FileDescriptor* file, const std::string& what,
+                 reflection::ServerReflectionResponse& response) {
+  if (!file) return set_error(response, grpc::StatusCode::NOT_FOUND, what + " not found");
   std::unordered_set<std::string> seen;
-  add_with_dependencies(file, *response.mutable_file_descriptor_response(), seen);
+  add_with_dependencies(*file, *response.mutable_file_descriptor_response(), seen);
 }
 
 }  // namespace
@@ -157,26 +160,14 @@ reflection::ServerReflectionResponse ServerReflection::answer(
   *response.mutable_original_request() = request;
   const DescriptorPool& pool = *DescriptorPool::generated_pool();
   switch (request.message_request_case()) {
-    case reflection::ServerReflectionRequest::kFileByFilename: {
-      const FileDescriptor* file = pool.FindFileByName(request.file_by_filename());
-      if (!file) {
-        set_error(response, grpc::StatusCode::NOT_FOUND,
-                  "file '" + request.file_by_filename() + "' not found");
-        break;
-      }
-      answer_file(*file, response);
+    case reflection::ServerReflectionRequest::kFileByFilename:
+      answer_file(pool.FindFileByName(request.file_by_filename()),
+                  "file '" + request.file_by_filename() + "'", response);
       break;
-    }
-    case reflection::ServerReflectionRequest::kFileContainingSymbol: {
-      const FileDescriptor* file = pool.FindFileContainingSymbol(request.file_containing_symbol());
-      if (!file) {
-        set_error(response, grpc::StatusCode::NOT_FOUND,
-                  "symbol '" + request.file_containing_symbol() + "' not found");
-        break;
-      }
-      answer_file(*file, response);
+    case reflection::ServerReflectionRequest::kFileContainingSymbol:
+      answer_file(pool.FindFileContainingSymbol(request.file_containing_symbol()),
+                  "symbol '" + request.file_containing_symbol() + "'", response);
       break;
-    }
     case reflection::ServerReflectionRequest::kFileContainingExtension: {
       const reflection::ExtensionRequest& asked = request.file_containing_extension();
       const Descriptor* type = pool.FindMessageTypeByName(asked.containing_type());
@@ -186,13 +177,10 @@ reflection::ServerReflectionResponse ServerReflection::answer(
         break;
       }
       const FieldDescriptor* extension = pool.FindExtensionByNumber(type, asked.extension_number());
-      if (!extension) {
-        set_error(response, grpc::StatusCode::NOT_FOUND,
+      answer_file(extension ? extension->file() : nullptr,
                   "extension " + std::to_string(asked.extension_number()) + " of '" +
-                      asked.containing_type() + "' not found");
-        break;
-      }
-      answer_file(*extension->file(), response);
+                      asked.containing_type() + "'",
+                  response);
       break;
     }
     case reflection::ServerReflectionRequest::kAllExtensionNumbersOfType: {
