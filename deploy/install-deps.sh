@@ -55,6 +55,9 @@ test_packages=(
   # Python client (client/python): Debian's /usr/bin/python3 with the runtimes matching the
   # protoc 3.21 / grpc_python_plugin 1.51 above, which generate its modules
   python3-grpcio python3-protobuf
+  # gRPC's own health and reflection schemas: a test reads nearpointd's with them
+  # (tests/server/check_health_reflection.py)
+  grpc-proto
   # the Python package: numpy at run time; its pip route (install.pip) builds offline in a venv
   python3-numpy python3-venv python3-pip python3-setuptools python3-wheel
   # TLS tests (a throw-away CA made with openssl) and the deploy/k8s check (yamllint, PyYAML)

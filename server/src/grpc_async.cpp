@@ -194,8 +194,9 @@ class UnknownMethod final : public AsyncReactor {
 /// A unary call: reads its one request, then runs the method's handler on a control thread.
 class UnaryReactor final : public AsyncReactor {
  public:
-  UnaryReactor(AsyncCall& call, AsyncGrpcServer& server, const UnaryHandler& handler)
-      : AsyncReactor(call), server_(server), handler_(handler) {
+  UnaryReactor(AsyncCall& call, AsyncGrpcServer& server, const UnaryHandler& handler,
+               UnaryThread thread)
+      : AsyncReactor(call), server_(server), handler_(handler), thread_(thread) {
     StartRead(&request_);
   }
 
@@ -206,7 +207,10 @@ class UnaryReactor final : public AsyncReactor {
       return;
     }
     auto handle = std::make_shared<Handle>(*this);
-    server_.post([this, handle] { handler_(request_, handle); });
+    if (thread_ == UnaryThread::queue)
+      handler_(request_, handle);
+    else
+      server_.post([this, handle] { handler_(request_, handle); });
   }
 
   void OnDone() override { delete this; }
@@ -232,6 +236,7 @@ class UnaryReactor final : public AsyncReactor {
 
   AsyncGrpcServer& server_;
   const UnaryHandler& handler_;  // the method table's, which outlives every call
+  const UnaryThread thread_;
   grpc::ByteBuffer request_;
 };
 
@@ -252,10 +257,10 @@ void AsyncGrpcServer::add_method(std::string path, ReactorFactory make) {
   methods_.insert_or_assign(std::move(path), std::move(make));
 }
 
-void AsyncGrpcServer::add_unary_method(std::string path, UnaryHandler handler) {
+void AsyncGrpcServer::add_unary_method(std::string path, UnaryHandler handler, UnaryThread thread) {
   auto shared = std::make_shared<UnaryHandler>(std::move(handler));
-  add_method(std::move(path), [this, shared](AsyncCall& call) -> AsyncReactor* {
-    return new UnaryReactor(call, *this, *shared);
+  add_method(std::move(path), [this, shared, thread](AsyncCall& call) -> AsyncReactor* {
+    return new UnaryReactor(call, *this, *shared, thread);
   });
 }
 

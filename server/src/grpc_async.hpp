@@ -65,10 +65,9 @@ class AsyncReactor {
 /// completion-queue thread, so it must not block.
 using ReactorFactory = std::function<AsyncReactor*(AsyncCall& call)>;
 
-/// A unary method's body: the request's bytes, and the means to end the call exactly once
-/// (possibly later, from another thread). Runs on one of the server's control threads, never on
-/// a completion-queue thread, so that a long request (a large geometry's hull) holds up no
-/// stream.
+/// A unary method's body: the request's bytes (valid until the call is ended), and the means to
+/// end the call exactly once (possibly later, from another thread). Runs where its method says
+/// (UnaryThread).
 class UnaryCallHandle {
  public:
   virtual ~UnaryCallHandle() = default;
@@ -78,6 +77,17 @@ class UnaryCallHandle {
 };
 using UnaryHandler = std::function<void(const grpc::ByteBuffer& request,
                                         const std::shared_ptr<UnaryCallHandle>& call)>;
+
+/// Where a unary method's handler runs.
+enum class UnaryThread {
+  /// On one of the server's control threads, never on a completion-queue thread, so that a long
+  /// request (a large geometry's hull) holds up no stream.
+  control,
+  /// On the completion-queue thread that read the request: for handlers that answer in
+  /// microseconds and must not wait behind long requests (health checks: a probe that times out
+  /// takes a replica out of service).
+  queue,
+};
 
 /// The generic service, its completion queue and threads, the method table, and the control
 /// threads unary methods run on.
@@ -90,7 +100,8 @@ class AsyncGrpcServer {
   /// Routes `path` ("/package.Service/Method") to reactors made by `make`. Before start().
   void add_method(std::string path, ReactorFactory make);
   /// A unary method: one request message in, one response out (see UnaryHandler).
-  void add_unary_method(std::string path, UnaryHandler handler);
+  void add_unary_method(std::string path, UnaryHandler handler,
+                        UnaryThread thread = UnaryThread::control);
 
   /// Starts serving: `queue_threads` completion-queue threads and `control_threads` threads for
   /// unary handlers. After BuildAndStart().

@@ -1,12 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "nearpoint/server/server.hpp"
 
-#include <grpcpp/ext/proto_server_reflection_plugin.h>
 #include <grpcpp/grpcpp.h>
-#include <grpcpp/health_check_service_interface.h>
 
 #include <mutex>
 
+#include "grpc_async.hpp"
+#include "grpc_health.hpp"
+#include "grpc_reflection.hpp"
 #include "grpc_security.hpp"
 #include "grpc_services.hpp"
 #include "nearpoint/server/log.hpp"
@@ -68,7 +69,11 @@ struct GrpcServer::Impl {
   std::shared_ptr<SceneService> scenes;
   std::unique_ptr<DistanceServiceImpl> distance;
   std::unique_ptr<DiagnosticsServiceImpl> diagnostics;
-  std::unique_ptr<AsyncGrpcServer> calls;  // stopped after the gRPC server has shut down
+  std::unique_ptr<HealthStatus> health;
+  std::unique_ptr<ServerReflection> reflection;
+  // Every method's calls (grpc_async.hpp); stopped after the gRPC server has shut down, and
+  // destroyed before the services it routes to.
+  std::unique_ptr<AsyncGrpcServer> calls;
   std::unique_ptr<grpc::Server> server;
   int port = 0;
   std::mutex shutdown_mutex;
@@ -98,8 +103,14 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
       describe_server(config, impl.scenes->limits(), impl.scenes->worker_count()));
   if (config.diagnostics) impl.diagnostics = std::make_unique<DiagnosticsServiceImpl>();
 
-  grpc::EnableDefaultHealthCheckService(false);  // HEALTH-WIRING
-  // REFLECTION-WIRING
+  // No callback or sync service anywhere (grpc_async.hpp): gRPC's default health service is a
+  // callback one and its reflection plugin a sync one, so both are served by us.
+  grpc::EnableDefaultHealthCheckService(false);
+  impl.health = std::make_unique<HealthStatus>();
+  std::vector<std::string> services{v1::DistanceService::service_full_name()};
+  if (impl.diagnostics) services.emplace_back(v1::Diagnostics::service_full_name());
+  services.emplace_back(HealthStatus::kServiceName);
+  impl.reflection = std::make_unique<ServerReflection>(std::move(services));
   grpc::ServerBuilder builder;
   // gRPC sets SO_REUSEPORT by default, which lets a second server bind a port already in use
   // without an error; we want "address in use" to be an error.
@@ -112,6 +123,8 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
   impl.calls = std::make_unique<AsyncGrpcServer>(builder);
   impl.distance->register_methods(*impl.calls);
   if (impl.diagnostics) impl.diagnostics->register_methods(*impl.calls);
+  impl.health->register_methods(*impl.calls);
+  impl.reflection->register_methods(*impl.calls);
   impl.server = builder.BuildAndStart();
   if (!impl.server || impl.port == 0) {
     if (impl.server) impl.server->Shutdown();
@@ -125,10 +138,8 @@ Expected<std::unique_ptr<GrpcServer>> GrpcServer::start(const ServerConfig& conf
   }
   impl.distance->set_port(impl.port);
   impl.calls->start(int(std::max<std::size_t>(config.grpc_threads, 1)), kControlThreads);
-  if (grpc::HealthCheckServiceInterface* health = impl.server->GetHealthCheckService()) {
-    health->SetServingStatus(true);
-    health->SetServingStatus("nearpoint.v1.DistanceService", true);
-  }
+  impl.health->set_serving("", true);
+  impl.health->set_serving(v1::DistanceService::service_full_name(), true);
   return self;
 }
 
@@ -150,14 +161,17 @@ void GrpcServer::shutdown() {
       .kv("open_streams", impl.scenes->open_streams())
       .kv("drain_timeout_ms", impl.config.drain_timeout.count());
   // Health first, so that load balancers stop sending before the listener closes.
-  if (grpc::HealthCheckServiceInterface* health = impl.server->GetHealthCheckService())
-    health->Shutdown();
+  impl.health->shutdown();
   // New calls are refused (UNAVAILABLE); every open stream stops reading, answers what it has
   // read and ends (UNAVAILABLE); unary calls in flight finish.
   impl.distance->calls().drain_all();
   if (impl.diagnostics) impl.diagnostics->calls().drain_all();
+  impl.health->calls().drain_all();
+  impl.reflection->calls().drain_all();
   const auto deadline = Clock::now() + impl.config.drain_timeout;
   bool drained = impl.distance->calls().wait_idle(deadline);
+  drained = impl.health->calls().wait_idle(deadline) && drained;
+  drained = impl.reflection->calls().wait_idle(deadline) && drained;
   if (impl.diagnostics) drained = impl.diagnostics->calls().wait_idle(deadline) && drained;
   // Our calls are over (or the drain timed out), but over means only that gRPC has taken their
   // last reports and final statuses: bytes held back by HTTP/2 flow control (a client that reads

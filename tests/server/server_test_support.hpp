@@ -220,6 +220,11 @@ class RawStream {
     bytes = bytes_of(buffer);
     return true;
   }
+  /// The client's half-close: no more writes.
+  bool writes_done() {
+    call_->WritesDone(tag());
+    return wait();
+  }
   grpc::Status finish() {
     grpc::Status status;
     call_->Finish(&status, tag());
