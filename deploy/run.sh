@@ -100,6 +100,7 @@ tsan_stage() {
   ( tsan_env
     build=build-tsan
     BUILD_TARGETS="test_server_scene_service test_server_broad_phase test_server_grpc
+                   test_server_health_reflection
                    test_server_boundary test_server_process test_server_sharded test_server_depth
                    test_client test_robot_wire
                    test_dds_bridge test_ros_wire test_ros_peer ros_peer test_joint_states

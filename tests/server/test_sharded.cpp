@@ -190,6 +190,8 @@ class Sharded : public ::testing::Test {
     if (haproxy_) {
       haproxy_->signal(SIGTERM);
       haproxy_->wait_exit(10s);
+      // Which replica the proxy took out of the ring, when, and why (its health checks' verdicts).
+      if (HasFailure()) std::printf("haproxy's log:\n%s\n", haproxy_->stderr_text().c_str());
     }
     for (Replica& replica : replicas_) replica.kill_now();
   }
