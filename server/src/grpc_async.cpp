@@ -269,8 +269,7 @@ void AsyncGrpcServer::start(int queue_threads, int control_threads) {
   control_threads = std::max(control_threads, 1);
   // One pending accept per queue thread, so that a burst of new calls is not taken one by one.
   for (int i = 0; i < queue_threads; ++i) accept_next();
-  for (int i = 0; i < control_threads; ++i)
-    control_threads_.emplace_back([this] { serve_control(); });
+  control_ = std::make_unique<WorkerPool>(std::size_t(control_threads));
   for (int i = 0; i < queue_threads; ++i) queue_threads_.emplace_back([this] { serve_queue(); });
 }
 
@@ -292,20 +291,11 @@ void AsyncGrpcServer::stop() {
     }
   }
   for (std::thread& thread : queue_threads_) thread.join();
-  {
-    std::lock_guard lock(control_mutex_);
-    control_stopping_ = true;
-  }
-  control_ready_.notify_all();
-  for (std::thread& thread : control_threads_) thread.join();
+  control_.reset();  // every call is over, so no task is left
 }
 
 void AsyncGrpcServer::post(std::function<void()> task) {
-  {
-    std::lock_guard lock(control_mutex_);
-    control_tasks_.push_back(std::move(task));
-  }
-  control_ready_.notify_one();
+  control_->post(std::move(task));
 }
 
 void AsyncGrpcServer::accept_next() {
@@ -335,20 +325,6 @@ void AsyncGrpcServer::serve_queue() {
   while (queue_->Next(&raw, &ok)) {
     const auto* tag = static_cast<AsyncCall::Tag*>(raw);
     tag->call->on_completion(tag->event, ok);
-  }
-}
-
-void AsyncGrpcServer::serve_control() {
-  for (;;) {
-    std::function<void()> task;
-    {
-      std::unique_lock lock(control_mutex_);
-      control_ready_.wait(lock, [this] { return control_stopping_ || !control_tasks_.empty(); });
-      if (control_tasks_.empty()) return;
-      task = std::move(control_tasks_.front());
-      control_tasks_.pop_front();
-    }
-    task();
   }
 }
 

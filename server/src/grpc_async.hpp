@@ -15,7 +15,6 @@
 
 #include <condition_variable>
 #include <cstddef>
-#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -23,6 +22,8 @@
 #include <thread>
 #include <unordered_map>
 #include <vector>
+
+#include "nearpoint/server/worker_pool.hpp"
 
 namespace nearpoint::server {
 
@@ -120,7 +121,6 @@ class AsyncGrpcServer {
   AsyncReactor* route(AsyncCall& call);
   void call_ended();
   void serve_queue();
-  void serve_control();
 
   grpc::AsyncGenericService service_;
   std::unique_ptr<grpc::ServerCompletionQueue> queue_;
@@ -132,11 +132,7 @@ class AsyncGrpcServer {
   std::size_t live_calls_ = 0;  // calls requested or accepted, and not yet over
   bool shutting_down_ = false;
 
-  std::mutex control_mutex_;
-  std::condition_variable control_ready_;
-  std::deque<std::function<void()>> control_tasks_;
-  bool control_stopping_ = false;
-  std::vector<std::thread> control_threads_;
+  std::unique_ptr<WorkerPool> control_;  // made by start()
   bool stopped_ = false;
 };
 

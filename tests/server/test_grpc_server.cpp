@@ -1201,6 +1201,15 @@ TEST_P(GrpcServerShutdown, ShutdownDrainsOpenStreams) {
       running.stub->ListGeometries(make_context(std::chrono::seconds(2)).get(), {}, &listed).ok());
 }
 
+/// The next event of a generic call's completion queue, which must carry tag `expected`; its ok.
+bool next_event(grpc::CompletionQueue& queue, std::intptr_t expected) {
+  void* tag = nullptr;
+  bool ok = false;
+  EXPECT_TRUE(queue.Next(&tag, &ok));
+  EXPECT_EQ(reinterpret_cast<std::intptr_t>(tag), expected);
+  return ok;
+}
+
 // The gRPC health checking protocol answers SERVING (checked with a generic call: the health
 // proto's generated client is not installed by Debian's packages).
 TEST_F(GrpcServerTest, HealthCheckSaysServing) {
@@ -1243,13 +1252,7 @@ TEST_F(GrpcServerTest, ReflectionListsTheServices) {
   auto call = generic.PrepareCall(
       context.get(), "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo", &queue);
   ASSERT_TRUE(call);
-  auto wait = [&](std::intptr_t expected) {
-    void* tag = nullptr;
-    bool ok = false;
-    EXPECT_TRUE(queue.Next(&tag, &ok));
-    EXPECT_EQ(reinterpret_cast<std::intptr_t>(tag), expected);
-    return ok;
-  };
+  auto wait = [&](std::intptr_t expected) { return next_event(queue, expected); };
   call->StartCall(reinterpret_cast<void*>(1));
   ASSERT_TRUE(wait(1));
   // ServerReflectionRequest { string list_services = 7; } with an empty string.
@@ -1291,13 +1294,7 @@ TEST_F(GrpcServerTest, UnknownMethodsAndUnaryCallsWithoutARequestAreRefusedWithT
     grpc::CompletionQueue queue;
     auto context = make_context();
     auto call = generic.PrepareCall(context.get(), path, &queue);
-    auto wait = [&](std::intptr_t expected) {
-      void* tag = nullptr;
-      bool ok = false;
-      EXPECT_TRUE(queue.Next(&tag, &ok));
-      EXPECT_EQ(reinterpret_cast<std::intptr_t>(tag), expected);
-      return ok;
-    };
+    auto wait = [&](std::intptr_t expected) { return next_event(queue, expected); };
     call->StartCall(reinterpret_cast<void*>(1));
     wait(1);
     call->WritesDone(reinterpret_cast<void*>(2));
