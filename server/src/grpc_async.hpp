@@ -107,8 +107,10 @@ class AsyncGrpcServer {
   /// Starts serving: `queue_threads` completion-queue threads and `control_threads` threads for
   /// unary handlers. After BuildAndStart().
   void start(int queue_threads, int control_threads);
-  /// After grpc::Server::Shutdown() has returned: waits until every call is over, then shuts the
-  /// queue down and joins every thread. Idempotent.
+  /// After grpc::Server::Shutdown() has returned (or BuildAndStart() failed): waits until every
+  /// call is over, then shuts the queue down and joins every thread. Idempotent; not thread-safe
+  /// (GrpcServer calls it under its shutdown lock). Before the server's shutdown it would wait
+  /// for ever: the pending accept only completes then.
   void stop();
 
   /// Runs `task` on a control thread.
@@ -117,7 +119,7 @@ class AsyncGrpcServer {
  private:
   friend class AsyncCall;
   void accept_next();
-  /// Called by an accepted call: makes its reactor (nullptr: no such method).
+  /// Called by an accepted call: makes its reactor (UNIMPLEMENTED's for a path no method has).
   AsyncReactor* route(AsyncCall& call);
   void call_ended();
   void serve_queue();
