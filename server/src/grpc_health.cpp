@@ -16,9 +16,6 @@ namespace {
 
 using google::protobuf::internal::WireFormatLite;
 
-constexpr const char* kShuttingDown = "server is shutting down";
-constexpr const char* kDraining = "server is draining (shutting down)";
-
 }  // namespace
 
 std::optional<HealthCheckRequest> parse_health_check_request(std::string_view bytes,

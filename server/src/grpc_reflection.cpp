@@ -23,9 +23,6 @@ using google::protobuf::DescriptorPool;
 using google::protobuf::FieldDescriptor;
 using google::protobuf::FileDescriptor;
 
-constexpr const char* kShuttingDown = "server is shutting down";
-constexpr const char* kDraining = "server is draining (shutting down)";
-
 void set_error(reflection::ServerReflectionResponse& response, grpc::StatusCode code,
                std::string message) {
   reflection::ErrorResponse& error = *response.mutable_error_response();

@@ -19,10 +19,6 @@
 namespace nearpoint::server {
 namespace {
 
-constexpr const char* kShuttingDown = "server is shutting down";
-/// How a call that was open when the drain began ends (clients look for "draining").
-constexpr const char* kDraining = "server is draining (shutting down)";
-
 /// The routing header a sharding proxy hashes (nearpoint.v1.DistanceService, "Routing key"),
 /// first 128 bytes (an id is at most that); "" when the call carries none. Logged, so that an
 /// operator can see which scenes a replica was sent.

@@ -17,6 +17,12 @@
 
 namespace nearpoint::server {
 
+/// How a call that arrives once the drain has begun is refused (UNAVAILABLE), and how a call that
+/// was open when it began ends (UNAVAILABLE; clients look for "draining"): one wording for every
+/// service the server has.
+inline constexpr const char* kShuttingDown = "server is shutting down";
+inline constexpr const char* kDraining = "server is draining (shutting down)";
+
 /// A streaming call that can be asked to wind down at shutdown.
 class DrainableStream {
  public:
