@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "dds_joint_states.hpp"
+#include "dds_report_sertype.hpp"
 #include "metrics.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/log.hpp"
@@ -1269,9 +1270,10 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
       dds_create_topic(impl.participant, &nearpoint_msgs_msg_dds__PoseUpdate__desc,
                        dds::pose_updates_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
   if (update_topic < 0) return fail("dds_create_topic(pose_updates)", update_topic);
-  const dds_entity_t report_topic = dds_create_topic(
-      impl.participant, &nearpoint_msgs_msg_dds__DistanceReport__desc,
-      dds::distance_reports_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  // The report topics' samples are serialised by our own code (dds_report_sertype.hpp).
+  const dds_entity_t report_topic =
+      create_report_topic(impl.participant, ReportTopicType::report,
+                          dds::distance_reports_topic(config.topic_prefix).c_str(), qos.get());
   if (report_topic < 0) return fail("dds_create_topic(distance_reports)", report_topic);
   const dds_entity_t event_topic = dds_create_topic(
       impl.participant, &nearpoint_msgs_msg_dds__ThresholdEvent__desc,
@@ -1289,9 +1291,9 @@ Expected<std::unique_ptr<DdsBridge>> DdsBridge::start(SceneService& scenes,
       dds::pose_update_batches_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
   if (update_batch_topic < 0)
     return fail("dds_create_topic(pose_update_batches)", update_batch_topic);
-  const dds_entity_t report_batch_topic = dds_create_topic(
-      impl.participant, &nearpoint_msgs_msg_dds__DistanceReportBatch__desc,
-      dds::distance_report_batches_topic(config.topic_prefix).c_str(), qos.get(), nullptr);
+  const dds_entity_t report_batch_topic = create_report_topic(
+      impl.participant, ReportTopicType::report_batch,
+      dds::distance_report_batches_topic(config.topic_prefix).c_str(), qos.get());
   if (report_batch_topic < 0)
     return fail("dds_create_topic(distance_report_batches)", report_batch_topic);
   impl.batch_reader =
