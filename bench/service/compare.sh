@@ -6,8 +6,9 @@
 #   bench/service/compare.sh OLD_NEARPOINTD [NEW_NEARPOINTD]
 # NEW_NEARPOINTD defaults to BUILD_DIR/server/nearpointd (BUILD_DIR default build); the load
 # client is always BUILD_DIR's `nearpoint`. Environment: ROUNDS (default 3), SECONDS_PER_RUN
-# (default 4). Columns: setting, build, updates per CPU-second, latency p50 and p99 (µs), and
-# for gRPC geometry µs, CPU µs per update and the geometry share (%).
+# (default 4), ONLY (a grep -E pattern of the settings to run, e.g. ONLY=dds). Columns: setting,
+# build, updates per CPU-second, latency p50 and p99 (µs), then geometry µs per update and the
+# geometry share (%), with gRPC's CPU µs per update between them.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 build="${BUILD_DIR:-$root/build}"
@@ -25,15 +26,17 @@ export CYCLONEDDS_URI="${CYCLONEDDS_URI:-file://$root/deploy/cyclonedds-loopback
 run() {
   local label="$1" scene_streams="$2"
   shift 2
+  grep -qE "${ONLY:-.}" <<<"$label" || return 0
   local which binary out capacity geometry
   for which in old new; do
     binary="$old"
     [ "$which" = new ] && binary="$new"
     # shellcheck disable=SC2086  # "SCENE STREAMS" splits into two arguments
     out="$(env "$@" NEARPOINTD="$binary" "$root/bench/service/capacity.sh" $scene_streams \
-      "$seconds" 2>&1 | grep -E '^(capacity|geometry share):' || true)"
+      "$seconds" 2>&1 | grep -E '^(capacity|geometry share|geometry):' || true)"
     capacity="$(sed -n 's/^capacity: \([0-9]*\) updates.*p50 \([0-9]*\) us, p99 \([0-9]*\) us.*/\1 \2 \3/p' <<<"$out")"
-    geometry="$(sed -n 's/^geometry share: \([0-9.]*\) us of geometry per update over \([0-9.]*\) us of CPU = \([0-9]*\)%.*/\1 \2 \3/p' <<<"$out")"
+    geometry="$(sed -n -e 's/^geometry share: \([0-9.]*\) us of geometry per update over \([0-9.]*\) us of CPU = \([0-9]*\)%.*/\1 \2 \3/p' \
+      -e "s/^geometry: \([0-9.]*\) us per update, \([0-9]*\)% of nearpointd's CPU.*/\1 \2/p" <<<"$out")"
     echo "$label $which ${capacity:-failed} $geometry"
   done
 }
@@ -41,7 +44,7 @@ run() {
 echo "# compare.sh $(date -u '+%F %T') UTC, load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "# old $old"
 echo "# new $new"
-echo "# setting build updates/CPU-s p50_us p99_us [geometry_us cpu_us share_%]"
+echo "# setting build updates/CPU-s p50_us p99_us geometry_us [cpu_us] share_%"
 for _ in $(seq "$rounds"); do
   run demo-4x4 "demo 4" WINDOW=4
   run cell45-4x4 "cell45 4" WINDOW=4
@@ -51,5 +54,7 @@ for _ in $(seq "$rounds"); do
   run cell45-4x4-batch8 "cell45 4" BATCH=8
   run dds-cell45-1x4 "cell45 1" TRANSPORT=dds
   run dds-cell45-1x4-batch8 "cell45 1" TRANSPORT=dds BATCH=8
+  run dds-demo-1x4 "demo 1" TRANSPORT=dds
+  run dds-demo-1x4-batch8 "demo 1" TRANSPORT=dds BATCH=8
 done
 echo "# done $(date -u '+%F %T') UTC, load $(cut -d' ' -f1-3 /proc/loadavg)"

@@ -4,9 +4,9 @@
 # scenes: --workers 1, 127.0.0.1, `nearpoint load` over gRPC or, with TRANSPORT=dds, `nearpoint
 # dds load` over Cyclone DDS): `perf record` on the server process only (capacity.sh's
 # PERF_DATA), then each sampled function's self time put into one of a few classes (kernel
-# scheduling = thread hand-offs, geometry = the engine, gRPC, protobuf, Cyclone DDS, allocation,
-# the server's own bookkeeping). Needs perf (Debian's linux-perf) and
-# kernel.perf_event_paranoid ≤ 1 or root.
+# scheduling = thread hand-offs, geometry = the engine, gRPC, protobuf, Cyclone DDS, the DDS
+# reports' serialiser, allocation, the server's own bookkeeping). Needs perf (Debian's
+# linux-perf) and kernel.perf_event_paranoid ≤ 1 or root.
 #   bench/service/profile.sh [demo|cell45] [SECONDS]      (defaults cell45, 5)
 # Environment: as capacity.sh's (BUILD_DIR, NEARPOINTD, SERVER_ARGS, TRANSPORT, BATCH, WINDOW), and
 # STREAMS (default 2; 1 with TRANSPORT=dds), KEEP=FILE keeps perf.data.
@@ -44,6 +44,9 @@ for line in open(sys.argv[1]):
         name = "protobuf (build, size, serialise, parse)"
     elif re.search(r"grpc|absl|gpr|upb", dso) or "grpc" in symbol:
         name = "gRPC, absl (framing, polling, locks)"
+    elif re.search(r"nearpoint::server::\(anonymous namespace\)::"
+                   r"(write_(report|pair|event|sample|header|vector)|CdrOut|serdata_)", symbol):
+        name = "DDS reports' CDR (nearpoint's serialiser)"
     elif "nearpoint::server::" in symbol:
         name = "server (planning, bookkeeping, reports)"
     elif dso == "nearpointd" and "nearpoint::" in symbol:
