@@ -13,6 +13,7 @@
 #include "metrics.hpp"
 #include "nearpoint/server/log.hpp"
 #include "proto_convert.hpp"
+#include "report_wire.hpp"
 #include "tsan_handoff.hpp"
 #include "wire_parse.hpp"
 
@@ -75,13 +76,15 @@ class UnaryCall {
 /// message larger than max", and a stream's update would get no answer at all). Scenes and
 /// requests whose reports could be that large are refused up front (SceneService), so this is
 /// the backstop: the error that replaces such a report, or nullopt when it fits.
-std::optional<Error> check_report_fits(const v1::DistanceReport& report, std::size_t limit) {
-  const std::size_t size = report.ByteSizeLong();
+std::optional<Error> check_report_size(std::uint64_t sequence, std::size_t size,
+                                       std::size_t limit) {
   if (size <= limit) return std::nullopt;
   return resource_exhausted(
-      "",
-      text("the report of sequence ", report.sequence(), " takes ", size, " bytes, more than the ",
-           limit, " bytes the server sends in one message (--max-message-bytes)"));
+      "", text("the report of sequence ", sequence, " takes ", size, " bytes, more than the ",
+               limit, " bytes the server sends in one message (--max-message-bytes)"));
+}
+std::optional<Error> check_report_fits(const v1::DistanceReport& report, std::size_t limit) {
+  return check_report_size(report.sequence(), report.ByteSizeLong(), limit);
 }
 
 /// A unary method: refuse while draining, parse the request (INVALID_ARGUMENT with the reason
@@ -300,7 +303,7 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
       // theirs: reports leave in the order their updates were read.
       v1::DistanceReport report;
       to_proto(error, update.sequence, report);
-      pending_.emplace_back(Serialise(report, report.ByteSizeLong()));
+      pending_.emplace_back(Serialise(report));
     } else if (stream_->flow_control() == model::FlowControl::coalesce && !pending_.empty() &&
                std::holds_alternative<PreparedUpdate>(pending_.back())) {
       PreparedUpdate& older = std::get<PreparedUpdate>(pending_.back());
@@ -428,26 +431,33 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
     StartWrite(&current_write_);
   }
 
-  /// The report's message, built and serialised outside the lock (it may be large) in a message
-  /// kept for the next report: protobuf's Clear() keeps the pairs' objects and strings, so a
-  /// stream's reports stop allocating once the first has been built. Evaluations of one stream
-  /// never overlap, so neither do calls of this.
+  /// The report on the wire, encoded outside the lock (it may be large) straight from `report`
+  /// by the stream's encoder (report_wire.hpp: protobuf's bytes without building the message;
+  /// after the first report it allocates nothing but the slice). Evaluations of one stream never
+  /// overlap, so neither do calls of this.
   grpc::Slice ToSlice(const Report& report) {
-    to_proto(report, report_scratch_);
-    if (auto error = check_report_fits(report_scratch_, report_limit_)) {
+    const std::size_t size = encoder_.measure(report);
+    if (auto error = check_report_size(report.sequence, size, report_limit_)) {
       log_error("report_too_large").kv("stream", number_).kv("message", error->message);
-      to_proto(*error, report.sequence, report_scratch_);  // the update is answered all the same
-      return Serialise(report_scratch_, report_scratch_.ByteSizeLong());
+      v1::DistanceReport answer;  // the update is answered all the same
+      to_proto(*error, report.sequence, answer);
+      return Serialise(answer);
     }
-    return Serialise(report_scratch_,
-                     report_scratch_.GetCachedSize());  // as check_report_fits left it
+    return Framed(size, [&](std::uint8_t* out) { encoder_.write(report, out); });
   }
 
-  /// `message`, whose ByteSizeLong() is `size` and was just computed (the serialiser relies on
-  /// the sizes it cached), on the wire. Below --max-message-bytes, so well below 2 GB. On a
-  /// batched stream preceded by its key and length as an entry of DistanceReportBatch.reports,
-  /// so that a write is the entries' concatenation (a valid DistanceReportBatch) without a copy.
-  grpc::Slice Serialise(const v1::DistanceReport& message, std::size_t size) const {
+  /// A message built as protobuf (error reports), on the wire as Framed() puts it.
+  grpc::Slice Serialise(const v1::DistanceReport& message) const {
+    const std::size_t size = message.ByteSizeLong();
+    return Framed(size, [&](std::uint8_t* out) { message.SerializeWithCachedSizesToArray(out); });
+  }
+
+  /// A message of `size` bytes, written by `write`, on the wire. Below --max-message-bytes, so
+  /// well below 2 GB. On a batched stream preceded by its key and length as an entry of
+  /// DistanceReportBatch.reports, so that a write is the entries' concatenation (a valid
+  /// DistanceReportBatch) without a copy.
+  template <class Write>
+  grpc::Slice Framed(std::size_t size, Write&& write) const {
     using google::protobuf::internal::WireFormatLite;
     using google::protobuf::io::CodedOutputStream;
     constexpr std::uint32_t kEntryKey = WireFormatLite::MakeTag(
@@ -461,7 +471,7 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
       out = CodedOutputStream::WriteVarint32ToArray(kEntryKey, out);
       out = CodedOutputStream::WriteVarint64ToArray(size, out);
     }
-    message.SerializeWithCachedSizesToArray(out);
+    write(out);
     return slice;
   }
 
@@ -507,7 +517,7 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
   /// Serialised reports waiting for the write in progress, oldest first.
   std::deque<grpc::Slice> outgoing_;
   /// Reused by ToSlice (see there).
-  v1::DistanceReport report_scratch_;
+  ReportEncoder encoder_;
   bool reading_ = false;
   bool writing_ = false;
   bool evaluating_ = false;
