@@ -100,11 +100,11 @@ tsan_stage() {
   ( tsan_env
     build=build-tsan
     BUILD_TARGETS="test_server_scene_service test_server_broad_phase test_server_grpc
-                   test_server_health_reflection
+                   test_server_health_reflection test_server_report_wire
                    test_server_boundary test_server_process test_server_sharded test_server_depth
                    test_client test_robot_wire
-                   test_dds_bridge test_ros_wire test_ros_peer ros_peer test_joint_states
-                   test_dds_end_to_end nearpointd nearpoint nearpoint_python nearpoint_stream_demo" \
+                   test_dds_bridge test_dds_report_sertype test_ros_wire test_ros_peer ros_peer
+                   test_joint_states test_dds_end_to_end nearpointd nearpoint nearpoint_python nearpoint_stream_demo" \
       configure_and_build -DNEARPOINT_SANITIZE=thread &&
     ctest --test-dir build-tsan --output-on-failure -j "$jobs" -L "^(server|client|dds)$" \
       ${CTEST_ARGS:-} )

@@ -16,6 +16,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "tsan_handoff.hpp"
+
 namespace nearpoint::server {
 namespace {
 
@@ -251,8 +253,54 @@ struct ReportSertype {
   mutable std::atomic<std::size_t> size_guess{4096};
 };
 
-const ReportSertype& sertype_of(const ddsi_sertype* type) {
-  return *reinterpret_cast<const ReportSertype*>(type);
+// A serdata is made on the writing thread, then read (sent, resent) and freed on Cyclone's
+// threads, in an order its reference count keeps. That count's atomics run inside libddsc, which
+// is not built with TSan, so TSan sees none of that order (tsan_handoff.hpp; every call here is
+// empty outside TSan builds). It is told instead: `published` ends the making (the bytes never
+// change after), each use is a Use (acquire at its start, release at its end), and the free
+// acquires them all. Our own reference counting (reference, unreference) uses the same atomics as
+// Cyclone's inline ddsi_serdata_ref/unref but is kept out of TSan's view like Cyclone's own
+// calls: instrumented, it would race (for TSan) with a free on another thread that it cannot see
+// being ordered by the count. The sertype is shared the same way (made by create_report_topic,
+// used by every call here, freed by Cyclone when its last topic and writer are gone).
+ddsi_serdata* published(ReportSerdata* d) {
+  handoff_release(d);
+  return &d->c;
+}
+
+template <class T>
+class Use {
+ public:
+  explicit Use(const void* object) : object_(static_cast<const T*>(object)) {
+    handoff_acquire(object_);
+  }
+  ~Use() { handoff_release(object_); }
+  Use(const Use&) = delete;
+  Use& operator=(const Use&) = delete;
+  const T& operator*() const { return *object_; }
+  const T* operator->() const { return object_; }
+
+ private:
+  const T* object_;
+};
+
+[[gnu::no_sanitize_thread]] ddsi_serdata* reference(const ddsi_serdata* d) {
+  auto* mutable_d = const_cast<ddsi_serdata*>(d);
+  __atomic_fetch_add(&mutable_d->refc.v, 1u, __ATOMIC_SEQ_CST);  // ddsrt_atomic_inc32
+  return mutable_d;
+}
+
+/// `ref` is Cyclone's: an entry of a message it is building, guarded by its own locks. Written
+/// outside TSan's view, as Cyclone's own serdata writes it from inside libddsc.
+[[gnu::no_sanitize_thread]] void point_at(ddsrt_iovec_t& ref, const unsigned char* bytes,
+                                          std::size_t size) {
+  ref.iov_base = const_cast<unsigned char*>(bytes);
+  ref.iov_len = static_cast<ddsrt_iov_len_t>(size);
+}
+
+[[gnu::no_sanitize_thread]] void unreference(ddsi_serdata* d) {
+  if (__atomic_fetch_sub(&d->refc.v, 1u, __ATOMIC_SEQ_CST) == 1)  // ddsrt_atomic_dec32_ov
+    d->ops->free(d);
 }
 
 /// The serdata in `block` (malloc'd, at least sizeof(ReportSerdata) + size bytes), which it
@@ -265,7 +313,7 @@ ReportSerdata* make_serdata(void* block, const ddsi_sertype* type, ddsi_serdata_
   }
   auto* d = new (block) ReportSerdata;
   ddsi_serdata_init(&d->c, type, kind);
-  d->c.hash = type->serdata_basehash;  // keyless: one instance, one hash
+  d->c.hash = Use<ddsi_sertype>(type)->serdata_basehash;  // keyless: one instance, one hash
   d->size = std::uint32_t(size);
   return d;
 }
@@ -277,25 +325,27 @@ ReportSerdata* new_serdata(const ddsi_sertype* type, ddsi_serdata_kind kind, std
 
 /// A keyless sample's key: the header alone (Cyclone needs one for dispose, unregister and the
 /// instance map even on a topic without instances).
-ddsi_serdata* key_only(const ddsi_sertype* type, ddsi_serdata_kind kind) {
+/// `untyped`: without a type, as Cyclone's instance map keeps keys (to_untyped).
+ddsi_serdata* key_only(const ddsi_sertype* type, ddsi_serdata_kind kind, bool untyped = false) {
   ReportSerdata* d = new_serdata(type, kind, kHeaderBytes);
   if (!d) return nullptr;
   const unsigned char header[kHeaderBytes] = {0x00, 0x01, 0x00, 0x00};
   std::memcpy(d->bytes(), header, kHeaderBytes);
-  return &d->c;
+  if (untyped) d->c.type = nullptr;
+  return published(d);
 }
 
 ddsi_serdata* serdata_from_sample(const ddsi_sertype* type, ddsi_serdata_kind kind,
                                   const void* sample) {
   if (kind != SDK_DATA) return key_only(type, kind);
-  const ReportSertype& ours = sertype_of(type);
-  CdrOut out(ours.size_guess.load(std::memory_order_relaxed));
-  write_sample(out, ours.type, sample);
+  const Use<ReportSertype> ours(type);
+  CdrOut out(ours->size_guess.load(std::memory_order_relaxed));
+  write_sample(out, ours->type, sample);
   const std::size_t size = out.finish();
   if (!out.ok()) return nullptr;  // out of memory
-  ours.size_guess.store(size, std::memory_order_relaxed);
+  ours->size_guess.store(size, std::memory_order_relaxed);
   ReportSerdata* d = make_serdata(out.release(), type, kind, size);
-  return d ? &d->c : nullptr;
+  return d ? published(d) : nullptr;
 }
 
 /// A copy of bytes received or converted (Cyclone only does this for readers of our sertype,
@@ -312,7 +362,7 @@ ddsi_serdata* serdata_from_ser_iov(const ddsi_sertype* type, ddsi_serdata_kind k
     at += n;
   }
   std::memset(d->bytes() + at, 0, size - at);
-  return &d->c;
+  return published(d);
 }
 
 ddsi_serdata* serdata_from_ser(const ddsi_sertype* type, ddsi_serdata_kind kind,
@@ -328,24 +378,25 @@ ddsi_serdata* serdata_from_keyhash(const ddsi_sertype* type, const ddsi_keyhash*
 }
 
 std::uint32_t serdata_size(const ddsi_serdata* d) {
-  return reinterpret_cast<const ReportSerdata*>(d)->size;
+  return Use<ReportSerdata>(d)->size;
 }
 
 void serdata_to_ser(const ddsi_serdata* d, std::size_t off, std::size_t sz, void* buf) {
-  std::memcpy(buf, reinterpret_cast<const ReportSerdata*>(d)->bytes() + off, sz);
+  const Use<ReportSerdata> use(d);
+  std::memcpy(buf, use->bytes() + off, sz);
 }
 
 ddsi_serdata* serdata_to_ser_ref(const ddsi_serdata* d, std::size_t off, std::size_t sz,
                                  ddsrt_iovec_t* ref) {
-  ref->iov_base =
-      const_cast<unsigned char*>(reinterpret_cast<const ReportSerdata*>(d)->bytes()) + off;
-  ref->iov_len = static_cast<ddsrt_iov_len_t>(sz);
-  return ddsi_serdata_ref(d);
+  const Use<ReportSerdata> use(d);  // the reader of `ref` is Cyclone's (uninstrumented) code
+  point_at(*ref, use->bytes() + off, sz);
+  return reference(d);
 }
 
 void serdata_to_ser_unref(ddsi_serdata* d, const ddsrt_iovec_t* ref) {
   (void)ref;
-  ddsi_serdata_unref(d);
+  { const Use<ReportSerdata> use(d); }  // this thread's use of the bytes ends here
+  unreference(d);
 }
 
 bool serdata_to_sample(const ddsi_serdata* d, void* sample, void** bufptr, void* buflim) {
@@ -355,9 +406,8 @@ bool serdata_to_sample(const ddsi_serdata* d, void* sample, void** bufptr, void*
 }
 
 ddsi_serdata* serdata_to_untyped(const ddsi_serdata* d) {
-  ddsi_serdata* untyped = key_only(d->type, SDK_KEY);
-  if (untyped) untyped->type = nullptr;  // untyped, as Cyclone's instance map expects
-  return untyped;
+  const ddsi_sertype* type = Use<ReportSerdata>(d)->c.type;
+  return key_only(type, SDK_KEY, true);
 }
 
 bool serdata_untyped_to_sample(const ddsi_sertype* type, const ddsi_serdata* d, void* sample,
@@ -372,6 +422,7 @@ bool serdata_eqkey(const ddsi_serdata* a, const ddsi_serdata* b) {
 }
 
 void serdata_free(ddsi_serdata* d) {
+  handoff_acquire(d);  // after every Use, and the making
   auto* serdata = reinterpret_cast<ReportSerdata*>(d);
   serdata->~ReportSerdata();
   std::free(serdata);
@@ -379,8 +430,8 @@ void serdata_free(ddsi_serdata* d) {
 
 std::size_t serdata_print(const ddsi_sertype* type, const ddsi_serdata* d, char* buf,
                           std::size_t size) {
-  const int n = std::snprintf(buf, size, "(%s, %u bytes of CDR)",
-                              type ? type->type_name : "nearpoint report", serdata_size(d));
+  const char* name = type ? Use<ddsi_sertype>(type)->type_name : "nearpoint report";
+  const int n = std::snprintf(buf, size, "(%s, %u bytes of CDR)", name, serdata_size(d));
   return n < 0 ? 0 : std::size_t(n);
 }
 
@@ -410,6 +461,7 @@ const ddsi_serdata_ops kSerdataOps = [] {
 }();
 
 void sertype_free(ddsi_sertype* type) {
+  handoff_acquire(type);  // after every Use (see published), and the making
   auto* ours = reinterpret_cast<ReportSertype*>(type);
   ddsi_sertype_fini(&ours->c);
   delete ours;
@@ -419,12 +471,12 @@ void sertype_free(ddsi_sertype* type) {
 // them only for readers and loans, which this write-only type never has. These keep the
 // interface's contract for plain structs all the same.
 void sertype_zero_samples(const ddsi_sertype* type, void* samples, std::size_t count) {
-  std::memset(samples, 0, sertype_of(type).descriptor->m_size * count);
+  std::memset(samples, 0, Use<ReportSertype>(type)->descriptor->m_size * count);
 }
 
 void sertype_realloc_samples(void** ptrs, const ddsi_sertype* type, void* old, std::size_t oldcount,
                              std::size_t count) {
-  const std::size_t size = sertype_of(type).descriptor->m_size;
+  const std::size_t size = Use<ReportSertype>(type)->descriptor->m_size;
   char* grown = static_cast<char*>(
       old == nullptr || oldcount != count ? dds_realloc(old, size * count) : old);
   if (grown && count > oldcount) std::memset(grown + size * oldcount, 0, size * (count - oldcount));
@@ -438,11 +490,11 @@ void sertype_free_samples(const ddsi_sertype* type, void** ptrs, std::size_t cou
 }
 
 bool sertype_equal(const ddsi_sertype* a, const ddsi_sertype* b) {
-  return sertype_of(a).descriptor == sertype_of(b).descriptor;
+  return Use<ReportSertype>(a)->descriptor == Use<ReportSertype>(b)->descriptor;
 }
 
 std::uint32_t sertype_hash(const ddsi_sertype* type) {
-  return std::uint32_t(std::hash<const void*>{}(sertype_of(type).descriptor));
+  return std::uint32_t(std::hash<const void*>{}(Use<ReportSertype>(type)->descriptor));
 }
 
 // The XTypes metadata, read from the descriptor as Cyclone's default sertype reads it.
@@ -451,18 +503,19 @@ ddsi_sertype_cdr_data_t metadata(const dds_type_meta_ser& blob) {
 }
 
 bool has_xtypes_metadata(const ddsi_sertype* type) {
-  return (sertype_of(type).descriptor->m_flagset & DDS_TOPIC_XTYPES_METADATA) != 0;
+  return (Use<ReportSertype>(type)->descriptor->m_flagset & DDS_TOPIC_XTYPES_METADATA) != 0;
 }
 
 ddsi_typeinfo_t* sertype_typeinfo(const ddsi_sertype* type) {
   if (!has_xtypes_metadata(type)) return nullptr;
-  const ddsi_sertype_cdr_data_t blob = metadata(sertype_of(type).descriptor->type_information);
+  const ddsi_sertype_cdr_data_t blob =
+      metadata(Use<ReportSertype>(type)->descriptor->type_information);
   return ddsi_typeinfo_deser(&blob);
 }
 
 ddsi_typemap_t* sertype_typemap(const ddsi_sertype* type) {
   if (!has_xtypes_metadata(type)) return nullptr;
-  const ddsi_sertype_cdr_data_t blob = metadata(sertype_of(type).descriptor->type_mapping);
+  const ddsi_sertype_cdr_data_t blob = metadata(Use<ReportSertype>(type)->descriptor->type_mapping);
   return ddsi_typemap_deser(&blob);
 }
 
@@ -521,6 +574,7 @@ dds_entity_t create_report_topic(dds_entity_t participant, ReportTopicType type,
   // QoS, which is XCDR1 unless its QoS names another, and the bridge's never does (ROS 2 needs
   // XCDR1).
   ours->c.allowed_data_representation = DDS_DATA_REPRESENTATION_RESTRICT_DEFAULT;
+  handoff_release(ours);  // made: Cyclone's threads use it from now on (see published)
   ddsi_sertype* sertype = &ours->c;
   const dds_entity_t topic =
       dds_create_topic_sertype(participant, name, &sertype, qos, nullptr, nullptr);
