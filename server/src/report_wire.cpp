@@ -191,12 +191,12 @@ void encode_pair(Out& out, const Report& report, std::size_t index) {
     }
     const SceneRobot* robot = scene.robot.get();
     if (robot && index < report.joint_gradients.size())
-      for (const auto& [coordinate, value] : report.joint_gradients[index])
-        p.message(35, [&](Out& d) {  // PairDistance.joint_gradient
-          const auto& [joint, within] = robot->coordinates[coordinate];
+      for (const std::pair<std::uint32_t, double>& entry : report.joint_gradients[index])
+        p.message(35, [&](Out& d) {  // PairDistance.joint_gradient (entry: coordinate, value)
+          const auto& [joint, within] = robot->coordinates[entry.first];
           d.string(1, robot->tree.joints[joint].name);
           d.varint(2, within);
-          d.fixed_double(3, value);
+          d.fixed_double(3, entry.second);
         });
   });
 }
