@@ -3,7 +3,7 @@
 // XCDR1 bytes by code written for these two types, instead of by Cyclone DDS's interpreter of
 // the idlc descriptor.
 //
-// Why: a batched cell45 report sample is 8 reports × 45 pairs × 37 fields. Cyclone's generic
+// Why: a batched cell45 report sample is 8 reports × 45 pairs × 56 values. Cyclone's generic
 // writer walks its op codes for every field and aligns each one with a division; in a profile of
 // nearpointd under `nearpoint dds load` that serialisation was about a fifth of the server's CPU,
 // more than the bridge's own work. The bytes are the same (tests/dds/test_dds_report_sertype.cpp
