@@ -5,6 +5,9 @@
 #include <cstring>
 #include <string_view>
 
+#include <google/protobuf/io/coded_stream.h>
+#include <google/protobuf/wire_format_lite.h>
+
 #include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/scene_service.hpp"
 #include "nearpoint_distance.pb.h"
@@ -18,14 +21,19 @@ static_assert(std::endian::native == std::endian::little,
 
 namespace v1 = ::nearpoint::v1;
 
-enum WireType : std::uint32_t { kVarint = 0, kFixed64 = 1, kLengthDelimited = 2 };
+using google::protobuf::internal::WireFormatLite;
+using google::protobuf::io::CodedOutputStream;
 
-constexpr std::size_t varint_size(std::uint64_t value) {
-  return std::size_t(std::bit_width(value | 1) + 6) / 7;  // 1 byte per 7 bits, at least one
+constexpr auto kVarint = WireFormatLite::WIRETYPE_VARINT;
+constexpr auto kFixed64 = WireFormatLite::WIRETYPE_FIXED64;
+constexpr auto kLengthDelimited = WireFormatLite::WIRETYPE_LENGTH_DELIMITED;
+
+std::size_t varint_size(std::uint64_t value) {
+  return CodedOutputStream::VarintSize64(value);
 }
 
-constexpr std::uint32_t tag(std::uint32_t field, WireType type) {
-  return (field << 3) | type;
+constexpr std::uint32_t tag(std::uint32_t field, WireFormatLite::WireType type) {
+  return WireFormatLite::MakeTag(int(field), type);
 }
 
 /// Protobuf writes an enum as its int32 value sign-extended to 64 bits (10 bytes when negative).
@@ -107,11 +115,7 @@ class Writer {
 
  private:
   void put_varint(std::uint64_t value) {
-    while (value >= 0x80) {
-      *out_++ = std::uint8_t(value | 0x80);
-      value >>= 7;
-    }
-    *out_++ = std::uint8_t(value);
+    out_ = CodedOutputStream::WriteVarint64ToArray(value, out_);
   }
 
   const std::vector<std::uint32_t>& nested_;
