@@ -63,8 +63,7 @@ class CdrOut {
   ~CdrOut() { std::free(block_); }
 
   bool ok() const { return block_ != nullptr; }
-  std::size_t size() const { return pos_; }
-  /// Takes the block (kPayloadOffset + size() bytes at least, payload at kPayloadOffset).
+  /// Takes the block (finish()'s bytes after the ReportSerdata's room at its start).
   unsigned char* release() { return std::exchange(block_, nullptr); }
   const unsigned char* payload() const { return block_ + kPayloadOffset; }
 
@@ -97,7 +96,8 @@ class CdrOut {
   }
 
   /// The header in front and the zero padding behind the payload (DDSI wants a multiple of 4):
-  /// the finished sample, kHeaderBytes + padded size() bytes from block + sizeof(ReportSerdata).
+  /// the finished sample's size, its bytes from block + sizeof(ReportSerdata) (0 when memory ran
+  /// out).
   std::size_t finish() {
     const std::size_t pad = (4 - (pos_ & 3)) & 3;
     if (!block_ || !reserve(pad)) return 0;

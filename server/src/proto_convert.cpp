@@ -71,6 +71,12 @@ model::QueryInput to_input(const v1::QueryRequest& request) {
   return proto::from_proto(request);
 }
 
+v1::ReportMode report_mode_on_wire(model::ReportMode mode) {
+  return mode == model::ReportMode::unspecified || mode == model::ReportMode::unknown
+             ? v1::REPORT_MODE_ALL_PAIRS
+             : v1::ReportMode(model::to_wire(mode));
+}
+
 void to_proto(const Report& report, v1::DistanceReport& out) {
   out.Clear();
   out.set_sequence(report.sequence);
@@ -103,11 +109,7 @@ void to_proto(const Report& report, v1::DistanceReport& out) {
   out.set_coalesced_updates(report.coalesced_updates);
   out.set_coalesced_from_sequence(report.coalesced_from_sequence);
   proto::to_proto(report.counts, *out.mutable_counts());
-  // A report's mode is never unspecified: that would read as all pairs, which it is then.
-  out.set_report_mode(report.mode == model::ReportMode::unspecified ||
-                              report.mode == model::ReportMode::unknown
-                          ? v1::REPORT_MODE_ALL_PAIRS
-                          : v1::ReportMode(model::to_wire(report.mode)));
+  out.set_report_mode(report_mode_on_wire(report.mode));
   out.mutable_events()->Reserve(int(report.events.size()));
   for (const model::ThresholdEvent& event : report.events) {
     v1::ThresholdEvent& e = *out.add_events();

@@ -30,6 +30,9 @@ model::PoseUpdateInput to_input(const v1::PoseUpdate& update);
 model::QueryInput to_input(const v1::QueryRequest& request);
 
 using proto::to_proto;  // GeometryInfo and the rest of the model
+/// DistanceReport.report_mode of a report chosen in `mode`: never unspecified, which would read
+/// as all pairs, which it then is (to_proto below and report_wire.cpp both write it).
+v1::ReportMode report_mode_on_wire(model::ReportMode mode);
 void to_proto(const Report& report, v1::DistanceReport& out);
 /// The report of a rejected update: its sequence number and why.
 void to_proto(const Error& error, std::uint64_t sequence, v1::DistanceReport& out);

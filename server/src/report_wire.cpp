@@ -11,13 +11,11 @@
 #include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint/server/scene_service.hpp"
 #include "nearpoint_distance.pb.h"
+#include "proto_convert.hpp"
 #include "robot_scene.hpp"
 
 namespace nearpoint::server {
 namespace {
-
-static_assert(std::endian::native == std::endian::little,
-              "protobuf's fixed64 is little endian, as this machine's doubles are");
 
 namespace v1 = ::nearpoint::v1;
 
@@ -96,8 +94,7 @@ class Writer {
     const auto bits = std::bit_cast<std::uint64_t>(value);
     if (bits == 0) return;
     put_varint(tag(field, kFixed64));
-    std::memcpy(out_, &bits, 8);
-    out_ += 8;
+    out_ = WireFormatLite::WriteDoubleNoTagToArray(value, out_);
   }
   void string(std::uint32_t field, std::string_view text) {
     if (text.empty()) return;
@@ -222,11 +219,7 @@ void encode_report(Out& out, const Report& report) {
     c.varint(2, report.counts.pairs_pruned);
     c.varint(3, report.counts.pairs_unmoved);
   });
-  // A report's mode is never unspecified: that would read as all pairs, which it is then.
-  out.varint(
-      8, report.mode == model::ReportMode::unspecified || report.mode == model::ReportMode::unknown
-             ? enum_bits(v1::REPORT_MODE_ALL_PAIRS)
-             : enum_bits(model::to_wire(report.mode)));
+  out.varint(8, enum_bits(report_mode_on_wire(report.mode)));
   for (const model::ThresholdEvent& event : report.events)
     out.message(9, [&](Out& e) {
       if (report.threshold_names) e.string(1, (*report.threshold_names)[event.threshold]);
