@@ -14,6 +14,7 @@
 #include <random>
 #include <thread>
 
+#include "channel.hpp"
 #include "convert.hpp"
 #include "nearpoint/model/vocabulary.hpp"
 #include "nearpoint_distance.grpc.pb.h"
@@ -130,30 +131,39 @@ bool read_whole_file(const std::string& path, std::string& out) {
   return !in.bad();
 }
 
+}  // namespace
+
+std::shared_ptr<grpc::Channel> detail::make_channel(const std::string& target,
+                                                    const ClientOptions& options) {
+  grpc::ChannelArguments args;
+  args.SetMaxReceiveMessageSize(options.max_message_bytes);
+  args.SetMaxSendMessageSize(options.max_message_bytes);
+  // Reconnect to a restarted server within a fraction of a second rather than gRPC's default
+  // backoff (1 s growing to 120 s): sessions replay their scene as soon as it is back.
+  // GRPC_ARG_MIN_RECONNECT_BACKOFF_MS stays at gRPC's default (20 s) on purpose: gRPC also
+  // takes it as the time a connection attempt may take (TCP connect and the HTTP/2 SETTINGS
+  // exchange). At 100 ms, a busy or slow server (a loaded machine, a sanitizer build) failed
+  // first calls with "connection attempt timed out before receiving SETTINGS frame". A refused
+  // connection still fails at once, so reconnecting is no slower.
+  args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
+  args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
+  // Detect a silently dead peer on long streams.
+  args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, 20000);
+  args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 10000);
+  if (options.uses_tls() && !options.tls_server_name.empty())
+    args.SetSslTargetNameOverride(options.tls_server_name);
+  return grpc::CreateCustomChannel(target, channel_credentials(options), args);
+}
+
+namespace {
+
 // ---- Client ----
 
 class ClientImpl final : public Client, public detail::SessionHost {
  public:
   ClientImpl(std::string target, ClientOptions options)
       : target_(std::move(target)), options_(options) {
-    grpc::ChannelArguments args;
-    args.SetMaxReceiveMessageSize(options.max_message_bytes);
-    args.SetMaxSendMessageSize(options.max_message_bytes);
-    // Reconnect to a restarted server within a fraction of a second rather than gRPC's default
-    // backoff (1 s growing to 120 s): sessions replay their scene as soon as it is back.
-    // GRPC_ARG_MIN_RECONNECT_BACKOFF_MS stays at gRPC's default (20 s) on purpose: gRPC also
-    // takes it as the time a connection attempt may take (TCP connect and the HTTP/2 SETTINGS
-    // exchange). At 100 ms, a busy or slow server (a loaded machine, a sanitizer build) failed
-    // first calls with "connection attempt timed out before receiving SETTINGS frame". A refused
-    // connection still fails at once, so reconnecting is no slower.
-    args.SetInt(GRPC_ARG_INITIAL_RECONNECT_BACKOFF_MS, 100);
-    args.SetInt(GRPC_ARG_MAX_RECONNECT_BACKOFF_MS, 1000);
-    // Detect a silently dead peer on long streams.
-    args.SetInt(GRPC_ARG_KEEPALIVE_TIME_MS, 20000);
-    args.SetInt(GRPC_ARG_KEEPALIVE_TIMEOUT_MS, 10000);
-    if (options.uses_tls() && !options.tls_server_name.empty())
-      args.SetSslTargetNameOverride(options.tls_server_name);
-    channel_ = grpc::CreateCustomChannel(target_, channel_credentials(options), args);
+    channel_ = detail::make_channel(target_, options);
     stub_ = v1::DistanceService::NewStub(channel_);
   }
 

@@ -15,6 +15,7 @@
 #include <string>
 #include <thread>
 
+#include "channel.hpp"
 #include "nearpoint/client/client.hpp"
 #include "nearpoint_distance.grpc.pb.h"
 
@@ -23,8 +24,6 @@ namespace nearpoint::client::detail {
 namespace v1 = ::nearpoint::v1;
 
 Status from_grpc(const grpc::Status& status);
-/// Whether `id` may travel as a metadata value (the routing header).
-bool routable(const std::string& id);
 
 /// What a session needs of its client: the stub, the connection, and the replay of the scene
 /// after a lost stream.

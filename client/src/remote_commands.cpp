@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "demo.hpp"
+#include "load_driver.hpp"
 #include "local_server.hpp"
 #include "nearpoint/model/percentile.hpp"
 #include "nearpoint/model/vocabulary.hpp"
@@ -642,16 +643,6 @@ int run_stream(const StreamCommandOptions& options, std::ostream& out, std::ostr
 
 namespace {
 
-/// What the load's streams measured.
-struct LoadResult {
-  std::vector<double> latencies_us;
-  /// The reports' ReportTiming::geometry_us, summed: the engine's share of the server's work.
-  double geometry_us = 0;
-  std::size_t errors = 0;
-  std::string first_error;
-  double elapsed_s = 0;
-};
-
 /// Parse: the flags' bounds and the path the streams replay (the trajectory's steps, or the demo
 /// scene's 1001 poses); false once `err` says why.
 bool parse_load(const LoadCommandOptions& options,
@@ -687,97 +678,29 @@ bool parse_load(const LoadCommandOptions& options,
   return true;
 }
 
-/// Run: `options.streams` sessions on `scene_id`, each pushing `path` round and round (from its
+/// Run: `options.streams` streams on `scene_id`, each pushing `path` round and round (from its
 /// own starting point) for the duration, with a progress line on `err` meanwhile.
-LoadResult run_load_streams(client::Client& client, const std::string& scene_id,
+LoadResult run_load_streams(const client::ClientOptions& client_options,
+                            const std::string& scene_id,
                             const std::vector<std::vector<client::ObjectPose>>& path,
                             const LoadCommandOptions& options, std::ostream& err) {
-  std::mutex mutex;
-  std::vector<double> latencies_us;
-  double geometry_us = 0;
-  std::atomic<std::size_t> done{0}, errors{0};
-  std::string first_error;
-  const auto start = Clock::now();
-  const auto stop_at = start + std::chrono::duration_cast<Clock::duration>(
-                                   std::chrono::duration<double>(options.duration_s));
-  std::vector<std::thread> threads;
-  for (int k = 0; k < options.streams; ++k) {
-    threads.emplace_back([&, k] {
-      std::vector<double> local;
-      double local_geometry_us = 0;
-      const std::size_t batch = std::max<std::size_t>(1, options.batch);
-      client::SessionOptions session_options;
-      session_options.max_in_flight = std::max(options.window, batch);
-      session_options.batched = batch > 1;
-      session_options.reconnect = false;
-      session_options.on_report = [&](const client::Report& report) {
-        if (!report.error.ok()) {
-          errors.fetch_add(1);
-          std::lock_guard lock(mutex);
-          if (first_error.empty()) first_error = report.error.describe();
-          return;
-        }
-        local.push_back(
-            std::chrono::duration<double, std::micro>(report.received - report.sent).count());
-        local_geometry_us += report.timing.geometry_us;
-        done.fetch_add(1, std::memory_order_relaxed);
-      };
-      auto session = client.open_session(scene_id, session_options);
-      if (!session) {
-        errors.fetch_add(1);
-        std::lock_guard lock(mutex);
-        if (first_error.empty()) first_error = session.status().describe();
-        return;
-      }
-      // Streams start at different points of the path, so they do not run in lock step.
-      std::size_t step = std::size_t(k) * path.size() / std::size_t(options.streams);
-      std::vector<std::vector<client::ObjectPose>> pose_sets;
-      while (Clock::now() < stop_at && interrupt_signal() == 0) {
-        const Clock::time_point deadline = stop_at + std::chrono::seconds(10);
-        if (batch > 1) {
-          pose_sets.clear();
-          for (std::size_t i = 0; i < batch; ++i)
-            pose_sets.push_back(path[(step + i) % path.size()]);
-        }
-        const client::Expected<std::uint64_t> pushed =
-            batch == 1 ? (*session)->push(path[step % path.size()], deadline)
-                       : (*session)->push_batch(pose_sets, deadline);
-        if (!pushed) {
-          errors.fetch_add(1);
-          std::lock_guard lock(mutex);
-          if (first_error.empty()) first_error = pushed.status().describe();
-          break;
-        }
-        step += batch;
-      }
-      (void)(*session)->close(Clock::now() + std::chrono::seconds(10));
-      session->reset();  // joins the reader: `local` is complete
-      std::lock_guard lock(mutex);
-      latencies_us.insert(latencies_us.end(), local.begin(), local.end());
-      geometry_us += local_geometry_us;
-    });
-  }
-  // The progress line, until the streams are done.
-  if (options.progress_every > 0) {
-    while (Clock::now() < stop_at && interrupt_signal() == 0) {
-      std::this_thread::sleep_for(
-          std::min(std::chrono::duration_cast<Clock::duration>(
-                       std::chrono::duration<double>(options.progress_every)),
-                   std::chrono::duration_cast<Clock::duration>(stop_at - Clock::now())));
-      const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-      err << "\r  " << number(elapsed, 3) << " s  " << done.load() << " reports  "
-          << number(double(done.load()) / std::max(elapsed, 1e-9), 4) << " updates/s  "
-          << errors.load() << " errors   " << std::flush;
-    }
-    err << "\n";
-  }
-  for (std::thread& t : threads) t.join();
-  LoadResult result;
-  result.elapsed_s = std::chrono::duration<double>(Clock::now() - start).count();
-  result.latencies_us = std::move(latencies_us);
-  result.geometry_us = geometry_us;
-  result.errors = errors.load();
-  result.first_error = std::move(first_error);
+  LoadPlan plan;
+  plan.target = options.remote.target;
+  plan.client_options = client_options;
+  plan.scene_id = scene_id;
+  plan.path = &path;
+  plan.streams = options.streams;
+  plan.window = options.window;
+  plan.batch = options.batch;
+  plan.duration_s = options.duration_s;
+  plan.progress_every = options.progress_every;
+  plan.progress = [&err](double elapsed, std::size_t reports, std::size_t errors) {
+    err << "\r  " << number(elapsed, 3) << " s  " << reports << " reports  "
+        << number(double(reports) / std::max(elapsed, 1e-9), 4) << " updates/s  " << errors
+        << " errors   " << std::flush;
+  };
+  LoadResult result = drive_load(plan);
+  if (options.progress_every > 0) err << "\n";
   return result;
 }
 
@@ -820,8 +743,10 @@ void print_load_summary(LoadResult& result, const std::string& scene_id,
 int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream& err) {
   std::vector<std::vector<client::ObjectPose>> path;
   if (!parse_load(options, path, err)) return kExitBadInput;
-  auto client = connect(options.remote, err);
-  if (!client) return kExitBadInput;
+  const std::optional<client::ClientOptions> client_options =
+      cli::client_options(options.remote, err);
+  if (!client_options) return kExitBadInput;
+  auto client = client::Client::connect(options.remote.target, *client_options);
   install_interrupt_handlers();
   std::string scene_id;
   bool created = false;
@@ -838,7 +763,7 @@ int run_load(const LoadCommandOptions& options, std::ostream& out, std::ostream&
     return code;
   }
   SceneLease lease(*client, scene_id, created, options.keep_scene, "nearpoint load", err);
-  LoadResult result = run_load_streams(*client, scene_id, path, options, err);
+  LoadResult result = run_load_streams(*client_options, scene_id, path, options, err);
   lease.release();
   if (interrupt_signal() != 0) {
     err << "nearpoint load: interrupted\n";

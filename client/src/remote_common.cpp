@@ -29,7 +29,8 @@ int exit_code_for(const client::Status& status) {
              : kExitServerError;
 }
 
-std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err) {
+std::optional<client::ClientOptions> client_options(const RemoteOptions& remote,
+                                                    std::ostream& err) {
   client::ClientOptions options;
   options.call_timeout = remote.timeout;
   options.tls_server_name = remote.tls_server_name;
@@ -37,9 +38,14 @@ std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostrea
                                                          remote.tls_key, remote.token_file);
   if (!loaded.ok()) {
     err << "nearpoint: " << loaded.message << "\n";
-    return nullptr;
+    return std::nullopt;
   }
-  return client::Client::connect(remote.target, options);
+  return options;
+}
+
+std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err) {
+  const std::optional<client::ClientOptions> options = client_options(remote, err);
+  return options ? client::Client::connect(remote.target, *options) : nullptr;
 }
 
 std::string default_target() {

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <iosfwd>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "json_shapes.hpp"
@@ -41,8 +42,10 @@ struct RemoteOptions {
   std::string token_file;
 };
 
-/// A client with the --tls-* and --token-file files loaded, or nullptr (the reason printed to
-/// `err`) when one cannot be read.
+/// The client options of --timeout, --tls-* and --token-file (the files read), or nothing (the
+/// reason printed to `err`) when one cannot be read.
+std::optional<client::ClientOptions> client_options(const RemoteOptions& remote, std::ostream& err);
+/// A client with those options, or nullptr (the reason printed to `err`).
 std::unique_ptr<client::Client> connect(const RemoteOptions& remote, std::ostream& err);
 
 /// Mesh files → convex pieces (nearpoint_mesh_import), or an error when built without it.

@@ -21,6 +21,11 @@ CASE is one of
   cli-text    `nearpoint scene --help` does not repeat the top-level examples; progress lines
               (with '\\r') are not written when stderr is not a terminal; "1 pair", not "1 pairs";
               both binaries call the DDS flags --dds-domain and --dds-prefix.
+  load        `nearpoint load` (one stream per update and batched): every update the server
+              counted (its metrics, with --metrics) is one report in the load's figures, with
+              no error; an unknown scene is one error per refused update, exit 1; a server
+              killed with SIGKILL under load ends the load within seconds, exit 1, naming the
+              lost stream.
 Exits non-zero with a message on the first failure.
 """
 import argparse
@@ -32,6 +37,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import urllib.request
 
 from cli_checks import check, fail
 
@@ -74,6 +80,12 @@ class Daemon:
             time.sleep(0.05)
         self.port = int(open(self.port_file).read())
         self.target = "127.0.0.1:%d" % self.port
+        self.metrics_port = None
+        while metrics and self.metrics_port is None:
+            if os.path.exists(self.metrics_port_file):
+                self.metrics_port = int(open(self.metrics_port_file).read())
+            check(time.monotonic() < deadline, "nearpointd wrote no metrics port file in 30 s")
+            time.sleep(0.05)
 
     def stderr(self):
         self.log.flush()
@@ -273,10 +285,107 @@ def case_cli_text(scratch):
     print("cli-text OK")
 
 
+def scrape(port):
+    """The Prometheus samples of nearpointd's /metrics, by name with labels."""
+    with urllib.request.urlopen("http://127.0.0.1:%d/metrics" % port, timeout=10) as response:
+        body = response.read().decode()
+    samples = {}
+    for line in body.splitlines():
+        if line.startswith("#") or not line.strip():
+            continue
+        name, number = line.rsplit(" ", 1)
+        samples[name] = float(number)
+    return samples
+
+
+def updates_counted(daemon):
+    """nearpointd's update counters by status, once every stream has ended (bounded wait)."""
+    deadline = time.monotonic() + 10
+    while True:
+        samples = scrape(daemon.metrics_port)
+        if samples.get("nearpoint_streams_active", 0) == 0 or time.monotonic() > deadline:
+            break
+        time.sleep(0.05)
+    prefix = 'nearpoint_updates_total{status="'
+    return {k[len(prefix):-2]: v for k, v in samples.items() if k.startswith(prefix)}
+
+
+def refused(counted):
+    """Updates nearpointd answered with an error, whatever the code."""
+    return sum(v for k, v in counted.items() if k != "ok")
+
+
+def case_load(scratch):
+    daemon = Daemon(scratch, ["--workers", "1"], metrics=ARGS.metrics)
+    try:
+        before = updates_counted(daemon) if ARGS.metrics else {}
+        for flags in (["--streams", "3", "--window", "4"],
+                      ["--streams", "2", "--window", "16", "--batch", "8"]):
+            result = run([ARGS.nearpoint, "load", "--target", daemon.target, "--duration", "0.6",
+                          "--json", *flags])
+            expect_exit("nearpoint load " + " ".join(flags), result, 0)
+            summary = json.loads(result.stdout)
+            check(summary["errors"] == 0 and summary["reports"] > 100,
+                  "load %s: %r" % (flags, summary))
+            latency = summary["latency_us"]
+            check(0 < latency["p50"] <= latency["p99"] <= latency["max"],
+                  "load %s: latency percentiles out of order: %r" % (flags, latency))
+            check(summary["geometry_us_per_report"] > 0, "no geometry time: %r" % summary)
+            if ARGS.metrics:
+                after = updates_counted(daemon)
+                served = after.get("ok", 0) - before.get("ok", 0)
+                check(served == summary["reports"],
+                      "load %s: nearpointd answered %d updates, the load counted %d reports"
+                      % (flags, served, summary["reports"]))
+                check(refused(after) == refused(before),
+                      "load %s: nearpointd refused updates: %r" % (flags, after))
+                before = after
+
+        trajectory = os.path.join(scratch, "one-step.jsonl")
+        with open(trajectory, "w") as f:
+            f.write('{"t": 0, "poses": {"o0": {"translation": [0, 0, 0]}}}\n')
+        result = run([ARGS.nearpoint, "load", "no-such-scene", trajectory, "--target",
+                      daemon.target, "--duration", "0.3", "--json"])
+        expect_exit("nearpoint load on an unknown scene", result, 1)
+        summary = json.loads(result.stdout)
+        check(summary["errors"] > 0 and summary["reports"] == 0, "unknown scene: %r" % summary)
+        check("NOT_FOUND" in result.stderr and "no-such-scene" in result.stderr,
+              "unknown scene: the error does not say which: %s" % result.stderr)
+        if ARGS.metrics:
+            after = updates_counted(daemon)
+            check(refused(after) - refused(before) == summary["errors"],
+                  "nearpointd refused %d updates, the load counted %d errors"
+                  % (refused(after) - refused(before), summary["errors"]))
+    finally:
+        daemon.stop()
+
+    # A server that dies under load: the load ends soon, exit 1, and says the stream was lost.
+    doomed = Daemon(scratch, ["--workers", "1"])
+    load = subprocess.Popen([ARGS.nearpoint, "load", "--target", doomed.target, "--streams", "2",
+                             "--window", "4", "--duration", "30", "--json"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1.0)
+    doomed.process.kill()
+    doomed.process.wait(timeout=30)
+    doomed.log.close()
+    started = time.monotonic()
+    try:
+        out, err = load.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        load.kill()
+        fail("nearpoint load still ran 20 s after its server was killed")
+    check(load.returncode == 1, "load after SIGKILL of its server: exit %d, expected 1; %s"
+          % (load.returncode, err.strip()[-400:]))
+    check("stream failed" in err and "UNAVAILABLE" in err,
+          "load after SIGKILL: the error does not name the lost stream: %s" % err.strip()[-400:])
+    check(time.monotonic() - started < 20, "the load took too long to notice")
+
+
 def main():
     global ARGS
     parser = argparse.ArgumentParser()
-    parser.add_argument("case", choices=["version", "exit-codes", "dds-refused", "cli-text"])
+    parser.add_argument("case",
+                        choices=["version", "exit-codes", "dds-refused", "cli-text", "load"])
     parser.add_argument("--nearpoint", required=True)
     parser.add_argument("--nearpointd", required=True)
     parser.add_argument("--version", required=True)
@@ -286,7 +395,7 @@ def main():
     ARGS = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="nearpoint-edges-") as scratch:
         {"version": case_version, "exit-codes": case_exit_codes, "dds-refused": case_dds_refused,
-         "cli-text": case_cli_text}[ARGS.case](scratch)
+         "cli-text": case_cli_text, "load": case_load}[ARGS.case](scratch)
 
 
 if __name__ == "__main__":
