@@ -49,23 +49,22 @@ StreamTally run_stream(DdsPoseClient& client, const Trajectory& trajectory,
   StreamTally tally;
   StepPublisher publisher(trajectory, stream);
   std::map<std::uint64_t, Clock::time_point> outstanding;  // sequence → published
-  auto on_report = [&](const DistanceReportSample& report) {
+  auto on_report = [&](const ReportView& report) {
     const auto found = outstanding.find(report.sequence_number);
     if (found == outstanding.end()) return;  // not awaited (a duplicate): ignored
     if (report.status != 0) {
       ++tally.errors;
       if (tally.first_problem.empty())
         tally.first_problem = "error report for sequence " +
-                              std::to_string(report.sequence_number) + ": " +
-                              (report.message ? report.message : "");
+                              std::to_string(report.sequence_number) + ": " + report.message;
       outstanding.erase(found);
       return;
     }
     tally.latencies_us.push_back(
         std::chrono::duration<double, std::micro>(Clock::now() - found->second).count());
     ++tally.reports;
-    tally.server_us += report.timing.server_us;
-    tally.geometry_us += report.timing.geometry_us;
+    tally.server_us += report.server_us;
+    tally.geometry_us += report.geometry_us;
     // A report answers every earlier update still outstanding: merged into it (coalesced), or
     // missing.
     const std::uint64_t merged_from =
@@ -90,7 +89,7 @@ StreamTally run_stream(DdsPoseClient& client, const Trajectory& trajectory,
       }
       next += batch;
     }
-    const int got = client.take_reports(report_timeout, on_report, error);
+    const int got = client.take_report_views(report_timeout, on_report, error);
     if (got <= 0) {
       if (tally.first_problem.empty())
         tally.first_problem =

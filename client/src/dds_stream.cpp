@@ -1,6 +1,8 @@
 // SPDX-License-Identifier: Apache-2.0
 #include "dds_stream.hpp"
 
+#include <dds/ddsi/ddsi_serdata.h>
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -245,44 +247,107 @@ int DdsPoseClient::take_any_reports(
 int DdsPoseClient::take(std::chrono::milliseconds timeout, bool own_only,
                         const std::function<void(const DistanceReportSample&)>& on_report,
                         std::string& error) {
+  return take_until_delivered(
+      timeout,
+      [&](bool& full, std::string& round_error) {
+        constexpr std::size_t kBatch = 32;
+        std::array<void*, kBatch> samples{};
+        std::array<dds_sample_info_t, kBatch> infos{};
+        const dds_return_t taken = dds_take(reader_, samples.data(), infos.data(), kBatch, kBatch);
+        if (taken < 0) {
+          round_error = dds::describe("dds_take", taken);
+          return -1;
+        }
+        int delivered = 0;
+        for (dds_return_t i = 0; i < taken; ++i) {
+          if (!infos[std::size_t(i)].valid_data) continue;
+          // One report, or a batch of them: each in turn.
+          const DistanceReportSample* reports =
+              static_cast<const DistanceReportSample*>(samples[std::size_t(i)]);
+          std::uint32_t count = 1;
+          if (batched_) {
+            const auto& batch = *static_cast<const nearpoint_msgs_msg_dds__DistanceReportBatch_*>(
+                samples[std::size_t(i)]);
+            reports = batch.reports._buffer;
+            count = batch.reports._length;
+          }
+          bool ours = false;
+          for (std::uint32_t k = 0; k < count; ++k) {
+            const DistanceReportSample& report = reports[k];
+            // Reports for other clients of the same scene share the topic.
+            if (own_only &&
+                std::memcmp(report.writer_guid, writer_guid_.data(), writer_guid_.size()) != 0)
+              continue;
+            on_report(report);
+            ++delivered;
+            ours = true;
+          }
+          if (ours) ++report_samples_;
+        }
+        if (taken > 0) dds_return_loan(reader_, samples.data(), taken);
+        full = taken == dds_return_t(kBatch);
+        return delivered;
+      },
+      error);
+}
+
+int DdsPoseClient::take_report_views(std::chrono::milliseconds timeout,
+                                     const std::function<void(const ReportView&)>& on_report,
+                                     std::string& error) {
+  return take_until_delivered(
+      timeout,
+      [&](bool& full, std::string& round_error) {
+        constexpr std::uint32_t kBatch = 32;
+        std::array<ddsi_serdata*, kBatch> samples{};
+        std::array<dds_sample_info_t, kBatch> infos{};
+        const dds_return_t taken =
+            dds_takecdr(reader_, samples.data(), kBatch, infos.data(), DDS_ANY_STATE);
+        if (taken < 0) {
+          round_error = dds::describe("dds_takecdr", taken);
+          return -1;
+        }
+        int delivered = 0;
+        bool malformed = false;
+        for (dds_return_t i = 0; i < taken; ++i) {
+          ddsi_serdata* sample = samples[std::size_t(i)];
+          if (infos[std::size_t(i)].valid_data && !malformed) {
+            // The bytes as received (Cyclone has validated them and put them in host order).
+            const std::uint32_t size = ddsi_serdata_size(sample);
+            ddsrt_iovec_t bytes;
+            ddsi_serdata* const ref = ddsi_serdata_to_ser_ref(sample, 0, size, &bytes);
+            bool ours = false;
+            malformed = !read_report_views(
+                static_cast<const std::uint8_t*>(bytes.iov_base), bytes.iov_len, batched_,
+                [&](const ReportView& report) {
+                  // Reports for other clients of the same scene share the topic.
+                  if (report.writer_guid != writer_guid_) return;
+                  on_report(report);
+                  ++delivered;
+                  ours = true;
+                },
+                round_error);
+            ddsi_serdata_to_ser_unref(ref, &bytes);
+            if (ours) ++report_samples_;
+          }
+          ddsi_serdata_unref(sample);
+        }
+        full = taken == dds_return_t(kBatch);
+        return malformed ? -1 : delivered;
+      },
+      error);
+}
+
+int DdsPoseClient::take_until_delivered(
+    std::chrono::milliseconds timeout,
+    const std::function<int(bool& full, std::string& error)>& round, std::string& error) {
   const Clock::time_point deadline = Clock::now() + timeout;
   int delivered = 0;
   for (;;) {
-    constexpr std::size_t kBatch = 32;
-    std::array<void*, kBatch> samples{};
-    std::array<dds_sample_info_t, kBatch> infos{};
-    const dds_return_t taken = dds_take(reader_, samples.data(), infos.data(), kBatch, kBatch);
-    if (taken < 0) {
-      error = dds::describe("dds_take", taken);
-      return -1;
-    }
-    for (dds_return_t i = 0; i < taken; ++i) {
-      if (!infos[std::size_t(i)].valid_data) continue;
-      // One report, or a batch of them: each in turn.
-      const DistanceReportSample* reports =
-          static_cast<const DistanceReportSample*>(samples[std::size_t(i)]);
-      std::uint32_t count = 1;
-      if (batched_) {
-        const auto& batch = *static_cast<const nearpoint_msgs_msg_dds__DistanceReportBatch_*>(
-            samples[std::size_t(i)]);
-        reports = batch.reports._buffer;
-        count = batch.reports._length;
-      }
-      bool ours = false;
-      for (std::uint32_t k = 0; k < count; ++k) {
-        const DistanceReportSample& report = reports[k];
-        // Reports for other clients of the same scene share the topic.
-        if (own_only &&
-            std::memcmp(report.writer_guid, writer_guid_.data(), writer_guid_.size()) != 0)
-          continue;
-        on_report(report);
-        ++delivered;
-        ours = true;
-      }
-      if (ours) ++report_samples_;
-    }
-    if (taken > 0) dds_return_loan(reader_, samples.data(), taken);
-    if (taken == dds_return_t(kBatch)) continue;  // more may be waiting
+    bool full = false;
+    const int got = round(full, error);
+    if (got < 0) return -1;
+    delivered += got;
+    if (full) continue;  // more may be waiting
     if (delivered > 0) return delivered;
     const Clock::time_point now = Clock::now();
     if (now >= deadline) return 0;

@@ -25,7 +25,7 @@ CASE is one of
               counted (its metrics, with --metrics) is one report in the load's figures, with
               no error; an unknown scene is one error per refused update, exit 1; a server
               killed with SIGKILL under load ends the load within seconds, exit 1, naming the
-              lost stream.
+              lost stream. With --dds, `nearpoint dds load` the same way, on loopback DDS.
 Exits non-zero with a message on the first failure.
 """
 import argparse
@@ -54,10 +54,18 @@ def env_without_dds_config():
             if k != "CYCLONEDDS_URI" and not k.startswith("NEARPOINT_")}
 
 
+def env_with_loopback_dds():
+    """The project's loopback Cyclone DDS configuration: never the external interface."""
+    env = env_without_dds_config()
+    root = os.path.dirname(os.path.abspath(ARGS.examples))
+    env["CYCLONEDDS_URI"] = "file://" + os.path.join(root, "deploy", "cyclonedds-loopback.xml")
+    return env
+
+
 class Daemon:
     """A nearpointd child on 127.0.0.1:0, ready once its port file exists."""
 
-    def __init__(self, scratch, extra=(), metrics=False):
+    def __init__(self, scratch, extra=(), metrics=False, dds=False):
         self.port_file = os.path.join(scratch, "port")
         self.metrics_port_file = os.path.join(scratch, "metrics-port")
         for f in (self.port_file, self.metrics_port_file):
@@ -71,7 +79,8 @@ class Daemon:
             command += ["--metrics-listen", "127.0.0.1:0", "--metrics-port-file",
                         self.metrics_port_file]
         self.process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=self.log,
-                                        env=env_without_dds_config())
+                                        env=env_with_loopback_dds() if dds
+                                        else env_without_dds_config())
         deadline = time.monotonic() + 30
         while not os.path.exists(self.port_file):
             check(self.process.poll() is None,
@@ -379,6 +388,39 @@ def case_load(scratch):
     check("stream failed" in err and "UNAVAILABLE" in err,
           "load after SIGKILL: the error does not name the lost stream: %s" % err.strip()[-400:])
     check(time.monotonic() - started < 20, "the load took too long to notice")
+    if ARGS.dds:
+        dds_load(scratch)
+
+
+def dds_load(scratch):
+    """`nearpoint dds load` on the DDS example scene: every update nearpointd counted is one report
+    of the load's, with no error (the reports read from their bytes, client/src/dds_report_view)."""
+    domain = "118"  # tests/dds/dds_test_support.hpp keeps the list
+    scene = os.path.join(ARGS.examples, "dds_scene.json")
+    daemon = Daemon(scratch, ["--workers", "1", "--dds", "--dds-domain", domain, "--scene", scene],
+                    metrics=ARGS.metrics, dds=True)
+    try:
+        before = updates_counted(daemon) if ARGS.metrics else {}
+        for flags in (["--window", "4"], ["--window", "16", "--batch", "8"]):
+            result = run([ARGS.nearpoint, "dds", "load", "dds-demo",
+                          os.path.join(ARGS.examples, "dds_trajectory.jsonl"), "--dds-domain",
+                          domain, "--duration", "0.6", "--json", *flags],
+                         env=env_with_loopback_dds())
+            expect_exit("nearpoint dds load " + " ".join(flags), result, 0)
+            summary = json.loads(result.stdout)
+            check(summary["errors"] == 0 and summary["reports"] > 50,
+                  "dds load %s: %r" % (flags, summary))
+            check(summary["geometry_us_total"] > 0 and summary["server_us_total"] > 0,
+                  "dds load %s: no server timing read: %r" % (flags, summary))
+            if ARGS.metrics:
+                after = updates_counted(daemon)
+                served = after.get("ok", 0) - before.get("ok", 0)
+                check(served == summary["reports"] + summary["merged"],
+                      "dds load %s: nearpointd answered %d updates, the load counted %d reports "
+                      "and %d merged" % (flags, served, summary["reports"], summary["merged"]))
+                before = after
+    finally:
+        daemon.stop()
 
 
 def main():

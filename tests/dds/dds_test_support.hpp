@@ -39,6 +39,7 @@ inline constexpr std::uint32_t kDomainBatchShutdown = 116;
 inline constexpr std::uint32_t kDomainEndToEnd = 111;
 inline constexpr std::uint32_t kDomainPreloaded = 112;
 inline constexpr std::uint32_t kDomainReportSertype = 117;  // test_dds_report_sertype.cpp
+// 118: tests/cli/check_edges.py (load: `nearpoint dds load`)
 // 121: tests/cli/check_scene_lifecycle.py (cli.report_schema).
 
 inline std::string unique_prefix(const std::string& test) {

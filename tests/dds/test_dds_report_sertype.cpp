@@ -1,11 +1,13 @@
 // SPDX-License-Identifier: Apache-2.0
-// The report topics' own serialiser (server/src/dds_report_sertype.hpp) against Cyclone DDS's:
+// The report topics' own serialiser (server/src/dds_report_sertype.hpp) and `nearpoint dds
+// load`'s reader of report bytes (client/src/dds_report_view.hpp) against Cyclone DDS's:
 // for random reports and batches (empty and long strings, null pointers, NaN, infinities, every
 // sequence length from none up), the bytes we write must be the bytes Cyclone's generic writer
 // makes of the same sample from the idlc descriptor, header and padding included. Then the real
 // path: dds_write on a topic made by create_report_topic, a reader of the ordinary idlc type on
 // the same participant, dds_takecdr (the bytes a remote reader gets) and dds_take (the sample it
-// decodes).
+// decodes). The load's reader must find in Cyclone's bytes the fields the sample holds, and
+// refuse every truncation of them.
 #include <dds/dds.h>
 #include <dds/ddsi/ddsi_serdata.h>
 #include <dds/ddsi/ddsi_typelib.h>
@@ -14,12 +16,16 @@
 #include <cmath>
 #include <cstdint>
 #include <deque>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "dds_report_sertype.hpp"
+#include "dds_report_view.hpp"
 #include "dds_test_support.hpp"
 #include "nearpoint_dds.hpp"
 
@@ -343,6 +349,116 @@ TEST(DdsReportSertype, TheTopicCarriesTheDescriptorsTypeInformation) {
   ASSERT_GE(dds_get_type_name(ours, name, sizeof name), 0);
   EXPECT_STREQ(name, nearpoint::dds::kDistanceReportType);
   dds_delete(participant);
+}
+
+}  // namespace
+
+namespace {
+
+using nearpoint::cli::read_report_views;
+using nearpoint::cli::ReportView;
+
+// What a load reads of `sample`, field by field.
+void expect_view_of(const ReportView& view, const ReportSample& sample) {
+  EXPECT_TRUE(std::equal(view.writer_guid.begin(), view.writer_guid.end(), sample.writer_guid));
+  EXPECT_EQ(view.sequence_number, sample.sequence_number);
+  EXPECT_EQ(view.status, sample.status);
+  EXPECT_EQ(view.message, sample.status != 0 && sample.message ? sample.message : "");
+  EXPECT_EQ(view.pair_count, sample.pairs._length);
+  // NaN equal to NaN: the timing fields are random doubles here.
+  auto same = [](double a, double b) { return std::isnan(a) ? std::isnan(b) : a == b; };
+  EXPECT_TRUE(same(view.server_us, sample.timing.server_us)) << view.server_us;
+  EXPECT_TRUE(same(view.geometry_us, sample.timing.geometry_us)) << view.geometry_us;
+  EXPECT_EQ(view.coalesced_updates, sample.coalesced_updates);
+  EXPECT_EQ(view.coalesced_from_sequence, sample.coalesced_from_sequence);
+}
+
+std::vector<ReportView> views_of(const Bytes& bytes, bool batch, bool& ok, std::string& error) {
+  std::vector<ReportView> views;
+  ok = read_report_views(
+      bytes.data(), bytes.size(), batch, [&](const ReportView& view) { views.push_back(view); },
+      error);
+  return views;
+}
+
+TEST(DdsReportView, ReadsWhatTheSampleHoldsFromTheBytesAReaderGets) {
+  Topics topics(ReportTopicType::report);
+  RandomReports random(7);
+  for (int i = 0; i < 200; ++i) {
+    const ReportSample sample = random.report();
+    bool ok = false;
+    std::string error;
+    const std::vector<ReportView> views = views_of(topics.by_cyclone(&sample), false, ok, error);
+    ASSERT_TRUE(ok) << "sample " << i << ": " << error;
+    ASSERT_EQ(views.size(), 1u);
+    expect_view_of(views[0], sample);
+  }
+}
+
+TEST(DdsReportView, ReadsEveryReportOfABatch) {
+  Topics topics(ReportTopicType::report_batch);
+  RandomReports random(8);
+  for (int i = 0; i < 60; ++i) {
+    const ReportBatchSample sample = random.batch();
+    bool ok = false;
+    std::string error;
+    const std::vector<ReportView> views = views_of(topics.by_cyclone(&sample), true, ok, error);
+    ASSERT_TRUE(ok) << "batch " << i << ": " << error;
+    ASSERT_EQ(views.size(), sample.reports._length);
+    for (std::size_t k = 0; k < views.size(); ++k)
+      expect_view_of(views[k], sample.reports._buffer[k]);
+  }
+}
+
+// Every strict prefix of a report is refused (the payload is never padded: see the header
+// test), with a reason, and delivers nothing; a batch's prefix delivers only whole reports.
+TEST(DdsReportView, RefusesEveryTruncationAndAnotherEncoding) {
+  Topics topics(ReportTopicType::report_batch);
+  RandomReports random(9);
+  ReportBatchSample sample = random.batch();
+  while (sample.reports._length < 2) sample = random.batch();
+  const Bytes whole = topics.by_cyclone(&sample);
+  for (std::size_t size = 0; size < whole.size(); ++size) {
+    bool ok = true;
+    std::string error;
+    const std::vector<ReportView> views =
+        views_of(Bytes(whole.begin(), whole.begin() + std::ptrdiff_t(size)), true, ok, error);
+    ASSERT_FALSE(ok) << "a prefix of " << size << " of " << whole.size() << " bytes was accepted";
+    ASSERT_FALSE(error.empty());
+    ASSERT_LT(views.size(), sample.reports._length);
+    for (std::size_t k = 0; k < views.size(); ++k)
+      expect_view_of(views[k], sample.reports._buffer[k]);
+  }
+  Bytes big_endian = whole;
+  big_endian[1] = 0x00;  // CDR_BE: Cyclone hands its readers host order only
+  bool ok = true;
+  std::string error;
+  EXPECT_TRUE(views_of(big_endian, true, ok, error).empty());
+  EXPECT_FALSE(ok);
+  EXPECT_NE(error.find("XCDR1"), std::string::npos) << error;
+}
+
+// The fuzz target's seeds (tests/fuzz/make_seeds.py writes them with a CDR writer of its own, in
+// Python): each one a report, or a batch of them, that the reader accepts whole.
+TEST(DdsReportView, AcceptsTheFuzzSeedsWrittenByAnotherWriter) {
+  const std::filesystem::path seeds =
+      std::filesystem::path(NEARPOINT_SOURCE_DIR) / "tests/fuzz/corpus/dds_report_view";
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(seeds)) {
+    std::ifstream in(entry.path(), std::ios::binary);
+    const Bytes input((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    ASSERT_GE(input.size(), 9u) << entry.path();
+    const bool batch = input[0] & 1;
+    bool ok = false;
+    std::string error;
+    const std::vector<ReportView> views =
+        views_of(Bytes(input.begin() + 1, input.end()), batch, ok, error);
+    EXPECT_TRUE(ok) << entry.path() << ": " << error;
+    EXPECT_EQ(views.size(), batch ? std::size_t(input[5]) : 1u) << entry.path();
+    for (const ReportView& view : views) EXPECT_EQ(view.server_us, 30.5) << entry.path();
+    ++files;
+  }
+  EXPECT_GE(files, 5);
 }
 
 }  // namespace

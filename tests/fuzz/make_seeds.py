@@ -398,9 +398,92 @@ options: {near_points: true, penetration: bound}
 """, yaml=True)
 
 
+class Cdr:
+    """XCDR1, little endian, as Cyclone DDS writes nearpoint_msgs samples: each primitive aligned
+    to its size from the payload's start; strings as a uint32 length counting their NUL."""
+
+    def __init__(self):
+        self.out = bytearray()
+
+    def put(self, fmt, *values):
+        for code, value in zip(fmt, values):  # one at a time: each aligned to its own size
+            self.out += bytes(-len(self.out) % struct.calcsize(code))
+            self.out += struct.pack("<" + code, value)
+
+    def string(self, text):
+        data = text.encode() + b"\0"
+        self.put("I", len(data))
+        self.out += data
+
+
+def cdr_report(c, sequence, pairs, status=0, message="", events=0):
+    c.put("iI", 1733380000, 5)
+    c.string("world")  # header
+    c.string("cell45")
+    c.string("load-1")
+    c.out += bytes(range(16))  # writer_guid
+    c.put("Q", sequence)
+    c.put("I", status)
+    c.string("poses[0]" if status else "")
+    c.string(message)
+    c.put("I", pairs)
+    for k in range(pairs):
+        c.string(f"o{k}")
+        c.string(f"o{k + 1}")
+        c.put("B", 1)
+        c.put("ddd", 0.5, 0.49, 1e-9)
+        c.put("IIII", 3, 1, 0, 0)
+        c.put("BB", 1, 1)
+        c.put("d" * 9, *([0.25] * 9))
+        c.put("B", 0)
+        c.put("d", 0.0)
+        c.put("B", 0)
+        c.put("d" * 12, *([0.0] * 12))
+        c.string("")
+        c.put("B", 0)
+        c.put("ddd", 0.0, 0.0, 0.0)
+        c.put("B", 0)
+        c.put("ddd", 0.0, 0.0, 0.0)
+        c.put("d" * 9, *([0.0] * 9))
+        c.put("B", 0)
+        c.put("I", 0)
+    c.put("dddd", 30.5, 1.0, 20.0, 12.5)  # timing
+    c.put("IQ", 0, 0)  # coalesced
+    c.put("III", pairs, 0, 0)  # counts
+    c.put("B", 1)  # report_mode
+    c.put("I", events)
+    for _ in range(events):
+        c.put("iI", 0, 0)
+        c.string("")
+        c.string("cell45")
+        c.string("load-1")
+        c.string("near")
+        c.put("I", 0)
+        c.string("o0")
+        c.string("o1")
+        c.put("B", 1)
+        c.put("d", 0.1)
+        c.put("Q", sequence)
+
+
+def dds_report_view_seeds():
+    header = b"\x00\x01\x00\x00"  # CDR little endian, no options
+    for name, pairs, status, events in (("empty", 0, 0, 0), ("two-pairs", 2, 0, 0),
+                                        ("rejected", 0, 3, 0), ("events", 1, 0, 2)):
+        c = Cdr()
+        cdr_report(c, 7, pairs, status, "poses[0]: not a unit quaternion" if status else "", events)
+        write("dds_report_view", name, b"\x00" + header + bytes(c.out))
+    c = Cdr()
+    c.put("I", 3)
+    for k in range(3):
+        cdr_report(c, 10 + k, k, 0, "", k % 2)
+    write("dds_report_view", "batch-of-3", b"\x01" + header + bytes(c.out))
+
+
 if __name__ == "__main__":
     engine_seeds()
     request_seeds()
     text_seeds()
+    dds_report_view_seeds()
     for d in sorted((HERE / "corpus").iterdir()):
         print(f"{d.name}: {len(list(d.iterdir()))} inputs")
