@@ -90,7 +90,10 @@ if [ -n "${PERF_DATA:-}" ]; then
   recorder=$!
 fi
 before="$(ticks)"
-"${load[@]}" 2>"$work/load.log" >"$work/load.json" || { cat "$work/load.log" >&2; exit 1; }
+# The load client's own CPU (user and system seconds, bash's `time`): what loading costs.
+TIMEFORMAT='%U %S'
+{ time "${load[@]}" 2>"$work/load.log" >"$work/load.json"; } 2>"$work/client-cpu" ||
+  { cat "$work/load.log" >&2; exit 1; }
 after="$(ticks)"
 if [ -n "${PERF_DATA:-}" ]; then
   kill -INT "$recorder"
@@ -98,9 +101,10 @@ if [ -n "${PERF_DATA:-}" ]; then
   [ -s "$PERF_DATA" ] || { cat "$work/perf.log" >&2; exit 1; }
 fi
 python3 - "$work/load.json" "$before" "$after" "$hz" "$seconds" "$streams" "$reference" \
-  "$transport" <<'PY'
+  "$transport" "$work/client-cpu" <<'PY'
 import json, sys
 result = json.load(open(sys.argv[1]))
+client_cpu = sum(float(v) for v in open(sys.argv[9]).read().split())
 before, after, hz, seconds, streams = (float(v) for v in sys.argv[2:7])
 cpu = (after - before) / hz
 reports, errors = result["reports"], result["errors"]
@@ -108,7 +112,8 @@ latency = result["latency_us"]
 print(f"{sys.argv[7]} over {sys.argv[8]}: {streams:.0f} streams x {result.get('window', '?')} in "
       f"flight, batch {result.get('batch', 1)}, for {seconds:.0f} s: {reports} reports "
       f"({errors} errors), {reports / result['duration_s']:.0f} updates/s, nearpointd CPU "
-      f"{cpu:.2f} s ({100 * cpu / result['duration_s']:.0f}% of one core)")
+      f"{cpu:.2f} s ({100 * cpu / result['duration_s']:.0f}% of one core); the load client's CPU "
+      f"{client_cpu:.2f} s ({1e6 * client_cpu / max(reports, 1):.1f} us per update)")
 cpu_us_per_update = 1e6 * cpu / max(reports, 1)
 geometry_us = result.get("geometry_us_per_report")  # absent from builds before batching
 print(f"capacity: {reports / cpu:.0f} updates per CPU-second of nearpointd (--workers 1); "

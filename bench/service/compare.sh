@@ -5,8 +5,10 @@
 # On a shared or noisy machine only ratios taken this way mean anything.
 #   bench/service/compare.sh OLD_NEARPOINTD [NEW_NEARPOINTD]
 # NEW_NEARPOINTD defaults to BUILD_DIR/server/nearpointd (BUILD_DIR default build); the load
-# client is always BUILD_DIR's `nearpoint`. Environment: ROUNDS (default 3), SECONDS_PER_RUN
-# (default 4), ONLY (a grep -E pattern of the settings to run, e.g. ONLY=dds). Columns: setting,
+# client is BUILD_DIR's `nearpoint`, for the old build too unless OLD_CLIENT_BUILD names the build
+# directory whose `nearpoint` loads it (to compare load clients as well). Environment: ROUNDS
+# (default 3), SECONDS_PER_RUN (default 4), ONLY (a grep -E pattern of the settings to run, e.g.
+# ONLY=dds), OLD_CLIENT_BUILD. Columns: setting,
 # build, updates per CPU-second, latency p50 and p99 (µs), then geometry µs per update and the
 # geometry share (%), with gRPC's CPU µs per update between them.
 set -euo pipefail
@@ -27,12 +29,14 @@ run() {
   local label="$1" scene_streams="$2"
   shift 2
   grep -qE "${ONLY:-.}" <<<"$label" || return 0
-  local which binary out capacity geometry
+  local which binary client_build out capacity geometry
   for which in old new; do
     binary="$old"
-    [ "$which" = new ] && binary="$new"
+    client_build="${OLD_CLIENT_BUILD:-$build}"
+    [ "$which" = new ] && binary="$new" && client_build="$build"
     # shellcheck disable=SC2086  # "SCENE STREAMS" splits into two arguments
-    out="$(env "$@" NEARPOINTD="$binary" "$root/bench/service/capacity.sh" $scene_streams \
+    out="$(env "$@" NEARPOINTD="$binary" BUILD_DIR="$client_build" \
+      "$root/bench/service/capacity.sh" $scene_streams \
       "$seconds" 2>&1 | grep -E '^(capacity|geometry share|geometry):' || true)"
     capacity="$(sed -n 's/^capacity: \([0-9]*\) updates.*p50 \([0-9]*\) us, p99 \([0-9]*\) us.*/\1 \2 \3/p' <<<"$out")"
     geometry="$(sed -n -e 's/^geometry share: \([0-9.]*\) us of geometry per update over \([0-9.]*\) us of CPU = \([0-9]*\)%.*/\1 \2 \3/p' \
@@ -44,6 +48,7 @@ run() {
 echo "# compare.sh $(date -u '+%F %T') UTC, load $(cut -d' ' -f1-3 /proc/loadavg)"
 echo "# old $old"
 echo "# new $new"
+echo "# load client: old $(realpath "${OLD_CLIENT_BUILD:-$build}")/client/nearpoint, new $(realpath "$build")/client/nearpoint"
 echo "# setting build updates/CPU-s p50_us p99_us geometry_us [cpu_us] share_%"
 for _ in $(seq "$rounds"); do
   run demo-4x4 "demo 4" WINDOW=4
