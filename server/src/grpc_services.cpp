@@ -7,6 +7,7 @@
 #include <variant>
 #include <vector>
 
+#include <google/protobuf/arena.h>
 #include <google/protobuf/io/coded_stream.h>
 #include <google/protobuf/wire_format_lite.h>
 
@@ -117,6 +118,15 @@ enum class StreamFraming { one_per_message, batched };
 /// (field 1, length-delimited) and a varint of at most 5 bytes (the length is below 2^32).
 constexpr std::size_t kBatchEntryOverhead = 6;
 
+/// A stream's parse arena: its first block (kParseBlockBytes at `first_block`) is the stream's.
+constexpr std::size_t kParseBlockBytes = 16384;
+google::protobuf::ArenaOptions parse_arena_options(char* first_block) {
+  google::protobuf::ArenaOptions options;
+  options.initial_block = first_block;
+  options.initial_block_size = kParseBlockBytes;
+  return options;
+}
+
 /// One pose stream. Every accepted update yields exactly one report, in order: updates are
 /// evaluated one at a time (the stream's caches are its single mutable state) and reports are
 /// written in the order their updates were read, the error reports of rejected updates included.
@@ -198,8 +208,16 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
       Pump(lock);
       return;
     }
+    // The previous message is done with (Accept converted it): its arena space is reused.
+    parse_arena_.Reset();
+    v1::PoseUpdate* update = nullptr;
+    v1::PoseUpdateBatch* batch = nullptr;
+    if (batched_)
+      batch = google::protobuf::Arena::CreateMessage<v1::PoseUpdateBatch>(&parse_arena_);
+    else
+      update = google::protobuf::Arena::CreateMessage<v1::PoseUpdate>(&parse_arena_);
     google::protobuf::Message& parsed =
-        batched_ ? static_cast<google::protobuf::Message&>(parsed_batch_) : parsed_;
+        batched_ ? static_cast<google::protobuf::Message&>(*batch) : *update;
     if (std::string why = parse_message(incoming_, parsed); !why.empty()) {
       // Not an update we can answer or refuse by sequence number: stop reading, answer what was
       // read before it, then end the stream INVALID_ARGUMENT (never OK after input we could not
@@ -220,12 +238,12 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
       // One by one, as if each had arrived alone: the first may start evaluating before the
       // next is accepted, so that COALESCE merges only what arrives while the stream is busy.
       // (Not Pump(): no read may start before the whole batch counts as in flight.)
-      for (const v1::PoseUpdate& update : parsed_batch_.updates()) {
-        Accept(update);
+      for (const v1::PoseUpdate& each : batch->updates()) {
+        Accept(each);
         StartEvaluation();
       }
     } else {
-      Accept(parsed_);
+      Accept(*update);
     }
     Pump(lock);
   }
@@ -505,8 +523,12 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
 
   std::mutex mutex_;
   grpc::ByteBuffer incoming_;
-  v1::PoseUpdate parsed_;
-  v1::PoseUpdateBatch parsed_batch_;  // batched streams parse here instead
+  /// Each message is parsed on this arena, reset before the next: parsed into a reused message
+  /// instead, every pose's Pose, Vector3 and Quaternion were allocated and freed again per update
+  /// (proto3's Clear deletes sub-messages), 30 of each for a cell45 update. The first block is
+  /// the reactor's own, so that a message that fits in it allocates nothing.
+  std::unique_ptr<char[]> parse_block_ = std::make_unique_for_overwrite<char[]>(kParseBlockBytes);
+  google::protobuf::Arena parse_arena_{parse_arena_options(parse_block_.get())};
   grpc::ByteBuffer current_write_;
   /// The reports in current_write_ (0 while none is under way); the slices it is built from.
   std::size_t reports_in_write_ = 0;
