@@ -10,15 +10,19 @@ void to_proto(const ObjectPose& pose, v1::ObjectPose& out) {
   to_proto(to_pose_input(pose.rotation, pose.translation), *out.mutable_pose());
 }
 
+Status from_proto(const v1::UpdateError& error) {
+  Status out = Status::error(int(error.code()), error.field().empty()
+                                                    ? error.message()
+                                                    : error.field() + ": " + error.message());
+  if (out.code == 0) out.code = 2;  // UNKNOWN: an error report without a code
+  return out;
+}
+
 Report from_proto(const v1::DistanceReport& report) {
   Report out;
   out.sequence = report.sequence();
   if (report.has_error()) {
-    out.error = Status::error(int(report.error().code()),
-                              report.error().field().empty()
-                                  ? report.error().message()
-                                  : report.error().field() + ": " + report.error().message());
-    if (out.error.code == 0) out.error.code = 2;  // UNKNOWN: an error report without a code
+    out.error = from_proto(report.error());
     out.error_field = report.error().field();
   }
   out.pairs.reserve(std::size_t(report.pairs_size()));

@@ -17,5 +17,8 @@ using proto::to_proto;
 
 void to_proto(const ObjectPose& pose, v1::ObjectPose& out);
 Report from_proto(const v1::DistanceReport& report);
+/// A rejected update's error: "field: message" (or the message alone), code UNKNOWN when the
+/// server gave none.
+Status from_proto(const v1::UpdateError& error);
 
 }  // namespace nearpoint::client::detail

@@ -53,7 +53,6 @@ struct Stream {
   bool half_closed = false;  // WritesDone called
   bool reads_over = false;   // the server ended the stream
   bool finishing = false;    // Finish called
-  bool finished = false;
 
   void* tag(Op op) {
     ++pending;
@@ -133,8 +132,8 @@ LoadResult drive_load(const LoadPlan& plan) {
     else
       s.single->Finish(&s.status, s.tag(Op::finished));
   };
-  // Fills the window: one write at a time, a batch at most `window - batch` behind; once
-  // stopping, half-closes after the last report.
+  // Fills the window: one write at a time, each a whole batch, while `window` updates are not
+  // yet in flight; once stopping, half-closes after the last report.
   auto send_more = [&](Stream& s) {
     if (s.writing || s.half_closed || s.reads_over) return;
     if (s.stopping) {
@@ -147,7 +146,7 @@ LoadResult drive_load(const LoadPlan& plan) {
       }
       return;
     }
-    if (s.in_flight.size() + batch > window && !s.in_flight.empty()) return;
+    if (s.in_flight.size() + batch > window) return;
     s.writing = true;
     const Clock::time_point now = Clock::now();
     if (s.batched) {
@@ -177,11 +176,7 @@ LoadResult drive_load(const LoadPlan& plan) {
       s.in_flight.pop_front();
     }
     if (report.has_error()) {
-      const v1::UpdateError& e = report.error();
-      error(1,
-            client::Status::error(e.code() != 0 ? int(e.code()) : 2,
-                                  e.field().empty() ? e.message() : e.field() + ": " + e.message())
-                .describe());
+      error(1, client::detail::from_proto(report.error()).describe());
       return;
     }
     result.geometry_us += report.timing().geometry_us();
@@ -265,10 +260,11 @@ LoadResult drive_load(const LoadPlan& plan) {
       case Op::writes_done:
         break;
       case Op::finished:
-        s.finished = true;
         // Updates the stream never answered are lost with it; a stream that ended before this
-        // side half-closed is an error even with none in flight. An interrupt cancels them.
+        // side half-closed is an error even with none in flight. After an interrupt (which
+        // cancelled the calls) neither is counted.
         if (cancelled) {
+          // not an error: the user stopped the load
         } else if (!s.status.ok()) {
           error(std::max<std::size_t>(1, s.in_flight.size()),
                 "the stream failed: " +
