@@ -155,6 +155,12 @@ std::shared_ptr<grpc::Channel> detail::make_channel(const std::string& target,
   return grpc::CreateCustomChannel(target, channel_credentials(options), args);
 }
 
+// The id rule: printable ASCII without spaces, at most 128 bytes.
+bool detail::routable(const std::string& id) {
+  if (id.empty() || id.size() > 128) return false;
+  return std::all_of(id.begin(), id.end(), [](char c) { return c >= 0x21 && c <= 0x7E; });
+}
+
 namespace {
 
 // ---- Client ----

@@ -12,13 +12,6 @@ Status from_grpc(const grpc::Status& status) {
   return Status{int(status.error_code()), status.error_message()};
 }
 
-// Whether `id` may travel as a metadata value (the id rule: printable ASCII without spaces). An
-// id that may not is sent without the routing header; the server then refuses it by name.
-bool routable(const std::string& id) {
-  if (id.empty() || id.size() > 128) return false;
-  return std::all_of(id.begin(), id.end(), [](char c) { return c >= 0x21 && c <= 0x7E; });
-}
-
 namespace {
 
 // A dropped connection, as opposed to an answer: worth reconnecting for. Behind a proxy two more
