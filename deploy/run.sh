@@ -81,7 +81,7 @@ fuzz_stage() {
   # The DDS bridge is not fuzzed (the asan stage runs its tests).
   # NEARPOINT_FUZZ_SANITIZE=undefined: the same targets without ASan, in build-fuzz-ub.
   ( asan_env
-    BUILD_TARGETS="fuzz_engine fuzz_jsonl fuzz_scene_file fuzz_requests fuzz_robots" \
+    BUILD_TARGETS="fuzz_engine fuzz_jsonl fuzz_scene_file fuzz_requests fuzz_robots fuzz_dds_report_view" \
       configure_and_build_fuzz_tree "${NEARPOINT_FUZZ_SANITIZE:-}" &&
     NEARPOINT_FUZZ_SECONDS="$seconds" ctest --test-dir "$build" --output-on-failure -j "$jobs" \
       -L fuzz --timeout "$timeout" ${CTEST_ARGS:-} )
