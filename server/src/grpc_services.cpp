@@ -118,6 +118,11 @@ enum class StreamFraming { one_per_message, batched };
 /// (field 1, length-delimited) and a varint of at most 5 bytes (the length is below 2^32).
 constexpr std::size_t kBatchEntryOverhead = 6;
 
+/// How long a batched stream's oldest waiting report may wait for the stream's evaluations in
+/// progress before the reports are written: the DDS bridge's kReportHold, so that a stream kept
+/// busy by a steady flow of updates still sees its reports every few milliseconds.
+constexpr auto kReportHold = std::chrono::milliseconds(2);
+
 /// A stream's parse arena: its first block (kParseBlockBytes at `first_block`) is the stream's.
 constexpr std::size_t kParseBlockBytes = 16384;
 google::protobuf::ArenaOptions parse_arena_options(char* first_block) {
@@ -145,8 +150,12 @@ google::protobuf::ArenaOptions parse_arena_options(char* first_block) {
 /// Batched streams (StreamPoseBatches) count updates, not messages: a batch is read whole and
 /// each of its updates is accepted as if it had arrived alone (BLOCK may then hold up to N − 1
 /// plus one batch's updates). Its reports are kept already framed as DistanceReportBatch
-/// entries, so that a write is the reports ready at that moment, concatenated up to the message
-/// size limit: nothing waits for a batch to fill.
+/// entries, so that a write is the reports waiting at that moment, concatenated up to the
+/// message size limit. They are written together once the stream has nothing more to evaluate,
+/// when the oldest has waited kReportHold, or when they fill a message (HoldReports), as the DDS
+/// bridge writes a batched stream's reports: a write per report cost as much as the reports'
+/// geometry on cell45, and the client that batches its updates wants its reports batched too.
+/// Nothing waits for a batch to fill: a stream with nothing left to evaluate writes at once.
 ///
 /// Locking: `mutex_` guards every member below it. A reaction never runs inline inside
 /// StartRead/StartWrite/Finish (it comes from the completion queue), so calling them under the
@@ -360,13 +369,14 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
     if (finished_) return;
     const bool coalescing = stream_->flow_control() == model::FlowControl::coalesce;
     StartEvaluation();
-    if (!broken_ && !writing_ && !outgoing_.empty()) StartNextWrite();
+    if (!broken_ && !writing_ && !outgoing_.empty() && !HoldReports()) StartNextWrite();
 
     if (broken_) {
       // Nothing more can be written. Wait for the evaluation and the write in progress (they
       // reference this reactor), then end.
       pending_.clear();
       outgoing_.clear();
+      outgoing_bytes_ = 0;
       if (!evaluating_ && !writing_)
         End(grpc::Status(grpc::StatusCode::CANCELLED, "cancelled"), "cancelled");
       return;
@@ -407,7 +417,7 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
   void StartEvaluation() {
     while (!broken_ && !evaluating_ && !pending_.empty() &&
            std::holds_alternative<grpc::Slice>(pending_.front())) {
-      outgoing_.push_back(std::move(std::get<grpc::Slice>(pending_.front())));
+      Queue(std::move(std::get<grpc::Slice>(pending_.front())));
       pending_.pop_front();
     }
     const bool coalescing = stream_->flow_control() == model::FlowControl::coalesce;
@@ -441,6 +451,7 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
       write_slices_.push_back(std::move(outgoing_.front()));
       outgoing_.pop_front();
     }
+    outgoing_bytes_ -= bytes;
     reports_in_write_ = write_slices_.size();
     grpc::ByteBuffer message(write_slices_.data(), write_slices_.size());  // refs the slices
     current_write_.Swap(&message);
@@ -497,7 +508,23 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
   /// more. Requires `mutex_`.
   void Answered(grpc::Slice message) {
     evaluating_ = false;
-    if (!broken_) outgoing_.push_back(std::move(message));
+    if (!broken_) Queue(std::move(message));
+  }
+
+  /// Puts a report in line for writing. Requires `mutex_`.
+  void Queue(grpc::Slice message) {
+    if (outgoing_.empty()) oldest_outgoing_ = Clock::now();
+    outgoing_bytes_ += message.size();
+    outgoing_.push_back(std::move(message));
+  }
+
+  /// Whether a batched stream's waiting reports wait for the evaluation in progress: while one
+  /// runs (evaluations start as soon as an update is queued, so none running means none due),
+  /// the reports do not fill a message yet, and the oldest has waited less than kReportHold.
+  /// COALESCE starts no evaluation while a report waits, so it never holds. Requires `mutex_`.
+  bool HoldReports() const {
+    return batched_ && evaluating_ && outgoing_bytes_ < service_.max_message_bytes() &&
+           Clock::now() - oldest_outgoing_ < kReportHold;
   }
 
   /// The evaluation's report, on a pool thread.
@@ -538,6 +565,9 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
   std::deque<std::variant<PreparedUpdate, grpc::Slice>> pending_;
   /// Serialised reports waiting for the write in progress, oldest first.
   std::deque<grpc::Slice> outgoing_;
+  /// The bytes in outgoing_, and when its oldest was queued (see HoldReports).
+  std::size_t outgoing_bytes_ = 0;
+  Clock::time_point oldest_outgoing_;
   /// Reused by ToSlice (see there).
   ReportEncoder encoder_;
   bool reading_ = false;

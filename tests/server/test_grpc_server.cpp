@@ -563,6 +563,82 @@ TEST_F(GrpcServerTest, RejectedUpdatesInABatchAreAnsweredInTheirPlace) {
   EXPECT_TRUE(stream.finish().ok());
 }
 
+// A batch's reports leave together: the reports of a batch evaluated on the stream's thread wait
+// for the batch's last evaluation and go out in one DistanceReportBatch, not the first alone and
+// the rest behind it (two writes per batch, each costing gRPC's framing and a sendmsg). Only a
+// batch whose evaluations after the first took less than the hold (2 ms; half of it, to leave
+// room for the encoding and locking around them) must arrive whole; on a machine slow enough to
+// leave no such batch the test says so and fails rather than pass without checking.
+TEST_F(GrpcServerTest, BatchReportsLeaveInOneMessage) {
+  const LocalScene scene = make_scene(stub());
+  constexpr std::size_t kBatch = 4;
+  constexpr int kBatches = 20;
+  StreamClient stream(stub(), kCallDeadline, kBatch);
+  int checked = 0;
+  std::uint64_t sequence = 0;
+  for (int b = 0; b < kBatches; ++b) {
+    for (std::size_t i = 0; i < kBatch; ++i, ++sequence)
+      ASSERT_TRUE(stream.write(
+          make_update(scene, sequence + 1, trajectory(scene.size(), int(sequence)))));  // flushes
+    const std::size_t messages_before = stream.messages_read();
+    double held_us = 0;  // the evaluations the first report waited for
+    for (std::size_t i = 0; i < kBatch; ++i) {
+      v1::DistanceReport report;
+      ASSERT_TRUE(stream.read(report));
+      ASSERT_EQ(report.sequence(), sequence - kBatch + i + 1);
+      if (i > 0) held_us += report.timing().evaluation_us();
+    }
+    if (held_us >= 1000) continue;
+    ++checked;
+    EXPECT_EQ(stream.messages_read() - messages_before, 1u)
+        << "batch " << b << " (" << held_us << " us of evaluations after its first report)";
+  }
+  ::testing::Test::RecordProperty("batches_checked", checked);
+  EXPECT_GT(checked, 0) << "every batch took more than 1 ms to evaluate: nothing was checked";
+  EXPECT_TRUE(stream.finish().ok());
+}
+
+// The hold is bounded: when the evaluations after a batch's first take longer than the hold, the
+// first report leaves before the batch is done. 150 objects (11,175 pairs, every object moved,
+// no warm start) take milliseconds per update; the reports are the global minimum only.
+TEST_F(GrpcServerTest, BatchFirstReportWaitsNoLongerThanTheHold) {
+  LocalScene scene;
+  scene.geometries.push_back(polytope_geometry("hull40", random_hull_vertices(11, 40, 0.6)));
+  scene.geometry_ids.push_back(register_geometry(stub(), scene.geometries[0]));
+  v1::CreateSceneRequest request;
+  request.set_name("many");
+  for (int i = 0; i < 150; ++i) {
+    const std::string id = "hull-" + std::to_string(i);
+    scene.object_ids.push_back(id);
+    scene.object_geometry.push_back(0);
+    v1::SceneObject& object = *request.add_objects();
+    object.set_id(id);
+    object.set_geometry_id(scene.geometry_ids[0]);
+  }
+  request.mutable_default_options()->set_report_mode(v1::REPORT_MODE_GLOBAL_MINIMUM);
+  request.mutable_default_options()->set_warm_start(false);
+  v1::CreateSceneResponse created;
+  ASSERT_TRUE(stub().CreateScene(make_context().get(), request, &created).ok());
+  scene.scene_id = created.scene_id();
+
+  constexpr std::size_t kBatch = 3;
+  StreamClient stream(stub(), kCallDeadline, kBatch);
+  for (std::size_t i = 0; i < kBatch; ++i)
+    ASSERT_TRUE(stream.write(make_update(scene, i + 1, trajectory(scene.size(), int(i)))));
+  std::vector<v1::DistanceReport> reports(kBatch);
+  for (v1::DistanceReport& report : reports) ASSERT_TRUE(stream.read(report));
+  // The first report waited for the second evaluation at least: longer than the hold.
+  ASSERT_GT(reports[1].timing().evaluation_us(), 2000.0)
+      << "the scene evaluates too fast to outlast the hold";
+  EXPECT_GE(stream.messages_read(), 2u);
+  for (std::size_t i = 0; i < kBatch; ++i) {
+    EXPECT_EQ(reports[i].sequence(), i + 1);
+    ASSERT_EQ(reports[i].pairs_size(), 1);
+    EXPECT_EQ(reports[i].counts().pairs_evaluated(), 150u * 149u / 2u);
+  }
+  EXPECT_TRUE(stream.finish().ok());
+}
+
 // FLOW_CONTROL_BLOCK counts updates, not messages: with --max-in-flight 4 and batches of 3 while
 // nothing can be answered (the workers are held), the server reads batch 1 (3 updates in flight,
 // below 4), batch 2 (6), and then no more. The drain that follows says how many updates it read:
