@@ -81,7 +81,7 @@ fuzz_stage() {
   # The DDS bridge is not fuzzed (the asan stage runs its tests).
   # NEARPOINT_FUZZ_SANITIZE=undefined: the same targets without ASan, in build-fuzz-ub.
   ( asan_env
-    BUILD_TARGETS="fuzz_engine fuzz_jsonl fuzz_scene_file fuzz_requests fuzz_robots fuzz_dds_report_view" \
+    BUILD_TARGETS="fuzz_engine fuzz_jsonl fuzz_scene_file fuzz_requests fuzz_robots fuzz_dds_report_view fuzz_pose_update_wire" \
       configure_and_build_fuzz_tree "${NEARPOINT_FUZZ_SANITIZE:-}" &&
     NEARPOINT_FUZZ_SECONDS="$seconds" ctest --test-dir "$build" --output-on-failure -j "$jobs" \
       -L fuzz --timeout "$timeout" ${CTEST_ARGS:-} )
@@ -100,7 +100,7 @@ tsan_stage() {
   ( tsan_env
     build=build-tsan
     BUILD_TARGETS="test_server_scene_service test_server_broad_phase test_server_grpc
-                   test_server_health_reflection test_server_report_wire
+                   test_server_health_reflection test_server_report_wire test_server_pose_update_wire
                    test_server_boundary test_server_process test_server_sharded test_server_depth
                    test_client test_robot_wire
                    test_dds_bridge test_dds_report_sertype test_ros_wire test_ros_peer ros_peer

@@ -13,6 +13,7 @@
 
 #include "metrics.hpp"
 #include "nearpoint/server/log.hpp"
+#include "pose_update_wire.hpp"
 #include "proto_convert.hpp"
 #include "report_wire.hpp"
 #include "tsan_handoff.hpp"
@@ -217,6 +218,21 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
       Pump(lock);
       return;
     }
+    // The message's bytes in one piece (a zero-length payload may have no buffer: then empty).
+    grpc::Slice bytes;
+    const bool whole = !incoming_.Valid() || incoming_.DumpToSingleSlice(&bytes).ok();
+    // Most messages carry only a stream's updates (scene id, sequence, poses, options, flow
+    // control): read straight into the model's inputs (pose_update_wire.hpp). Anything else is
+    // parsed by protobuf below.
+    if (whole && read_plain_pose_updates({bytes.begin(), bytes.size()}, batched_, plain_updates_)) {
+      ++messages_read_;
+      for (const model::PoseUpdateInput& each : plain_updates_) {
+        Accept(each);
+        if (batched_) StartEvaluation();  // as below
+      }
+      Pump(lock);
+      return;
+    }
     // The previous message is done with (Accept converted it): its arena space is reused.
     parse_arena_.Reset();
     v1::PoseUpdate* update = nullptr;
@@ -227,7 +243,9 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
       update = google::protobuf::Arena::CreateMessage<v1::PoseUpdate>(&parse_arena_);
     google::protobuf::Message& parsed =
         batched_ ? static_cast<google::protobuf::Message&>(*batch) : *update;
-    if (std::string why = parse_message(incoming_, parsed); !why.empty()) {
+    std::string why =
+        whole ? parse_message(bytes, parsed) : "the message's bytes could not be read";
+    if (!why.empty()) {
       // Not an update we can answer or refuse by sequence number: stop reading, answer what was
       // read before it, then end the stream INVALID_ARGUMENT (never OK after input we could not
       // read).
@@ -248,11 +266,11 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
       // next is accepted, so that COALESCE merges only what arrives while the stream is busy.
       // (Not Pump(): no read may start before the whole batch counts as in flight.)
       for (const v1::PoseUpdate& each : batch->updates()) {
-        Accept(each);
+        Accept(to_input(each));
         StartEvaluation();
       }
     } else {
-      Accept(*update);
+      Accept(to_input(*update));
     }
     Pump(lock);
   }
@@ -311,9 +329,8 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
   /// One update read off the stream: validated (PoseStream::prepare) and queued behind what was
   /// read before it, its error report if rejected, or merged into the queued update under
   /// COALESCE. Requires `mutex_`.
-  void Accept(const v1::PoseUpdate& message) {
+  void Accept(const model::PoseUpdateInput& update) {
     ++updates_read_;
-    const model::PoseUpdateInput update = to_input(message);
     last_sequence_ = update.sequence;
     Expected<PreparedUpdate> prepared = stream_->prepare(update, Clock::now());
     metrics::record_update(prepared ? nullptr : &prepared.error());
@@ -556,6 +573,8 @@ class PoseStreamReactor final : public AsyncReactor, public DrainableStream {
   /// the reactor's own, so that a message that fits in it allocates nothing.
   std::unique_ptr<char[]> parse_block_ = std::make_unique_for_overwrite<char[]>(kParseBlockBytes);
   google::protobuf::Arena parse_arena_{parse_arena_options(parse_block_.get())};
+  /// The updates of the last message read_plain_pose_updates read, reused from message to message.
+  std::vector<model::PoseUpdateInput> plain_updates_;
   grpc::ByteBuffer current_write_;
   /// The reports in current_write_ (0 while none is under way); the slices it is built from.
   std::size_t reports_in_write_ = 0;

@@ -90,6 +90,10 @@ std::string parse_message(const grpc::ByteBuffer& bytes, google::protobuf::Messa
   grpc::Slice slice;  // empty when the message is (a zero-length payload may have no buffer)
   if (bytes.Valid() && !bytes.DumpToSingleSlice(&slice).ok())
     return "the message's bytes could not be read";
+  return parse_message(slice, message);
+}
+
+std::string parse_message(const grpc::Slice& slice, google::protobuf::Message& message) {
   const int size = static_cast<int>(slice.size());  // below the receive limit, which is an int
   if (message.ParseFromArray(slice.begin(), size)) return "";
   message.Clear();

@@ -16,6 +16,8 @@ namespace nearpoint::server {
 /// Parses `bytes` into `message` (cleared first). "" on success; otherwise why not, e.g.
 /// "field scene_id is not valid UTF-8" or "the bytes are not protobuf wire format …".
 std::string parse_message(const grpc::ByteBuffer& bytes, google::protobuf::Message& message);
+/// The same for a message's bytes already in one piece.
+std::string parse_message(const grpc::Slice& bytes, google::protobuf::Message& message);
 
 /// Why `size` bytes at `data` do not parse as `type` (the parse has failed already): names the
 /// first field to blame when it can. Never recurses deeper than protobuf's own nesting limit.

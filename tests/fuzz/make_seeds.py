@@ -339,6 +339,57 @@ def request_seeds():
               geometry_request("empty", lambda geom: None) +
               scene([("a", "geom-9", (0, 0, 0))]) + query("scene-4", []) +
               update("nope", 1, []) + record(5, s.DeleteSceneRequest(scene_id="scene-1")))
+        pose_update_wire_seeds(d, s)
+
+
+# ---- pose_update_wire (fuzz_pose_update_wire.cpp: a byte, even PoseUpdate / odd batch, then
+# the message), written by Python's protobuf ----
+
+def pose_update_wire_seeds(d, scene_pb2):
+    def update(sequence, poses, scene="cell45"):
+        u = d.PoseUpdate(scene_id=scene, sequence=sequence)
+        for i, (t, q) in enumerate(poses):
+            p = u.poses.add(object_id=f"obj-{i}")
+            if t is not None:
+                p.pose.translation.x, p.pose.translation.y, p.pose.translation.z = t
+            if q is not None:
+                p.pose.rotation.w, p.pose.rotation.x, p.pose.rotation.y, p.pose.rotation.z = q
+        return u
+
+    rng = random.Random(36)
+
+    def moves(n):
+        out = []
+        for _ in range(n):
+            q = [rng.gauss(0, 1) for _ in range(4)]
+            norm = math.sqrt(sum(c * c for c in q))
+            out.append(([rng.uniform(-2, 2) for _ in range(3)], [c / norm for c in q]))
+        return out
+
+    write("pose_update_wire", "update", b"\x00" + update(7, moves(10)).SerializeToString())
+    write("pose_update_wire", "update-parts-left-out",
+          b"\x00" + update(1 << 40, [(None, (0, 0, 0, 1)), ((1, 0, 0), None), (None, None)])
+          .SerializeToString())
+    batch = d.PoseUpdateBatch()
+    for k in range(8):
+        batch.updates.append(update(100 + k, moves(10)))
+    write("pose_update_wire", "batch-of-8", b"\x01" + batch.SerializeToString())
+    # Options and flow control, as clients send them on every update (read); thresholds, as on a
+    # stream's first update, and an unknown field (left to protobuf).
+    first = update(1, moves(2))
+    first.options.near_points = True
+    first.options.report_mode = scene_pb2.REPORT_MODE_CHANGED
+    first.options.epsilon = 1e-12
+    first.flow_control = d.FLOW_CONTROL_COALESCE
+    write("pose_update_wire", "update-with-options", b"\x00" + first.SerializeToString())
+    first.thresholds.add(name="near", distance=0.1)
+    write("pose_update_wire", "update-with-threshold", b"\x00" + first.SerializeToString())
+    write("pose_update_wire", "update-unknown-field",
+          b"\x00" + update(2, moves(1)).SerializeToString() + b"\x98\x06\x01")
+    # Two messages back to back: protobuf merges them.
+    write("pose_update_wire", "concatenated",
+          b"\x00" + update(3, moves(2)).SerializeToString() +
+          update(4, moves(3), scene="other").SerializeToString())
 
 
 # ---- jsonl and scene files: the shipped examples ----
