@@ -154,8 +154,9 @@ google::protobuf::ArenaOptions parse_arena_options(char* first_block) {
 /// entries, so that a write is the reports waiting at that moment, concatenated up to the
 /// message size limit. They are written together once the stream has nothing more to evaluate,
 /// when the oldest has waited kReportHold, or when they fill a message (HoldReports), as the DDS
-/// bridge writes a batched stream's reports: a write per report cost as much as the reports'
-/// geometry on cell45, and the client that batches its updates wants its reports batched too.
+/// bridge writes a batched stream's reports. Every write costs gRPC's framing and a sendmsg
+/// whatever it carries: writing a batch's first report alone, the moment it is ready, would make
+/// two writes of every batch.
 /// Nothing waits for a batch to fill: a stream with nothing left to evaluate writes at once.
 ///
 /// Locking: `mutex_` guards every member below it. A reaction never runs inline inside
